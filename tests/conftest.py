@@ -1,0 +1,123 @@
+"""Shared fixtures: tiny real workspaces written from a dict, and a way to run the CLI."""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+from collections.abc import Callable, Mapping, Sequence
+from pathlib import Path
+
+import pytest
+
+REPO = Path(__file__).resolve().parent.parent
+
+PACKAGE_XML = """<?xml version="1.0"?>
+<package format="3">
+  <name>{name}</name>
+  <version>{version}</version>
+  <description>Test package {name}</description>
+  <maintainer email="dev@example.com">Dev</maintainer>
+  <license>Apache-2.0</license>
+{deps}
+  <export>
+    <build_type>{build_type}</build_type>
+  </export>
+</package>
+"""
+
+SETUP_PY = """from setuptools import setup
+
+package_name = {name!r}
+
+setup(
+    name=package_name,
+    version='0.1.0',
+    packages=[package_name],
+    data_files=[
+        ('share/ament_index/resource_index/packages', ['resource/' + package_name]),
+        ('share/' + package_name, ['package.xml']),
+    ],
+    zip_safe=True,
+    entry_points={{'console_scripts': ['{name}_main = {name}.main:main']}},
+)
+"""
+
+SETUP_CFG = """[develop]
+script_dir=$base/lib/{name}
+[install]
+install_scripts=$base/lib/{name}
+"""
+
+CMAKELISTS = """cmake_minimum_required(VERSION 3.14)
+project({name} NONE)
+install(FILES package.xml DESTINATION share/{name})
+"""
+
+Spec = tuple[str, Sequence[str]] | tuple[str, Sequence[str], Mapping[str, Sequence[str]]]
+
+
+def write_package(
+    root: Path,
+    name: str,
+    build_type: str = "ament_python",
+    deps: Sequence[str] = (),
+    *,
+    kinds: Mapping[str, Sequence[str]] | None = None,
+    subdir: str = "",
+    version: str = "0.1.0",
+) -> Path:
+    """Write a small but real package: package.xml plus setup.py or CMakeLists.txt."""
+    path = root / subdir / name if subdir else root / name
+    path.mkdir(parents=True, exist_ok=True)
+    tags = [f"  <depend>{d}</depend>" for d in deps]
+    for tag, names in (kinds or {}).items():
+        tags += [f"  <{tag}>{d}</{tag}>" for d in names]
+    (path / "package.xml").write_text(
+        PACKAGE_XML.format(name=name, version=version, deps="\n".join(tags), build_type=build_type)
+    )
+    if build_type == "ament_python":
+        (path / "setup.py").write_text(SETUP_PY.format(name=name))
+        (path / "setup.cfg").write_text(SETUP_CFG.format(name=name))
+        (path / "resource").mkdir(exist_ok=True)
+        (path / "resource" / name).write_text("")
+        (path / name).mkdir(exist_ok=True)
+        (path / name / "__init__.py").write_text("")
+        (path / name / "main.py").write_text(
+            f"def main():\n    print('hello from {name}')\n"
+        )
+    elif build_type in ("ament_cmake", "cmake"):
+        (path / "CMakeLists.txt").write_text(CMAKELISTS.format(name=name))
+    return path
+
+
+@pytest.fixture
+def make_workspace(tmp_path: Path) -> Callable[[Mapping[str, Spec]], Path]:
+    """`make_workspace({"a": ("ament_python", ["b"]), "b": ("cmake", [])})` → workspace root."""
+
+    def make(spec: Mapping[str, Spec], root: Path | None = None) -> Path:
+        ws = root or tmp_path / "ws"
+        (ws / "src").mkdir(parents=True, exist_ok=True)
+        for name, entry in spec.items():
+            build_type, deps = entry[0], entry[1]
+            kinds = entry[2] if len(entry) > 2 else None  # type: ignore[misc]
+            write_package(ws / "src", name, build_type, deps, kinds=kinds)
+        return ws
+
+    return make
+
+
+def run_wsbuild(*args: str, cwd: Path, env: Mapping[str, str] | None = None,
+                timeout: float = 600) -> subprocess.CompletedProcess[str]:
+    """Run the real command line in a subprocess, as a user would."""
+    full_env = dict(os.environ if env is None else env)
+    full_env.setdefault("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
+    return subprocess.run(
+        [sys.executable, "-m", "wsbuild", *args],
+        cwd=cwd, env=full_env, capture_output=True, text=True, timeout=timeout,
+    )
+
+
+@pytest.fixture
+def wsbuild() -> Callable[..., subprocess.CompletedProcess[str]]:
+    return run_wsbuild

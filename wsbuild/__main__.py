@@ -1,0 +1,5 @@
+"""`python -m wsbuild` entry point."""
+
+from wsbuild.cli import main
+
+raise SystemExit(main())

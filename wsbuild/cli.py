@@ -1,0 +1,255 @@
+"""The command line: the argparse tree, and the only place that prints errors and picks exit codes.
+
+Exit codes: 0 success, 1 a package failed (build or test), 2 usage or workspace error,
+130 interrupted (Ctrl-C), 3 an unexpected internal error (a bug in wsbuild).
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+from collections.abc import Sequence
+from pathlib import Path
+
+from wsbuild import __version__
+from wsbuild.errors import WsbuildError
+from wsbuild.selection import SelectionOptions, add_selection_arguments
+
+
+class _Formatter(argparse.RawDescriptionHelpFormatter):
+    pass
+
+
+def _workspace_arguments(parser: argparse.ArgumentParser, *, selection: bool = True) -> None:
+    group = parser.add_argument_group("workspace")
+    group.add_argument("-C", "--workspace", metavar="DIR", dest="workspace_dir",
+                       help="the workspace root (default: found by walking up from the "
+                            "current directory to the one holding src/)")
+    group.add_argument("--base-paths", nargs="+", metavar="PATH",
+                       help="directories to crawl for packages (default: <workspace>/src if it "
+                            "exists, else the workspace)")
+    group.add_argument("--paths", nargs="+", metavar="PATH",
+                       help="package directories, shell wildcards allowed (no crawling)")
+    if selection:
+        add_selection_arguments(parser)
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog="wsbuild",
+        description="Build ROS 2 workspaces: fast, strict, and install-compatible with colcon.",
+        formatter_class=_Formatter,
+    )
+    parser.add_argument("--version", action="version", version=f"wsbuild {__version__}")
+    verbs = parser.add_subparsers(dest="verb", metavar="VERB")
+    verbs.required = True
+
+    def verb(name: str, func: str, doc: str, *, selection: bool = True) -> argparse.ArgumentParser:
+        summary, _, details = doc.strip().partition("\n")
+        sub = verbs.add_parser(name, help=summary, description=doc.strip(),
+                               formatter_class=_Formatter)
+        sub.set_defaults(func=func)
+        _workspace_arguments(sub, selection=selection)
+        return sub
+
+    sub = verb("list", "wsbuild.verbs.listing:run_list", LIST_DOC)
+    sub.add_argument("-t", "--topological-order", action="store_true",
+                     help="dependencies before dependents (default: by name)")
+    sub.add_argument("-n", "--names-only", action="store_true", help="only the package names")
+    sub.add_argument("-p", "--paths-only", action="store_true", help="only the package paths")
+    sub.add_argument("--deps", action="store_true",
+                     help="also each dependency and where it resolves")
+    sub.add_argument("--json", action="store_true", help="machine-readable output")
+
+    sub = verb("graph", "wsbuild.verbs.listing:run_graph", GRAPH_DOC)
+    fmt = sub.add_mutually_exclusive_group()
+    fmt.add_argument("--dot", action="store_true", help="Graphviz dot output")
+    fmt.add_argument("--mermaid", action="store_true", help="Mermaid flowchart output")
+
+    sub = verb("info", "wsbuild.verbs.listing:run_info", INFO_DOC, selection=False)
+    sub.add_argument("package_names", nargs="+", metavar="PKG", help="package names")
+
+    sub = verb("build", "wsbuild.verbs.build:run_build_verb", BUILD_DOC)
+    _build_arguments(sub)
+    return parser
+
+
+#: options whose values are handed through to another tool and may start with '-'
+PASSTHROUGH = ("--cmake-args", "--pytest-args", "--ctest-args")
+
+
+def _build_arguments(sub: argparse.ArgumentParser) -> None:
+    where = sub.add_argument_group("where things go")
+    where.add_argument("--build-base", default="build", metavar="DIR",
+                       help="build directory, relative to the workspace (default: build)")
+    where.add_argument("--install-base", default="install", metavar="DIR",
+                       help="install prefix, relative to the workspace (default: install)")
+    where.add_argument("--log-base", default="log", metavar="DIR",
+                       help="log directory, relative to the workspace (default: log)")
+    where.add_argument("--merge-install", action="store_true",
+                       help="one install prefix for all packages instead of install/<pkg>")
+    where.add_argument("--symlink-install", action="store_true",
+                       help="symlink instead of copying where possible: edits to Python files, "
+                            "launch, config and URDF files take effect without rebuilding")
+    how = sub.add_argument_group("scheduling")
+    how.add_argument("--parallel-workers", type=int, metavar="N",
+                     help="packages built at once (default: number of CPUs); all packages "
+                          "share one make jobserver of that many jobs")
+    how.add_argument("--executor", choices=("parallel", "sequential"), default="parallel",
+                     help="sequential is --parallel-workers 1")
+    how.add_argument("--continue-on-error", action="store_true",
+                     help="after a failure keep building what does not depend on it")
+    how.add_argument("--no-wait", action="store_true",
+                     help="fail at once if another build runs in this workspace "
+                          "(default: wait for it)")
+    how.add_argument("--skip-dependency-check", action="store_true",
+                     help="start even when build dependencies do not resolve")
+    how.add_argument("--force", action="store_true",
+                     help="rebuild packages even when they are up to date")
+    cmake = sub.add_argument_group("CMake packages")
+    cmake.add_argument("--cmake-args", action="append", metavar="ARG",
+                       help="arguments for every CMake configure, e.g. "
+                            "--cmake-args -DCMAKE_BUILD_TYPE=Release (end the list with --)")
+    cmake.add_argument("--cmake-target", metavar="TARGET",
+                       help="build this target instead of the default one")
+    cmake.add_argument("--cmake-clean-cache", action="store_true",
+                       help="remove CMakeCache.txt before configuring")
+    cmake.add_argument("--cmake-clean-first", action="store_true",
+                       help="build the 'clean' target first")
+    cmake.add_argument("--cmake-force-configure", action="store_true",
+                       help="configure even when nothing changed")
+
+
+def _collect_passthrough(argv: list[str]) -> list[str]:
+    """`--cmake-args -DA=1 -DB=2` → `--cmake-args=-DA=1 --cmake-args=-DB=2`, as colcon allows.
+
+    Values run until `--` or the next option wsbuild knows.
+    """
+    known = _known_long_options()
+    result: list[str] = []
+    index = 0
+    while index < len(argv):
+        item = argv[index]
+        index += 1
+        if item not in PASSTHROUGH:
+            result.append(item)
+            continue
+        values = []
+        while index < len(argv) and argv[index] != "--" and argv[index].split("=")[0] not in known:
+            values.append(argv[index])
+            index += 1
+        if index < len(argv) and argv[index] == "--":
+            index += 1
+        result.extend(f"{item}={value}" for value in values)
+        if not values:
+            result.append(f"{item}=")
+    return result
+
+
+def _known_long_options() -> set[str]:
+    parser = build_parser()
+    names: set[str] = set()
+    stack = [parser]
+    while stack:
+        current = stack.pop()
+        for action in current._actions:  # argparse has no public walk
+            names.update(o for o in action.option_strings if o.startswith("--"))
+            if isinstance(action, argparse._SubParsersAction):
+                stack.extend(action.choices.values())
+    return names - set(PASSTHROUGH)
+
+
+BUILD_DOC = """Build the packages of the workspace into install/.
+
+Packages build in dependency order and in parallel; each installs into a stage that
+replaces its previous install only when the build succeeds. Before anything starts,
+every build dependency must resolve (workspace, underlay, or importable Python module).
+
+Afterwards `source install/setup.bash` (or .sh/.zsh) makes the workspace available.
+
+examples:
+  wsbuild build
+  wsbuild build --packages-up-to my_robot_bringup --symlink-install
+  wsbuild build --packages-select my_driver --cmake-args -DCMAKE_BUILD_TYPE=Release
+
+exit codes: 0 all built, 1 a package failed, 2 usage or workspace error, 130 Ctrl-C
+"""
+
+
+LIST_DOC = """List the packages of the workspace.
+
+Prints one line per package: name, path (relative to the workspace) and build type.
+Packages are found under <workspace>/src (or --base-paths); directories holding a
+COLCON_IGNORE, AMENT_IGNORE or CATKIN_IGNORE file are skipped.
+
+examples:
+  wsbuild list
+  wsbuild list -t --packages-up-to my_robot_bringup
+  wsbuild list --deps --packages-select my_node
+"""
+
+GRAPH_DOC = """Show the dependency graph among workspace packages.
+
+Text output lists each package (in topological order) with its build, run and test
+dependencies inside the workspace. --dot and --mermaid draw build edges solid,
+run edges dashed and test edges dotted.
+"""
+
+INFO_DOC = """Show everything wsbuild knows about packages.
+
+For each package: path, build type, version, and every dependency by kind with where it
+resolves (workspace, underlay, Python module, system key, or unresolved).
+"""
+
+
+def _resolve_func(spec: str):  # type: ignore[no-untyped-def]
+    import importlib
+
+    module, _, name = spec.partition(":")
+    return getattr(importlib.import_module(module), name)
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    parser = build_parser()
+    raw = list(sys.argv[1:] if argv is None else argv)
+    if any(item in PASSTHROUGH for item in raw):
+        raw = _collect_passthrough(raw)
+    args = parser.parse_args(raw)
+    try:
+        return int(_resolve_func(args.func)(args) or 0)
+    except WsbuildError as exc:
+        print(f"wsbuild: error: {exc}", file=sys.stderr)
+        return exc.exit_code
+    except KeyboardInterrupt:
+        print("wsbuild: interrupted", file=sys.stderr)
+        return 130
+    except BrokenPipeError:
+        # `wsbuild list | head`: the reader went away; not an error
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        return 0
+    except Exception:
+        import traceback
+
+        traceback.print_exc()
+        print("wsbuild: internal error: this is a bug in wsbuild; please report it with the "
+              "traceback above", file=sys.stderr)
+        return 3
+
+
+def selection_options(args: argparse.Namespace) -> SelectionOptions:
+    return SelectionOptions.from_args(args)
+
+
+def workspace_root(args: argparse.Namespace) -> Path:
+    from wsbuild.workspace import find_workspace_root
+
+    if args.workspace_dir:
+        root = Path(args.workspace_dir).absolute()
+        if not root.is_dir():
+            from wsbuild.errors import WorkspaceError
+
+            raise WorkspaceError("workspace directory does not exist", path=root,
+                                 hint="check the -C/--workspace argument")
+        return root
+    return find_workspace_root(Path.cwd())

@@ -1,0 +1,133 @@
+"""The dependency graph among workspace packages: edges, topological order, cycles."""
+
+from __future__ import annotations
+
+import heapq
+from collections.abc import Callable, Collection, Iterable, Mapping
+from dataclasses import dataclass
+
+from wsbuild.errors import CycleError
+from wsbuild.model import DepCategory, Package
+
+ALL_CATEGORIES = (DepCategory.BUILD, DepCategory.RUN, DepCategory.TEST)
+
+
+@dataclass(frozen=True, slots=True)
+class Graph:
+    """Direct edges between workspace packages, per dependency category."""
+
+    packages: Mapping[str, Package]
+    #: package -> category -> names of workspace packages it depends on
+    edges: Mapping[str, Mapping[DepCategory, frozenset[str]]]
+
+    def direct(self, name: str, categories: Collection[DepCategory] = ALL_CATEGORIES) -> set[str]:
+        per_category = self.edges[name]
+        return set().union(*(per_category[c] for c in categories))
+
+    def dependencies(self, names: Iterable[str],
+                     categories: Collection[DepCategory] = ALL_CATEGORIES) -> set[str]:
+        """All packages `names` depend on, recursively (not including `names`)."""
+        return _closure(names, lambda n: self.direct(n, categories))
+
+    def build_closure(self, name: str) -> set[str]:
+        """What must be on a package's environment to build it: its build and run
+        dependencies, plus the run dependencies of those, recursively (colcon's rule)."""
+        result: set[str] = set()
+        stack = list(self.direct(name, (DepCategory.BUILD, DepCategory.RUN)))
+        while stack:
+            dep = stack.pop()
+            if dep not in result:
+                result.add(dep)
+                stack.extend(self.direct(dep, (DepCategory.RUN,)))
+        return result
+
+    def dependents(self, names: Iterable[str], depth: int | None = None) -> set[str]:
+        """All packages that depend on `names` (any category), up to `depth` hops."""
+        reverse: dict[str, set[str]] = {n: set() for n in self.packages}
+        for name in self.packages:
+            for dep in self.direct(name):
+                reverse[dep].add(name)
+        result: set[str] = set()
+        frontier = set(names)
+        hops = 0
+        while frontier and (depth is None or hops < depth):
+            frontier = {d for n in frontier for d in reverse[n]} - result
+            result |= frontier
+            hops += 1
+        return result - set(names)
+
+    def topological_order(self, names: Collection[str] | None = None) -> list[str]:
+        """Dependencies before dependents, ties broken by name; raise CycleError on a cycle."""
+        subset = set(self.packages) if names is None else set(names)
+        pending = {n: self.direct(n) & subset for n in subset}
+        users: dict[str, list[str]] = {n: [] for n in subset}
+        for name, deps in pending.items():
+            for dep in deps:
+                users[dep].append(name)
+        ready = [n for n, deps in pending.items() if not deps]
+        heapq.heapify(ready)
+        order: list[str] = []
+        while ready:
+            name = heapq.heappop(ready)
+            order.append(name)
+            for user in users[name]:
+                pending[user].discard(name)
+                if not pending[user]:
+                    heapq.heappush(ready, user)
+        if len(order) != len(subset):
+            raise CycleError(
+                "dependency cycle: " + " → ".join(self.find_cycle(set(subset) - set(order))),
+                hint="remove one of these dependencies (test_depend counts too)",
+            )
+        return order
+
+    def find_cycle(self, among: set[str]) -> list[str]:
+        """One cycle among `among`, as a closed walk `[a, b, c, a]`, starting at the smallest name."""
+        for start in sorted(among):
+            path = [start]
+            on_path = {start}
+            iters = [iter(sorted(self.direct(start) & among))]
+            while iters:
+                nxt = next(iters[-1], None)
+                if nxt is None:
+                    iters.pop()
+                    on_path.discard(path.pop())
+                    continue
+                if nxt == start:
+                    return [*path, start]
+                if nxt not in on_path:
+                    path.append(nxt)
+                    on_path.add(nxt)
+                    iters.append(iter(sorted(self.direct(nxt) & among)))
+        return sorted(among)  # unreachable for a real cycle
+
+
+def _closure(names: Iterable[str], step: Callable[[str], set[str]]) -> set[str]:
+    start = set(names)
+    seen: set[str] = set()
+    stack = list(start)
+    while stack:
+        for dep in step(stack.pop()):
+            if dep not in seen:
+                seen.add(dep)
+                stack.append(dep)
+    return seen - start
+
+
+def build_graph(packages: Mapping[str, Package]) -> Graph:
+    """Edges among workspace packages; `group_depend` expands to the group's members."""
+    groups: dict[str, set[str]] = {}
+    for package in packages.values():
+        for group in package.member_of_groups:
+            groups.setdefault(group, set()).add(package.name)
+    edges: dict[str, dict[DepCategory, frozenset[str]]] = {}
+    for name, package in packages.items():
+        members = set().union(*(groups.get(g, set()) for g in package.group_names())) - {name}
+        per_category: dict[DepCategory, frozenset[str]] = {}
+        for category in ALL_CATEGORIES:
+            deps = {d for d in package.dependency_names(category) if d in packages and d != name}
+            if category is not DepCategory.TEST:
+                deps |= members
+            per_category[category] = frozenset(deps)
+        edges[name] = per_category
+    return Graph(packages=packages, edges=edges)

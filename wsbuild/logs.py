@@ -1,0 +1,41 @@
+"""log/: one directory per run, `latest_<verb>` and `latest` links, the last runs kept."""
+
+from __future__ import annotations
+
+import os
+import shutil
+import time
+from pathlib import Path
+
+KEEP_RUNS = 10
+
+
+def new_run_log(log_base: Path, verb: str) -> Path:
+    """Create `log/<verb>_<timestamp>/`, point `latest_<verb>` and `latest` at it, prune old runs."""
+    log_base.mkdir(parents=True, exist_ok=True)
+    (log_base / "COLCON_IGNORE").touch()
+    stamp = time.strftime("%Y-%m-%d_%H-%M-%S")
+    run_dir = log_base / f"{verb}_{stamp}"
+    suffix = 0
+    while run_dir.exists():
+        suffix += 1
+        run_dir = log_base / f"{verb}_{stamp}_{suffix}"
+    run_dir.mkdir()
+    _link(log_base / f"latest_{verb}", run_dir.name)
+    _link(log_base / "latest", f"latest_{verb}")
+    _prune(log_base, verb)
+    return run_dir
+
+
+def _link(link: Path, target: str) -> None:
+    tmp = link.with_name(link.name + ".tmp")
+    if tmp.is_symlink() or tmp.exists():
+        tmp.unlink()
+    tmp.symlink_to(target)
+    os.replace(tmp, link)
+
+
+def _prune(log_base: Path, verb: str) -> None:
+    runs = sorted(p for p in log_base.glob(f"{verb}_*") if p.is_dir() and not p.is_symlink())
+    for old in runs[:-KEEP_RUNS]:
+        shutil.rmtree(old, ignore_errors=True)

@@ -1,0 +1,345 @@
+"""`wsbuild build`: the stages of a build, in order.
+
+1. verbs.load    discover → manifest → graph → selection (the packages to build)
+2. layout        install/ layout (isolated or merged) must match what is there already
+3. lock          one build per workspace at a time (lock.py)
+4. underlay      a ROS virtualenv underlay is detected and repaired if needed (underlay.py)
+5. resolve       every build dependency resolves before anything starts (resolve.py)
+6. schedule      packages build in parallel in dependency order (schedule.py), each through
+                 its build type's labelled steps (build_types/), into a stage (stage.py)
+7. prefix        on success the stage replaces the package's prefix; environment hooks and
+                 the workspace setup scripts are written (prefix/)
+8. report        events become console lines and a summary (report.py)
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import sys
+import time
+from collections.abc import Mapping
+from dataclasses import dataclass, replace
+from pathlib import Path
+
+from wsbuild.build_types import BuildContext, StepFailed, get_build_type
+from wsbuild.errors import BuildFailed, DependencyError, Interrupted, WorkspaceError
+from wsbuild.events import Emit, Notice, RunFinished, StepStarted
+from wsbuild.graph import Graph
+from wsbuild.logs import new_run_log
+from wsbuild.model import BuildResult, DepCategory, Outcome, Package
+from wsbuild.options import BuildRequest
+from wsbuild.process import env_delta, format_command, run_command
+from wsbuild.schedule import RunInterrupted, run_jobs
+from wsbuild.workspace import BUILD_MARKER, Workspace
+
+LAYOUT_MARKER = ".colcon_install_layout"
+
+
+@dataclass(frozen=True, slots=True)
+class Plan:
+    workspace: Workspace
+    packages: Mapping[str, Package]
+    graph: Graph
+    selected: list[str]
+
+
+def check_layout(workspace: Workspace, merged: bool) -> None:
+    marker = workspace.install_base / LAYOUT_MARKER
+    if not marker.exists():
+        return
+    existing = marker.read_text().strip()
+    wanted = "merged" if merged else "isolated"
+    if existing != wanted:
+        flag = "with" if existing == "merged" else "without"
+        raise WorkspaceError(
+            f"install/ holds a {existing} install but this build is {wanted}",
+            path=marker,
+            hint=f"build {flag} --merge-install as before, or remove "
+            f"{workspace.build_base.name}/ and {workspace.install_base.name}/ first",
+        )
+
+
+def package_prefix(workspace: Workspace, name: str, merged: bool) -> Path:
+    return workspace.install_base if merged else workspace.install_base / name
+
+
+def is_installed(workspace: Workspace, name: str, merged: bool) -> bool:
+    prefix = package_prefix(workspace, name, merged)
+    return (prefix / "share" / "colcon-core" / "packages" / name).exists()
+
+
+def check_dependencies(plan: Plan, request: BuildRequest, environ: Mapping[str, str],
+                       extra_prefixes: list[Path], emit: Emit) -> None:
+    """Stop before building when build dependencies are missing: all of them, listed at once."""
+    merged = request.build.merge_install
+    selected = set(plan.selected)
+    not_built: dict[str, list[str]] = {}
+    for name in plan.selected:
+        for dep in sorted(plan.graph.build_closure(name)):
+            if dep not in selected and not is_installed(plan.workspace, dep, merged):
+                not_built.setdefault(dep, []).append(name)
+    if not_built:
+        items = "; ".join(f"{dep} (needed by {', '.join(users)})"
+                          for dep, users in sorted(not_built.items()))
+        first_user = next(iter(sorted(not_built.items())))[1][0]
+        raise DependencyError(
+            f"workspace packages not built yet: {items}",
+            hint=f"build them too, e.g. wsbuild build --packages-up-to {first_user}",
+        )
+    if request.skip_dependency_check:
+        return
+    from wsbuild.resolve import Resolver, unresolved_build_dependencies
+
+    resolver = Resolver.from_environment(environ, extra_prefixes)
+    missing, unchecked = unresolved_build_dependencies(
+        (plan.packages[n] for n in plan.selected), plan.packages, resolver
+    )
+    for key, users in sorted(unchecked.items()):
+        emit(Notice(f"cannot check system dependency '{key}' (needed by {', '.join(users)})",
+                    warning=True))
+    if missing:
+        items = "; ".join(f"{dep} (needed by {', '.join(users)})"
+                          for dep, users in sorted(missing.items()))
+        raise DependencyError(
+            f"unresolved build dependencies: {items}",
+            hint="install them into the underlay (e.g. pip install ros-jazzy-<name> or apt), "
+            "source the underlay that has them, or pass --skip-dependency-check",
+        )
+
+
+def build_environment(plan: Plan, name: str, base: Mapping[str, str], merged: bool,
+                      order: list[str]) -> dict[str, str]:
+    """The environment a package builds in: its dependencies' prefixes applied in order."""
+    from wsbuild.prefix import environment_for
+
+    closure = plan.graph.build_closure(name)
+    prefixes = [(package_prefix(plan.workspace, dep, merged), dep) for dep in order
+                if dep in closure]
+    return environment_for(prefixes, base)
+
+
+class _Jobserver:
+    """A GNU make jobserver shared by every package, so N workers never run N×N compilers."""
+
+    def __init__(self, jobs: int) -> None:
+        self.read_fd, self.write_fd = os.pipe()
+        os.set_inheritable(self.read_fd, True)
+        os.set_inheritable(self.write_fd, True)
+        # each running make holds one implicit slot; the pipe holds the rest of the budget
+        os.write(self.write_fd, b"+" * max(0, jobs - 1))
+
+    @property
+    def makeflags(self) -> str:
+        return f"-j --jobserver-auth={self.read_fd},{self.write_fd}"
+
+    @property
+    def fds(self) -> tuple[int, int]:
+        return (self.read_fd, self.write_fd)
+
+    def close(self) -> None:
+        os.close(self.read_fd)
+        os.close(self.write_fd)
+
+
+def run_build(plan: Plan, request: BuildRequest, emit: Emit) -> list[BuildResult]:
+    """Build the selected packages. Raises BuildFailed / Interrupted after reporting."""
+    from wsbuild.lock import workspace_lock
+    from wsbuild.stage import recover_all
+    from wsbuild.underlay import prepare_underlay
+
+    ws = plan.workspace
+    options = request.build
+    merged = options.merge_install
+    check_layout(ws, merged)
+    started = time.monotonic()
+    with workspace_lock(ws.build_base, wait=request.run.wait_for_lock,
+                        on_wait=lambda text: emit(Notice(text))):
+        _mark_workspace(ws, merged)
+        if not merged:
+            recover_all(ws.install_base)
+        base_env, extra_prefixes = prepare_underlay(dict(os.environ), repair=request.repair_underlay,
+                                                    notice=lambda t: emit(Notice(t)))
+        check_dependencies(plan, request, base_env, extra_prefixes, emit)
+        run_log = new_run_log(ws.log_base, "build")
+        order = plan.graph.topological_order()
+        jobserver = _Jobserver(options.jobs)
+        selected = set(plan.selected)
+
+        def build_one(name: str) -> BuildResult:
+            return _build_package(plan, request, name, base_env, order, run_log, jobserver, emit)
+
+        dependencies = {n: plan.graph.direct(n) & selected for n in plan.selected}
+        try:
+            results = run_jobs(plan.selected, dependencies, build_one,
+                               workers=request.run.workers,
+                               continue_on_error=request.run.continue_on_error, emit=emit)
+        except RunInterrupted as interrupt:
+            results = interrupt.results
+            _finish_install(ws, merged, base_env, extra_prefixes)
+            emit(RunFinished(tuple(results), time.monotonic() - started))
+            raise Interrupted("build interrupted") from None
+        finally:
+            jobserver.close()
+            _clean_stage_dir(ws)
+        _finish_install(ws, merged, base_env, extra_prefixes)
+        merge_compile_commands(ws)
+    emit(RunFinished(tuple(results), time.monotonic() - started))
+    failed = [r.package for r in results if r.outcome is Outcome.FAILED]
+    if failed:
+        raise BuildFailed(f"{len(failed)} package(s) failed: {', '.join(failed)}",
+                          hint=f"logs in {run_log}")
+    return results
+
+
+def _clean_stage_dir(ws: Workspace) -> None:
+    import shutil
+
+    from wsbuild.stage import STAGE_DIR
+
+    shutil.rmtree(ws.install_base / STAGE_DIR, ignore_errors=True)
+
+
+def _mark_workspace(ws: Workspace, merged: bool) -> None:
+    ws.build_base.mkdir(parents=True, exist_ok=True)
+    ws.install_base.mkdir(parents=True, exist_ok=True)
+    for base in (ws.build_base, ws.install_base):
+        ignore = base / "COLCON_IGNORE"
+        if not ignore.exists():
+            ignore.touch()
+    marker = ws.build_base / BUILD_MARKER
+    if not marker.exists():
+        marker.write_text("wsbuild\n")
+    layout = ws.install_base / LAYOUT_MARKER
+    text = ("merged" if merged else "isolated") + "\n"
+    if not layout.exists() or layout.read_text() != text:
+        layout.write_text(text)
+
+
+def _finish_install(ws: Workspace, merged: bool, environ: Mapping[str, str],
+                    extra_prefixes: list[Path]) -> None:
+    from wsbuild.prefix import underlays_from_environment, write_workspace_scripts
+    from wsbuild.underlay import chained_venv_underlay
+
+    underlays = underlays_from_environment(environ, ws.install_base)
+    venv = chained_venv_underlay(extra_prefixes)
+    if venv is not None:
+        underlays = [*underlays, venv]
+    write_workspace_scripts(ws.install_base, merged=merged, underlays=underlays)
+
+
+def _build_package(plan: Plan, request: BuildRequest, name: str, base_env: Mapping[str, str],
+                   order: list[str], run_log: Path, jobserver: _Jobserver,
+                   emit: Emit) -> BuildResult:
+    from wsbuild import stage as staging
+    from wsbuild.prefix import register_package_files, write_package_environment
+    from wsbuild.python_paths import site_packages_relpath
+
+    ws = plan.workspace
+    package = plan.packages[name]
+    options = request.build
+    merged = options.merge_install
+    log_dir = run_log / name
+    log_dir.mkdir(parents=True, exist_ok=True)
+    build_dir = ws.build_base / name
+    build_dir.mkdir(parents=True, exist_ok=True)
+    prefix = package_prefix(ws, name, merged)
+    stage = staging.new_stage(ws.install_base, name)
+    environ = build_environment(plan, name, base_env, merged, order)
+    environ["MAKEFLAGS"] = jobserver.makeflags
+    warnings: list[str] = []
+    commands: list[str] = []
+    started = time.monotonic()
+
+    def run(command, *, cwd: Path, env: Mapping[str, str] | None = None) -> None:  # type: ignore[no-untyped-def]
+        use_env = dict(env) if env is not None else environ
+        delta = env_delta(use_env, os.environ)
+        reproduce = format_command(command, cwd, delta)
+        commands.append(reproduce)
+        with open(log_dir / "command.log", "a") as handle:
+            handle.write(f"Invoking command in '{cwd}': {reproduce}\n")
+        completed = run_command(command, cwd=cwd, env=use_env, log_dir=log_dir,
+                                pass_fds=jobserver.fds)
+        for line in completed.stderr:
+            if line.strip():
+                warnings.append(line)
+        if completed.returncode != 0:
+            raise StepFailed(
+                f"'{command[0]}' exited with code {completed.returncode}",
+                command=command, cwd=cwd, env_delta=delta, returncode=completed.returncode,
+            )
+
+    ctx = BuildContext(
+        package=package,
+        build_dir=build_dir,
+        install_prefix=prefix,
+        stage_prefix=stage,
+        options=options,
+        environ=environ,
+        run=run,
+        warn=warnings.append,
+        dependency_prefixes=tuple(
+            package_prefix(ws, d, merged) for d in order if d in plan.graph.build_closure(name)
+        ),
+    )
+    try:
+        build_type = get_build_type(package.build_type)
+        for step in build_type.steps(ctx):
+            emit(StepStarted(name, step.label))
+            step.action(ctx)
+        emit(StepStarted(name, "register"))
+        register_package_files(stage, name, package.manifest)
+        run_deps = sorted(plan.graph.edges[name][DepCategory.RUN])
+        write_package_environment(stage, name, run_deps, build_type=package.build_type,
+                                  python_site=str(site_packages_relpath()))
+        if merged:
+            staging.commit_merged(stage, prefix, build_dir / staging.MERGED_RECORD)
+        else:
+            staging.commit_isolated(stage, prefix)
+    except StepFailed as failure:
+        staging.discard_stage(stage)
+        reproduce = ""
+        if failure.command:
+            reproduce = format_command(failure.command, failure.cwd or build_dir,
+                                       failure.env_delta)
+        tail = _log_tail(log_dir)
+        message = str(failure) + ("\n" + "\n".join(tail) if tail else "")
+        return BuildResult(name, Outcome.FAILED, time.monotonic() - started, message=message,
+                           log_dir=log_dir, reproduce=reproduce,
+                           warnings=tuple(warnings))
+    except BaseException:
+        staging.discard_stage(stage)
+        raise
+    return BuildResult(name, Outcome.FINISHED, time.monotonic() - started, log_dir=log_dir,
+                       warnings=tuple(_interesting(warnings)))
+
+
+def _log_tail(log_dir: Path, lines: int = 15) -> list[str]:
+    path = log_dir / "stdout_stderr.log"
+    if not path.exists():
+        return []
+    text = path.read_text(errors="replace").splitlines()
+    return [f"    {line}" for line in text[-lines:]]
+
+
+def _interesting(lines: list[str]) -> list[str]:
+    """stderr lines worth showing; CMake's message() chatter and blank lines are not problems."""
+    return [line for line in lines if line.strip() and not line.startswith("-- ")]
+
+
+def merge_compile_commands(ws: Workspace) -> None:
+    """build/compile_commands.json: every package's entries, for editors and clangd."""
+    entries: list[object] = []
+    for path in sorted(ws.build_base.glob("*/compile_commands.json")):
+        try:
+            entries.extend(json.loads(path.read_text()))
+        except (OSError, ValueError):
+            continue
+    target = ws.build_base / "compile_commands.json"
+    if not entries:
+        return
+    text = json.dumps(entries, indent=2) + "\n"
+    if not target.exists() or target.read_text() != text:
+        tmp = target.with_suffix(".tmp")
+        tmp.write_text(text)
+        os.replace(tmp, target)

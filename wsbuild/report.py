@@ -1,0 +1,141 @@
+"""The one reporter: turns events into console lines, a live status line on a terminal, and the summary."""
+
+from __future__ import annotations
+
+import sys
+import threading
+import time
+from typing import TextIO
+
+from wsbuild.events import Event, JobFinished, JobStarted, Notice, RunFinished, StepStarted
+from wsbuild.model import BuildResult, Outcome
+
+
+def _plural(count: int, word: str) -> str:
+    return f"{count} {word}{'' if count == 1 else 's'}"
+
+
+class Reporter:
+    """Console output for a run. Thread-safe: events arrive from worker threads."""
+
+    def __init__(self, stream: TextIO | None = None, *, live: bool | None = None,
+                 verb: str = "build") -> None:
+        self.stream = stream or sys.stdout
+        self.live = self.stream.isatty() if live is None else live
+        self.verb = verb
+        self._lock = threading.Lock()
+        self._running: dict[str, tuple[float, str]] = {}
+        self._finished = 0
+        self._status_shown = False
+        self._start = time.monotonic()
+        self._ticker: threading.Thread | None = None
+        self._stop = threading.Event()
+
+    def __call__(self, event: Event) -> None:
+        with self._lock:
+            self._clear_status()
+            self._handle(event)
+            self._draw_status()
+
+    def start_ticker(self) -> None:
+        if self.live and self._ticker is None:
+            self._ticker = threading.Thread(target=self._tick, daemon=True)
+            self._ticker.start()
+
+    def stop(self) -> None:
+        self._stop.set()
+        with self._lock:
+            self._clear_status()
+
+    def _tick(self) -> None:
+        while not self._stop.wait(1.0):
+            with self._lock:
+                self._clear_status()
+                self._draw_status()
+
+    def _write(self, text: str) -> None:
+        self.stream.write(text + "\n")
+        self.stream.flush()
+
+    def _handle(self, event: Event) -> None:
+        if isinstance(event, JobStarted):
+            self._running[event.package] = (time.monotonic(), "")
+            self._write(f"Starting >>> {event.package}")
+        elif isinstance(event, StepStarted):
+            started, _ = self._running.get(event.package, (time.monotonic(), ""))
+            self._running[event.package] = (started, event.label)
+        elif isinstance(event, JobFinished):
+            self._running.pop(event.result.package, None)
+            self._finished += 1
+            self._finished_lines(event.result)
+        elif isinstance(event, Notice):
+            prefix = "WARNING: " if event.warning else ""
+            where = f"[{event.package}] " if event.package else ""
+            self._write(f"{prefix}{where}{event.text}")
+        elif isinstance(event, RunFinished):
+            self._summary(event)
+
+    def _finished_lines(self, result: BuildResult) -> None:
+        name = result.package
+        if result.warnings:
+            self._write(f"--- warnings: {name}")
+            for warning in result.warnings:
+                self._write(warning)
+            self._write("---")
+        if result.outcome is Outcome.FINISHED:
+            self._write(f"Finished <<< {name} [{result.seconds:.2f}s]")
+        elif result.outcome is Outcome.UP_TO_DATE:
+            self._write(f"Up to date: {name}" + (f" ({result.message})" if result.message else ""))
+        elif result.outcome is Outcome.FAILED:
+            self._write(f"Failed   <<< {name} [{result.seconds:.2f}s] {result.message}".rstrip())
+            if result.log_dir is not None:
+                self._write(f"  log: {result.log_dir}")
+            if result.reproduce:
+                self._write("  reproduce by hand:")
+                for line in result.reproduce.splitlines():
+                    self._write(f"    {line}")
+        elif result.outcome is Outcome.INTERRUPTED:
+            self._write(f"Aborted  <<< {name} [{result.seconds:.2f}s]")
+
+    def _summary(self, event: RunFinished) -> None:
+        by_outcome: dict[Outcome, list[str]] = {}
+        for result in event.results:
+            by_outcome.setdefault(result.outcome, []).append(result.package)
+        verb_done = "finished"
+        lines = [f"Summary: {_plural(len(by_outcome.get(Outcome.FINISHED, [])), 'package')} "
+                 f"{verb_done} [{event.seconds:.2f}s]"]
+        labels = (
+            (Outcome.UP_TO_DATE, "up to date"),
+            (Outcome.FAILED, "failed"),
+            (Outcome.INTERRUPTED, "aborted"),
+            (Outcome.SKIPPED, "not processed"),
+        )
+        for outcome, label in labels:
+            names = by_outcome.get(outcome, [])
+            if names:
+                shown = ": " + " ".join(names) if outcome is not Outcome.UP_TO_DATE else ""
+                lines.append(f"  {_plural(len(names), 'package')} {label}{shown}")
+        warned = [r.package for r in event.results if r.warnings]
+        if warned:
+            lines.append(f"  {_plural(len(warned), 'package')} had warnings: {' '.join(warned)}")
+        for line in lines:
+            self._write(line)
+
+    def _status_text(self) -> str:
+        now = time.monotonic()
+        parts = [f"[{now - self._start:.1f}s]", f"[{self._finished} done]"]
+        for name, (started, label) in sorted(self._running.items()):
+            step = f":{label}" if label else ""
+            parts.append(f"[{name}{step} - {now - started:.1f}s]")
+        return " ".join(parts)
+
+    def _draw_status(self) -> None:
+        if self.live and self._running:
+            self.stream.write("\r" + self._status_text()[:200] + "\x1b[K")
+            self.stream.flush()
+            self._status_shown = True
+
+    def _clear_status(self) -> None:
+        if self._status_shown:
+            self.stream.write("\r\x1b[K")
+            self._status_shown = False

@@ -1,0 +1,129 @@
+"""Dependency-aware worker pool: run jobs in parallel, honour the failure policy, emit events."""
+
+from __future__ import annotations
+
+import queue
+import threading
+import time
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import replace
+
+from wsbuild.events import Emit, JobFinished, JobStarted
+from wsbuild.model import BuildResult, Outcome
+from wsbuild.process import REGISTRY, ProcessRegistry
+
+Job = Callable[[str], BuildResult]
+
+
+def run_jobs(
+    order: Sequence[str],
+    dependencies: Mapping[str, set[str]],
+    job: Job,
+    *,
+    workers: int,
+    continue_on_error: bool,
+    emit: Emit,
+    registry: ProcessRegistry = REGISTRY,
+) -> list[BuildResult]:
+    """Run `job` for every name in `order` once its `dependencies` (within `order`) finished.
+
+    Without `continue_on_error`, no job starts after a failure; jobs already running finish and
+    the rest are reported as skipped. With it, only the dependents of a failed job are skipped.
+    Ctrl-C (KeyboardInterrupt in the calling thread) terminates every child process group and
+    reports running jobs as interrupted, then raises RunInterrupted.
+    """
+    names = list(order)
+    members = set(names)
+    waiting = {n: set(dependencies.get(n, set())) & members for n in names}
+    results: dict[str, BuildResult] = {}
+    done: queue.Queue[BuildResult] = queue.Queue()
+    running: dict[str, float] = {}
+    failed_any = False
+    workers = max(1, workers)
+
+    def worker(name: str) -> None:
+        start = time.monotonic()
+        try:
+            result = job(name)
+        except BaseException as exc:  # reported as a failure of this package, never lost
+            import traceback
+
+            result = BuildResult(
+                name,
+                Outcome.FAILED,
+                message="internal error (a bug in wsbuild): "
+                + "".join(traceback.format_exception_only(type(exc), exc)).strip(),
+                reproduce="".join(traceback.format_exception(exc)),
+            )
+        if not result.seconds:
+            result = replace(result, seconds=time.monotonic() - start)
+        done.put(result)
+
+    def blocked_by_failure(name: str) -> bool:
+        return any(results.get(d) is not None and results[d].outcome
+                   in (Outcome.FAILED, Outcome.SKIPPED, Outcome.INTERRUPTED)
+                   for d in dependencies.get(name, set()) & members)
+
+    try:
+        while len(results) < len(names):
+            stop_starting = failed_any and not continue_on_error
+            for name in names:
+                if name in results or name in running:
+                    continue
+                if stop_starting:
+                    results[name] = BuildResult(name, Outcome.SKIPPED,
+                                                message="not started after an earlier failure")
+                    emit(JobFinished(results[name]))
+                    continue
+                if blocked_by_failure(name):
+                    failed = sorted(d for d in dependencies.get(name, set()) & members
+                                    if results.get(d) and results[d].outcome is not Outcome.FINISHED
+                                    and results[d].outcome is not Outcome.UP_TO_DATE)
+                    results[name] = BuildResult(
+                        name, Outcome.SKIPPED,
+                        message=f"dependency failed: {', '.join(failed)}")
+                    emit(JobFinished(results[name]))
+                    continue
+                if waiting[name] or len(running) >= workers:
+                    continue
+                running[name] = time.monotonic()
+                emit(JobStarted(name))
+                threading.Thread(target=worker, args=(name,), daemon=True,
+                                 name=f"wsbuild-{name}").start()
+            if len(results) >= len(names):
+                break
+            if not running:
+                continue
+            result = done.get()
+            running.pop(result.package, None)
+            results[result.package] = result
+            emit(JobFinished(result))
+            if result.outcome is Outcome.FAILED:
+                failed_any = True
+            for name in names:
+                waiting[name].discard(result.package)
+    except KeyboardInterrupt:
+        registry.terminate_all()
+        deadline = time.monotonic() + 10
+        while running and time.monotonic() < deadline:
+            try:
+                result = done.get(timeout=max(0.1, deadline - time.monotonic()))
+            except queue.Empty:
+                break
+            running.pop(result.package, None)
+            results[result.package] = replace(result, outcome=Outcome.INTERRUPTED) \
+                if result.outcome is Outcome.FAILED else result
+        for name in names:
+            if name not in results:
+                outcome = Outcome.INTERRUPTED if name in running else Outcome.SKIPPED
+                results[name] = BuildResult(name, outcome, message="interrupted")
+        raise RunInterrupted([results[n] for n in names]) from None
+    return [results[n] for n in names]
+
+
+class RunInterrupted(KeyboardInterrupt):
+    """Ctrl-C during a run; carries every job's result for the summary."""
+
+    def __init__(self, results: list[BuildResult]) -> None:
+        super().__init__()
+        self.results = results

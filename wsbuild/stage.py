@@ -1,0 +1,125 @@
+"""Staged installs: a package installs into a fresh stage, which replaces its prefix only on success.
+
+So a failed or interrupted build leaves the previous install untouched, and files a package no
+longer installs disappear (colcon keeps both half-installed packages and stale files).
+"""
+
+from __future__ import annotations
+
+import os
+import shutil
+from collections.abc import Iterator
+from contextlib import contextmanager
+from pathlib import Path
+
+STAGE_DIR = ".wsbuild-stage"
+#: record, per package, of the files it put into a merged prefix
+MERGED_RECORD = "installed_files.txt"
+
+
+def new_stage(install_base: Path, package: str) -> Path:
+    stage = install_base / STAGE_DIR / package
+    if stage.exists() or stage.is_symlink():
+        shutil.rmtree(stage)
+    stage.mkdir(parents=True)
+    return stage
+
+
+def discard_stage(stage: Path) -> None:
+    shutil.rmtree(stage, ignore_errors=True)
+
+
+def commit_isolated(stage: Path, prefix: Path) -> None:
+    """Swap the stage in for `install/<pkg>` with two renames (same filesystem)."""
+    trash = stage.with_name(stage.name + ".old")
+    if trash.exists():
+        shutil.rmtree(trash)
+    if prefix.exists() or prefix.is_symlink():
+        os.rename(prefix, trash)
+    os.rename(stage, prefix)
+    if trash.exists():
+        shutil.rmtree(trash)
+
+
+def _files(root: Path) -> list[str]:
+    result = []
+    for dirpath, dirnames, filenames in os.walk(root):
+        rel = os.path.relpath(dirpath, root)
+        for name in filenames + [d for d in dirnames if os.path.islink(os.path.join(dirpath, d))]:
+            result.append(os.path.normpath(os.path.join(rel, name)))
+    return sorted(result)
+
+
+def commit_merged(stage: Path, prefix: Path, record: Path) -> None:
+    """Move the stage's files into the shared prefix; remove what the previous build installed
+    and this one did not. `record` (in build/<pkg>/) lists the package's files."""
+    new_files = _files(stage)
+    old_files = record.read_text().splitlines() if record.exists() else []
+    for rel in sorted(set(old_files) - set(new_files), reverse=True):
+        target = prefix / rel
+        if target.is_symlink() or target.is_file():
+            target.unlink()
+        _remove_empty_parents(target.parent, prefix)
+    for rel in new_files:
+        source = stage / rel
+        target = prefix / rel
+        target.parent.mkdir(parents=True, exist_ok=True)
+        if target.is_dir() and not target.is_symlink():
+            shutil.rmtree(target)
+        os.replace(source, target)
+    record.parent.mkdir(parents=True, exist_ok=True)
+    tmp = record.with_suffix(".tmp")
+    tmp.write_text("".join(f"{rel}\n" for rel in new_files))
+    os.replace(tmp, record)
+    shutil.rmtree(stage, ignore_errors=True)
+
+
+def _remove_empty_parents(directory: Path, stop: Path) -> None:
+    while directory != stop and directory.is_dir() and not any(directory.iterdir()):
+        directory.rmdir()
+        directory = directory.parent
+
+
+@contextmanager
+def direct_install(prefix: Path, stage: Path) -> Iterator[None]:
+    """For installers that must write straight into the final `prefix` (ament's symlink install
+    ignores DESTDIR): park the previous install aside, let the installer fill a fresh `prefix`,
+    move the result into `stage`, and put the previous install back — also on failure or Ctrl-C.
+    """
+    previous = stage.with_name(stage.name + ".previous")
+    recover_direct_install(prefix, stage)
+    if prefix.exists() or prefix.is_symlink():
+        os.rename(prefix, previous)
+    prefix.mkdir(parents=True)
+    try:
+        yield
+        if stage.exists():
+            shutil.rmtree(stage)
+        os.rename(prefix, stage)
+    except BaseException:
+        # leave no half-installed package behind
+        shutil.rmtree(prefix, ignore_errors=True)
+        raise
+    finally:
+        if previous.exists() or previous.is_symlink():
+            os.rename(previous, prefix)
+
+
+def recover_direct_install(prefix: Path, stage: Path) -> None:
+    """Undo a `direct_install` that was killed before it could restore the previous install."""
+    previous = stage.with_name(stage.name + ".previous")
+    if previous.exists():
+        if prefix.exists():
+            shutil.rmtree(prefix)
+        os.rename(previous, prefix)
+
+
+def recover_all(install_base: Path) -> None:
+    """At the start of a build: restore installs a killed run left parked, drop stale stages."""
+    stage_dir = install_base / STAGE_DIR
+    if not stage_dir.exists():
+        return
+    for parked in sorted(stage_dir.glob("*.previous")):
+        name = parked.name[: -len(".previous")]
+        recover_direct_install(install_base / name, stage_dir / name)
+    shutil.rmtree(stage_dir, ignore_errors=True)

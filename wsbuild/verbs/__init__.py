@@ -1,0 +1,1 @@
+"""One module per group of verbs: argument handling stays in cli.py, work happens here."""

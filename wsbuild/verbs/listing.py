@@ -1,0 +1,170 @@
+"""The read-only verbs: `list`, `graph` and `info`."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+from pathlib import Path
+
+from wsbuild.errors import SelectionError
+from wsbuild.graph import ALL_CATEGORIES, Graph
+from wsbuild.model import DepCategory, Package
+from wsbuild.verbs.load import load
+
+
+def _relative(path: Path, root: Path) -> str:
+    try:
+        return os.path.relpath(path, root)
+    except ValueError:
+        return str(path)
+
+
+def run_list(args: argparse.Namespace) -> int:
+    """List the selected packages."""
+    loaded = load(args)
+    names = loaded.selected if args.topological_order else sorted(loaded.selected)
+    root = loaded.workspace.root
+    resolver = _resolver() if args.deps else None
+    if args.json:
+        rows = []
+        for name in names:
+            package = loaded.packages[name]
+            row: dict[str, object] = {
+                "name": name,
+                "path": _relative(package.path, root),
+                "build_type": package.build_type,
+                "version": package.version,
+            }
+            if resolver is not None:
+                row["dependencies"] = _dependency_rows(package, loaded.packages, resolver)
+            rows.append(row)
+        print(json.dumps(rows, indent=2))
+        return 0
+    lines = []
+    for name in names:
+        package = loaded.packages[name]
+        if args.names_only:
+            lines.append(name)
+        elif args.paths_only:
+            lines.append(_relative(package.path, root))
+        else:
+            lines.append(f"{name}\t{_relative(package.path, root)}\t({package.build_type})")
+        if resolver is not None and not (args.names_only or args.paths_only):
+            for dep in _dependency_rows(package, loaded.packages, resolver):
+                kinds = ",".join(dep["kinds"])  # type: ignore[arg-type]
+                lines.append(f"  {dep['name']}\t{kinds}\t{dep['resolution']}")
+    if lines:
+        print("\n".join(lines))
+    return 0
+
+
+def _resolver():  # type: ignore[no-untyped-def]
+    from wsbuild.resolve import Resolver
+    from wsbuild.underlay import find_venv_underlay
+    import sys
+
+    venv = find_venv_underlay(os.environ, sys.executable)
+    return Resolver.from_environment(os.environ, [venv] if venv else [])
+
+
+def _dependency_rows(package: Package, workspace: dict[str, Package],
+                     resolver: object) -> list[dict[str, object]]:
+    from wsbuild.resolve import resolve_dependencies
+
+    return [
+        {
+            "name": dep.name,
+            "kinds": [k.value for k in dep.kinds],
+            "resolution": dep.resolution.value,
+            "location": dep.location,
+        }
+        for dep in resolve_dependencies(package, workspace, resolver)  # type: ignore[arg-type]
+    ]
+
+
+_STYLE = {DepCategory.BUILD: "solid", DepCategory.RUN: "dashed", DepCategory.TEST: "dotted"}
+_MERMAID_ARROW = {DepCategory.BUILD: "-->", DepCategory.RUN: "-.->", DepCategory.TEST: "..->"}
+
+
+def format_graph(graph: Graph, names: list[str], style: str) -> str:
+    selected = set(names)
+    edges = [
+        (name, dep, category)
+        for name in names
+        for category in ALL_CATEGORIES
+        for dep in sorted(graph.edges[name][category])
+        if dep in selected
+    ]
+    if style == "dot":
+        lines = ["digraph workspace {", "  rankdir=LR;", "  node [shape=box];"]
+        lines += [f'  "{n}";' for n in names]
+        lines += [
+            f'  "{a}" -> "{b}" [style={_STYLE[c]}, label="{c.value}"];' for a, b, c in edges
+        ]
+        lines.append("}")
+        return "\n".join(lines)
+    if style == "mermaid":
+        lines = ["flowchart LR"]
+        lines += [f"  {n}" for n in names]
+        lines += [f"  {a} {_MERMAID_ARROW[c]}|{c.value}| {b}" for a, b, c in edges]
+        return "\n".join(lines)
+    lines = []
+    for name in names:
+        lines.append(name)
+        for category in ALL_CATEGORIES:
+            deps = sorted(graph.edges[name][category] & selected)
+            if deps:
+                lines.append(f"  {category.value:<6} {', '.join(deps)}")
+    return "\n".join(lines)
+
+
+def run_graph(args: argparse.Namespace) -> int:
+    """Print the dependency graph of the selected packages."""
+    loaded = load(args)
+    style = "dot" if args.dot else "mermaid" if args.mermaid else "text"
+    text = format_graph(loaded.graph, loaded.selected, style)
+    if text:
+        print(text)
+    return 0
+
+
+def run_info(args: argparse.Namespace) -> int:
+    """Describe packages in detail."""
+    loaded = load(args, select=False)
+    resolver = _resolver()
+    blocks = []
+    for name in args.package_names:
+        if name not in loaded.packages:
+            import difflib
+
+            close = difflib.get_close_matches(name, sorted(loaded.packages), n=3)
+            raise SelectionError(
+                f"no package named '{name}' in the workspace",
+                hint=("did you mean " + ", ".join(f"'{c}'" for c in close) + "?") if close
+                else "run 'wsbuild list -n' to see the package names",
+            )
+        package = loaded.packages[name]
+        lines = [
+            f"{name}",
+            f"  path:       {package.path}",
+            f"  build type: {package.build_type}",
+            f"  version:    {package.version}",
+        ]
+        if package.description:
+            lines.append(f"  description: {package.description}")
+        if package.member_of_groups:
+            lines.append(f"  groups:     {', '.join(package.member_of_groups)}")
+        rows = _dependency_rows(package, loaded.packages, resolver)
+        if rows:
+            lines.append("  dependencies:")
+            width = max(len(str(r["name"])) for r in rows)
+            for row in rows:
+                kinds = ", ".join(k.replace("_depend", "") for k in row["kinds"])  # type: ignore[union-attr]
+                where = f" ({row['location']})" if row["location"] else ""
+                lines.append(f"    {str(row['name']):<{width}}  [{kinds}]  {row['resolution']}{where}")
+        else:
+            lines.append("  dependencies: none")
+        blocks.append("\n".join(lines))
+    print("\n\n".join(blocks))
+    return 0

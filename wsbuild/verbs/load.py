@@ -1,0 +1,59 @@
+"""Shared front half of every verb: find the workspace, discover, build the graph, select."""
+
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+from dataclasses import dataclass
+from pathlib import Path
+
+from wsbuild.discover import discover_packages, expand_paths
+from wsbuild.graph import Graph, build_graph
+from wsbuild.model import Package
+from wsbuild.selection import SelectionOptions, ignored_packages, select_packages
+from wsbuild.workspace import Workspace
+
+
+@dataclass(frozen=True, slots=True)
+class Loaded:
+    workspace: Workspace
+    packages: dict[str, Package]
+    graph: Graph
+    selected: list[str]
+    warnings: tuple[str, ...]
+
+
+def load(args: argparse.Namespace, *, select: bool = True) -> Loaded:
+    """Discover the workspace named by `args` and apply the selection options."""
+    from wsbuild.cli import workspace_root
+
+    workspace = Workspace.at(
+        workspace_root(args),
+        build_base=getattr(args, "build_base", None) or "build",
+        install_base=getattr(args, "install_base", None) or "install",
+        log_base=getattr(args, "log_base", None) or "log",
+    )
+    cwd = Path.cwd()
+    base_paths = (
+        [Path(p).absolute() for p in args.base_paths]
+        if args.base_paths
+        else workspace.default_base_paths()
+    )
+    paths = expand_paths(args.paths, cwd) if args.paths else []
+    discovery = discover_packages(
+        [workspace.build_base, workspace.install_base, workspace.log_base],
+        base_paths=base_paths,
+        paths=paths,
+        environ=os.environ,
+    )
+    for warning in discovery.warnings:
+        print(f"wsbuild: warning: {warning}", file=sys.stderr)
+    packages = discovery.packages
+    options = SelectionOptions.from_args(args) if select else SelectionOptions()
+    ignored = ignored_packages(options, packages)
+    if ignored:
+        packages = {n: p for n, p in packages.items() if n not in ignored}
+    graph = build_graph(packages)
+    selected = select_packages(options, graph) if select else graph.topological_order()
+    return Loaded(workspace, packages, graph, selected, discovery.warnings)

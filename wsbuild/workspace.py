@@ -1,0 +1,64 @@
+"""The workspace on disk: its root, and where build/, install/ and log/ live."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+#: files that make a directory a package (so it cannot be a workspace root)
+PACKAGE_MARKERS = ("package.xml", "CMakeLists.txt", "setup.py", "setup.cfg", "pyproject.toml")
+#: written into build/ so a later run recognises the workspace from inside it
+BUILD_MARKER = ".wsbuild"
+
+
+@dataclass(frozen=True, slots=True)
+class Workspace:
+    root: Path
+    build_base: Path
+    install_base: Path
+    log_base: Path
+
+    @classmethod
+    def at(
+        cls,
+        root: Path,
+        *,
+        build_base: str = "build",
+        install_base: str = "install",
+        log_base: str = "log",
+    ) -> Workspace:
+        return cls(
+            root=root,
+            build_base=(root / build_base).absolute(),
+            install_base=(root / install_base).absolute(),
+            log_base=(root / log_base).absolute(),
+        )
+
+    def default_base_paths(self) -> list[Path]:
+        src = self.root / "src"
+        return [src] if src.is_dir() else [self.root]
+
+
+def _is_package_dir(path: Path) -> bool:
+    return any((path / marker).exists() for marker in PACKAGE_MARKERS)
+
+
+def _is_workspace_dir(path: Path) -> bool:
+    if (path / "build" / BUILD_MARKER).exists() or (
+        path / "install" / ".colcon_install_layout"
+    ).exists():
+        return True
+    return (path / "src").is_dir() and not _is_package_dir(path)
+
+
+def find_workspace_root(start: Path) -> Path:
+    """The nearest directory at or above `start` that holds `src/` or a wsbuild/colcon build.
+
+    A package's own `src/` folder (C++ sources) does not count: a directory that is itself a
+    package is never a workspace root. Without any match, `start` is the workspace (colcon's rule).
+    """
+    start = start.absolute()
+    for candidate in (start, *start.parents):
+        if _is_workspace_dir(candidate):
+            return candidate
+    return start
