@@ -32,12 +32,12 @@ def find_package_dirs(base_paths: Iterable[Path], skip: Collection[Path] = ()) -
     seen: set[str] = set()
     found: list[Path] = []
     for base in base_paths:
-        _crawl(str(base), skip_real, seen, found)
+        _crawl(str(base), os.path.realpath(base), skip_real, seen, found)
     return found
 
 
-def _crawl(path: str, skip: set[str], seen: set[str], found: list[Path]) -> None:
-    real = os.path.realpath(path)
+def _crawl(path: str, real: str, skip: set[str], seen: set[str], found: list[Path]) -> None:
+    # `real` is tracked alongside `path` so that only symlinks cost a realpath() call
     if real in seen or real in skip:
         return
     seen.add(real)
@@ -56,10 +56,12 @@ def _crawl(path: str, skip: set[str], seen: set[str], found: list[Path]) -> None
             continue
         try:
             is_dir = entry.is_dir()  # follows symlinks
+            is_link = is_dir and entry.is_symlink()
         except OSError:
             continue
         if is_dir:
-            _crawl(entry.path, skip, seen, found)
+            child_real = os.path.realpath(entry.path) if is_link else f"{real}/{entry.name}"
+            _crawl(entry.path, child_real, skip, seen, found)
 
 
 def _looks_like_package(path: str, names: set[str]) -> bool:

@@ -7,7 +7,7 @@ from collections.abc import Callable, Collection, Iterable, Mapping
 from dataclasses import dataclass
 
 from wsbuild.errors import CycleError
-from wsbuild.model import DepCategory, Package
+from wsbuild.model import CATEGORY_KINDS, DepCategory, DepKind, Package
 
 ALL_CATEGORIES = (DepCategory.BUILD, DepCategory.RUN, DepCategory.TEST)
 
@@ -120,14 +120,20 @@ def build_graph(packages: Mapping[str, Package]) -> Graph:
     for package in packages.values():
         for group in package.member_of_groups:
             groups.setdefault(group, set()).add(package.name)
+    kind_categories = {
+        kind: [c for c in ALL_CATEGORIES if kind in CATEGORY_KINDS[c]] for kind in DepKind
+    }
     edges: dict[str, dict[DepCategory, frozenset[str]]] = {}
     for name, package in packages.items():
-        members = set().union(*(groups.get(g, set()) for g in package.group_names())) - {name}
-        per_category: dict[DepCategory, frozenset[str]] = {}
-        for category in ALL_CATEGORIES:
-            deps = {d for d in package.dependency_names(category) if d in packages and d != name}
-            if category is not DepCategory.TEST:
-                deps |= members
-            per_category[category] = frozenset(deps)
-        edges[name] = per_category
+        per_category: dict[DepCategory, set[str]] = {c: set() for c in ALL_CATEGORIES}
+        for dep in package.dependencies:
+            if dep.kind is DepKind.GROUP:
+                targets = groups.get(dep.name, set()) - {name}
+            elif dep.name in packages and dep.name != name:
+                targets = {dep.name}
+            else:
+                continue
+            for category in kind_categories[dep.kind]:
+                per_category[category] |= targets
+        edges[name] = {c: frozenset(deps) for c, deps in per_category.items()}
     return Graph(packages=packages, edges=edges)
