@@ -112,3 +112,13 @@ def test_info_shows_resolution(make_workspace, wsbuild) -> None:  # type: ignore
 def test_help_reads_like_documentation(wsbuild, tmp_path: Path) -> None:  # type: ignore[no-untyped-def]
     out = wsbuild("build", "--help", cwd=tmp_path).stdout
     assert "--packages-up-to" in out and "--symlink-install" in out and "examples:" in out
+
+
+def test_violated_version_constraint_is_reported(make_workspace, wsbuild) -> None:  # type: ignore[no-untyped-def]
+    ws = make_workspace({"app": ("cmake", []), "lib": ("cmake", [])})
+    xml = ws / "src" / "app" / "package.xml"
+    xml.write_text(xml.read_text().replace(
+        "<export>", '<depend version_gte="2.0.0">lib</depend>\n  <export>'))
+    result = wsbuild("list", cwd=ws)
+    assert result.returncode == 0
+    assert "lib" in result.stderr and "2.0.0" in result.stderr and str(xml) in result.stderr

@@ -72,6 +72,18 @@ def build_parser() -> argparse.ArgumentParser:
 
     sub = verb("build", "wsbuild.verbs.build:run_build_verb", BUILD_DOC)
     _build_arguments(sub)
+
+    sub = verbs.add_parser("run", help="run an executable of an installed package",
+                           description=RUN_DOC.strip(), formatter_class=_Formatter)
+    sub.set_defaults(func="wsbuild.verbs.run:run_executable")
+    sub.add_argument("-C", "--workspace", metavar="DIR", dest="workspace_dir",
+                     help="the workspace root (default: found from the current directory)")
+    sub.add_argument("--install-base", default="install", metavar="DIR",
+                     help="install prefix relative to the workspace (default: install)")
+    sub.add_argument("package_name", metavar="PKG")
+    sub.add_argument("executable_name", metavar="EXECUTABLE")
+    sub.add_argument("arguments", nargs=argparse.REMAINDER, metavar="ARGS",
+                     help="passed to the executable, e.g. --ros-args -p name:=value")
     return parser
 
 
@@ -158,6 +170,18 @@ def _known_long_options() -> set[str]:
             if isinstance(action, argparse._SubParsersAction):
                 stack.extend(action.choices.values())
     return names - set(PASSTHROUGH)
+
+
+RUN_DOC = """Run an executable of an installed package (like `ros2 run`).
+
+Looks for lib/<PKG>/<EXECUTABLE> in every prefix on AMENT_PREFIX_PATH, then in this
+workspace's install/ (which works even when it is not sourced: its environment is
+applied first). Everything after EXECUTABLE, including --ros-args, goes to the executable.
+
+examples:
+  wsbuild run demo_nodes_py talker
+  wsbuild run demo_nodes_py listener --ros-args -r chatter:=/other -p rate:=2.0
+"""
 
 
 BUILD_DOC = """Build the packages of the workspace into install/.

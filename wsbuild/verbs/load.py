@@ -47,13 +47,16 @@ def load(args: argparse.Namespace, *, select: bool = True) -> Loaded:
         paths=paths,
         environ=os.environ,
     )
-    for warning in discovery.warnings:
-        print(f"wsbuild: warning: {warning}", file=sys.stderr)
     packages = discovery.packages
+    from wsbuild.manifest import check_version_constraints
+
+    warnings = (*discovery.warnings, *check_version_constraints(packages))
+    for warning in warnings:
+        print(f"wsbuild: warning: {warning}", file=sys.stderr)
     options = SelectionOptions.from_args(args) if select else SelectionOptions()
     ignored = ignored_packages(options, packages)
     if ignored:
         packages = {n: p for n, p in packages.items() if n not in ignored}
     graph = build_graph(packages)
     selected = select_packages(options, graph) if select else graph.topological_order()
-    return Loaded(workspace, packages, graph, selected, discovery.warnings)
+    return Loaded(workspace, packages, graph, selected, warnings)

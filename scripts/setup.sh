@@ -1,0 +1,37 @@
+#!/usr/bin/env bash
+# Set up everything wsbuild needs on a fresh Debian/Ubuntu machine with Python >= 3.10:
+# the compilers and shells its builds and tests use (apt), and a virtualenv in .venv holding
+# wsbuild, its test tools and ROS 2 Jazzy from PyPI (the underlay). Safe to run again.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+
+need=()
+for tool in cmake make g++ zsh dash git; do
+  command -v "$tool" >/dev/null 2>&1 || need+=("$tool")
+done
+if [ ${#need[@]} -gt 0 ]; then
+  pkgs=()
+  for tool in "${need[@]}"; do
+    case "$tool" in g++) pkgs+=(g++) ;; *) pkgs+=("$tool") ;; esac
+  done
+  echo "setup: installing ${pkgs[*]} with apt-get"
+  SUDO=""
+  [ "$(id -u)" -eq 0 ] || SUDO="sudo"
+  $SUDO apt-get update -qq
+  DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq "${pkgs[@]}" >/dev/null
+fi
+
+PYTHON="${PYTHON:-python3}"
+if [ ! -x .venv/bin/python ]; then
+  echo "setup: creating .venv"
+  "$PYTHON" -m venv .venv
+fi
+stamp=.venv/.wsbuild-setup
+want="$(cat pyproject.toml | sha256sum | cut -d' ' -f1)"
+if [ ! -f "$stamp" ] || [ "$(cat "$stamp")" != "$want" ]; then
+  echo "setup: installing wsbuild with the ROS 2 underlay and test tools into .venv"
+  .venv/bin/python -m pip install -q --upgrade pip
+  .venv/bin/python -m pip install -q -e '.[ros,test]'
+  echo "$want" > "$stamp"
+fi
+echo "setup: done (activate with: source .venv/bin/activate)"

@@ -1,0 +1,106 @@
+"""`wsbuild run PKG EXECUTABLE [args…]`: the `ros2 run` of wsbuild."""
+
+from __future__ import annotations
+
+import argparse
+import difflib
+import os
+import sys
+from collections.abc import Mapping
+from pathlib import Path
+
+from wsbuild.errors import SelectionError, WsbuildError
+
+
+def _package_prefixes(environ: Mapping[str, str], install_base: Path) -> dict[str, Path]:
+    """package -> prefix: AMENT_PREFIX_PATH first (what the user sourced), then this workspace."""
+    found: dict[str, Path] = {}
+    prefixes = [Path(p) for p in environ.get("AMENT_PREFIX_PATH", "").split(os.pathsep) if p]
+    for prefix in prefixes:
+        index = prefix / "share" / "ament_index" / "resource_index" / "packages"
+        try:
+            for name in os.listdir(index):
+                found.setdefault(name, prefix)
+        except OSError:
+            continue
+    if install_base.is_dir():
+        merged = (install_base / ".colcon_install_layout").exists() and (
+            install_base / ".colcon_install_layout").read_text().strip() == "merged"
+        candidates = [install_base] if merged else [p for p in sorted(install_base.iterdir())
+                                                     if p.is_dir()]
+        for prefix in candidates:
+            index = prefix / "share" / "ament_index" / "resource_index" / "packages"
+            try:
+                for name in os.listdir(index):
+                    found.setdefault(name, prefix)
+            except OSError:
+                continue
+    return found
+
+
+def _executables(prefix: Path, package: str) -> list[str]:
+    directory = prefix / "lib" / package
+    try:
+        return sorted(e.name for e in os.scandir(directory)
+                      if e.is_file() and os.access(e.path, os.X_OK))
+    except OSError:
+        return []
+
+
+def _suggest(name: str, choices: list[str]) -> str:
+    close = difflib.get_close_matches(name, choices, n=3)
+    return ("did you mean " + ", ".join(f"'{c}'" for c in close) + "?") if close else ""
+
+
+def run_executable(args: argparse.Namespace) -> int:
+    """Run an executable of an installed package."""
+    from wsbuild.cli import workspace_root
+
+    root = workspace_root(args)
+    install_base = root / (args.install_base or "install")
+    environ = dict(os.environ)
+    prefixes = _package_prefixes(environ, install_base)
+    package, executable = args.package_name, args.executable_name
+    if package not in prefixes:
+        with_exes = sorted(n for n, p in prefixes.items() if _executables(p, n))
+        hint = _suggest(package, sorted(prefixes)) or (
+            "packages with executables: " + (", ".join(with_exes) if with_exes else "none; "
+                                             "build the workspace first: wsbuild build"))
+        raise SelectionError(f"package '{package}' not found (looked in AMENT_PREFIX_PATH and "
+                             f"{install_base})", hint=hint)
+    prefix = prefixes[package]
+    available = _executables(prefix, package)
+    if executable not in available:
+        hint = _suggest(executable, available) or (
+            f"executables of {package}: {', '.join(available)}" if available
+            else f"{package} installs no executables in lib/{package}/")
+        raise SelectionError(f"no executable '{executable}' in package '{package}'",
+                             path=prefix / "lib" / package, hint=hint)
+    if _needs_workspace_environment(environ, prefix, install_base):
+        environ = _workspace_environment(install_base, environ)
+    command = [str(prefix / "lib" / package / executable), *args.arguments]
+    sys.stdout.flush()
+    try:
+        os.execve(command[0], command, environ)  # Ctrl-C and exit codes go straight to the node
+    except OSError as exc:
+        raise WsbuildError(f"cannot run {command[0]}: {exc.strerror}",
+                           hint="check its shebang line and permissions") from exc
+    return 0  # not reached
+
+
+def _needs_workspace_environment(environ: Mapping[str, str], prefix: Path,
+                                 install_base: Path) -> bool:
+    """True when the package comes from this workspace but the workspace is not sourced."""
+    sourced = environ.get("AMENT_PREFIX_PATH", "").split(os.pathsep)
+    return str(prefix) not in sourced and prefix.is_relative_to(install_base)
+
+
+def _workspace_environment(install_base: Path, environ: dict[str, str]) -> dict[str, str]:
+    """What `source install/setup.sh` would give, computed without a shell."""
+    from wsbuild.prefix import environment_for, installed_order
+
+    merged = (install_base / ".colcon_install_layout").exists() and (
+        install_base / ".colcon_install_layout").read_text().strip() == "merged"
+    pairs = [(install_base if merged else install_base / name, name)
+             for name in installed_order(install_base, merged=merged)]
+    return environment_for(pairs, environ)
