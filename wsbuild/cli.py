@@ -84,6 +84,15 @@ def build_parser() -> argparse.ArgumentParser:
     sub.add_argument("executable_name", metavar="EXECUTABLE")
     sub.add_argument("arguments", nargs=argparse.REMAINDER, metavar="ARGS",
                      help="passed to the executable, e.g. --ros-args -p name:=value")
+
+    sub = verbs.add_parser("underlay", help="check or repair the ROS underlay in the virtualenv",
+                           description=UNDERLAY_DOC.strip(), formatter_class=_Formatter)
+    actions = sub.add_subparsers(dest="action", metavar="ACTION")
+    actions.required = True
+    check = actions.add_parser("check", help="report problems without changing anything")
+    check.set_defaults(func="wsbuild.verbs.underlay:run_check")
+    repair = actions.add_parser("repair", help="fix the wheels' hard-coded paths in place")
+    repair.set_defaults(func="wsbuild.verbs.underlay:run_repair")
     return parser
 
 
@@ -170,6 +179,16 @@ def _known_long_options() -> set[str]:
             if isinstance(action, argparse._SubParsersAction):
                 stack.extend(action.choices.values())
     return names - set(PASSTHROUGH)
+
+
+UNDERLAY_DOC = """Check or repair a ROS 2 underlay installed from PyPI wheels into the virtualenv.
+
+The ros-jazzy-* wheels export CMake files naming their build machine's paths
+(/opt/python/cp3XX-cp3XX/...), which break rosidl_generate_interfaces. `repair`
+rewrites those lines to this virtualenv's paths, touching nothing outside it;
+`wsbuild build` does the same automatically before building. `check` also lists ROS
+packages the wheels' metadata forgot, with the pip command that installs them.
+"""
 
 
 RUN_DOC = """Run an executable of an installed package (like `ros2 run`).

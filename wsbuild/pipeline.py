@@ -31,6 +31,7 @@ from wsbuild.model import BuildResult, DepCategory, Outcome, Package
 from wsbuild.options import BuildRequest
 from wsbuild.process import env_delta, format_command, run_command
 from wsbuild.schedule import RunInterrupted, run_jobs
+from wsbuild.underlay import PreparedUnderlay
 from wsbuild.workspace import BUILD_MARKER, Workspace
 
 LAYOUT_MARKER = ".colcon_install_layout"
@@ -158,8 +159,14 @@ def run_build(plan: Plan, request: BuildRequest, emit: Emit) -> list[BuildResult
         _mark_workspace(ws, merged)
         if not merged:
             recover_all(ws.install_base)
-        base_env, extra_prefixes = prepare_underlay(dict(os.environ), repair=request.repair_underlay,
-                                                    notice=lambda t: emit(Notice(t)))
+        underlay = prepare_underlay(os.environ, executable=sys.executable,
+                                    repair=request.repair_underlay,
+                                    shim_dir=ws.build_base / ".wsbuild" / "lint_shim",
+                                    notice=lambda text: emit(Notice(text)))
+        base_env = underlay.environ
+        request = replace(request, build=replace(
+            options, underlay_cmake_args=underlay.cmake_args))
+        extra_prefixes = [underlay.venv] if underlay.venv else []
         check_dependencies(plan, request, base_env, extra_prefixes, emit)
         run_log = new_run_log(ws.log_base, "build")
         order = plan.graph.topological_order()
@@ -176,13 +183,13 @@ def run_build(plan: Plan, request: BuildRequest, emit: Emit) -> list[BuildResult
                                continue_on_error=request.run.continue_on_error, emit=emit)
         except RunInterrupted as interrupt:
             results = interrupt.results
-            _finish_install(ws, merged, base_env, extra_prefixes)
+            _finish_install(ws, merged, underlay)
             emit(RunFinished(tuple(results), time.monotonic() - started))
             raise Interrupted("build interrupted") from None
         finally:
             jobserver.close()
             _clean_stage_dir(ws)
-        _finish_install(ws, merged, base_env, extra_prefixes)
+        _finish_install(ws, merged, underlay)
         merge_compile_commands(ws)
     emit(RunFinished(tuple(results), time.monotonic() - started))
     failed = [r.package for r in results if r.outcome is Outcome.FAILED]
@@ -216,16 +223,27 @@ def _mark_workspace(ws: Workspace, merged: bool) -> None:
         layout.write_text(text)
 
 
-def _finish_install(ws: Workspace, merged: bool, environ: Mapping[str, str],
-                    extra_prefixes: list[Path]) -> None:
-    from wsbuild.prefix import underlays_from_environment, write_workspace_scripts
-    from wsbuild.underlay import chained_venv_underlay
+def _finish_install(ws: Workspace, merged: bool, underlay: PreparedUnderlay) -> None:
+    """Write install/setup.* and local_setup.* for every package installed so far."""
+    from wsbuild.prefix import ChainedUnderlay, underlays_from_environment, write_workspace_scripts
 
-    underlays = underlays_from_environment(environ, ws.install_base)
-    venv = chained_venv_underlay(extra_prefixes)
-    if venv is not None:
-        underlays = [*underlays, venv]
+    # chain what was sourced before the venv was applied, then the venv itself
+    underlays = underlays_from_environment(os.environ, ws.install_base)
+    if underlay.venv is not None:
+        underlays.append(ChainedUnderlay(prefix=underlay.venv, script_dir=None,
+                                         prepend=venv_prepends(underlay)))
     write_workspace_scripts(ws.install_base, merged=merged, underlays=underlays)
+
+
+def venv_prepends(underlay: PreparedUnderlay) -> tuple[tuple[str, str], ...]:
+    """(VAR, entry) pairs that make a shell see the venv underlay as a build did."""
+    result: list[tuple[str, str]] = []
+    for var, value in underlay.venv_changes:
+        if var in ("PATH", "AMENT_PREFIX_PATH", "CMAKE_PREFIX_PATH", "LD_LIBRARY_PATH"):
+            before = set(os.environ.get(var, "").split(os.pathsep))
+            result += [(var, entry) for entry in reversed(value.split(os.pathsep))
+                       if entry and entry not in before]
+    return tuple(result)
 
 
 def _build_package(plan: Plan, request: BuildRequest, name: str, base_env: Mapping[str, str],

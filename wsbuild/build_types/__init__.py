@@ -10,7 +10,10 @@ from __future__ import annotations
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Protocol
+from typing import TYPE_CHECKING, Protocol
+
+if TYPE_CHECKING:
+    from importlib.metadata import EntryPoint
 
 from wsbuild.errors import ManifestError
 from wsbuild.model import Package
@@ -35,6 +38,9 @@ class BuildOptions:
     #: parallel compile jobs this package may use (its share of the CPU budget)
     jobs: int = 1
     python_executable: str = ""
+    #: CMake arguments the underlay needs (e.g. the wheel venv's Python and libpython flags);
+    #: they come before the user's --cmake-args, so the user's win
+    underlay_cmake_args: tuple[str, ...] = ()
 
 
 class StepFailed(Exception):
@@ -128,7 +134,7 @@ def get_build_type(name: str) -> BuildType:
     return build_type
 
 
-def _entry_points() -> Sequence[object]:
+def _entry_points() -> Sequence[EntryPoint]:
     from importlib.metadata import entry_points
 
     return [ep for ep in entry_points(group=ENTRY_POINT_GROUP) if ep.name not in BUILTIN]

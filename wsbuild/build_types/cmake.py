@@ -35,7 +35,7 @@ class CMakeBuildType:
             f"-DPython3_EXECUTABLE={python}",
             f"-DPYTHON_EXECUTABLE={python}",
         ]
-        return [*args, *ctx.options.cmake_args]
+        return [*args, *ctx.options.underlay_cmake_args, *ctx.options.cmake_args]
 
     def needs_configure(self, ctx: BuildContext) -> bool:
         cache = ctx.build_dir / "CMakeCache.txt"

@@ -1,0 +1,58 @@
+"""The `ament_python` build type: the `python` recipe plus the ament index marker and package.xml.
+
+Like colcon-ros, a package whose setup.py forgets to install the marker
+`share/ament_index/resource_index/packages/<pkg>` or `share/<pkg>/package.xml` still gets
+them, with a warning that says what to add to `data_files`.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import PurePosixPath
+
+from wsbuild.build_types import BuildContext, Step, StepFailed
+from wsbuild.build_types.python import configure, install, origin_file, record
+from wsbuild.python_install import StageWriter
+
+INDEX_DIR = PurePosixPath("share/ament_index/resource_index/packages")
+
+
+@dataclass(frozen=True, slots=True)
+class AmentPythonBuildType:
+    name: str = "ament_python"
+
+    def steps(self, ctx: BuildContext) -> list[Step]:
+        return [Step("configure", configure), Step("install", install),
+                Step("register", register), Step("record", record)]
+
+
+BUILD_TYPE = AmentPythonBuildType()
+
+
+def register(ctx: BuildContext) -> None:
+    """Install the ament index marker and package.xml if setup.py did not."""
+    name = ctx.package.name
+    writer = StageWriter(ctx.stage_prefix)
+    origin = origin_file(ctx.source_dir).name
+    marker = INDEX_DIR / name
+    if not _installed(ctx, marker):
+        writer.write(marker, b"")
+        ctx.warn(f"{origin} does not install the ament index marker; wsbuild installed "
+                 f"{marker} anyway. Create an empty file resource/{name} and add "
+                 f"('{INDEX_DIR}', ['resource/{name}']) to data_files in {origin}")
+    manifest = PurePosixPath("share", name, "package.xml")
+    if not _installed(ctx, manifest):
+        source = (ctx.package.manifest or ctx.source_dir / "package.xml").absolute()
+        if not source.is_file():
+            raise StepFailed(f"{ctx.source_dir}: no package.xml to install")
+        if ctx.options.symlink_install:
+            writer.symlink(source, manifest)
+        else:
+            writer.copy(source, manifest)
+        ctx.warn(f"{origin} does not install package.xml; wsbuild installed {manifest} "
+                 f"anyway. Add ('share/{name}', ['package.xml']) to data_files in {origin}")
+
+
+def _installed(ctx: BuildContext, relpath: PurePosixPath) -> bool:
+    path = ctx.stage_prefix / relpath
+    return path.is_symlink() or path.exists()

@@ -1,0 +1,50 @@
+"""`wsbuild underlay check|repair`: the ROS virtualenv underlay installed from PyPI wheels."""
+
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+
+from wsbuild.errors import UnderlayError
+from wsbuild.underlay import find_venv_underlay, missing_packages, repair_underlay, scan_underlay
+
+
+def _venv() -> "os.PathLike[str]":
+    venv = find_venv_underlay(os.environ, sys.executable)
+    if venv is None:
+        raise UnderlayError(
+            "no ROS underlay in the active virtualenv (no share/ament_index)",
+            hint="pip install 'wsbuild[ros]' into the virtualenv, or source /opt/ros/jazzy/setup.bash",
+        )
+    return venv
+
+
+def run_check(args: argparse.Namespace) -> int:
+    """Report what `repair` would change, and ROS packages the wheels forgot to depend on."""
+    venv = _venv()
+    problems = scan_underlay(venv, use_cache=False)
+    missing = missing_packages(venv)
+    print(f"ROS underlay: {venv}")
+    for problem in problems:
+        kind = "repairable" if problem.repairable else "needs you"
+        print(f"  {problem.path}:{problem.line}: [{kind}] {problem.text}\n    fix: {problem.fix}")
+    for item in missing:
+        print(f"  missing: {item.name} (needed by {', '.join(item.required_by)}): "
+              f"pip install {item.requirement}")
+    if not problems and not missing:
+        print("  no problems found")
+        return 0
+    if problems and all(p.repairable for p in problems) and not missing:
+        print("run 'wsbuild underlay repair' (wsbuild build also does it automatically)")
+    return 2
+
+
+def run_repair(args: argparse.Namespace) -> int:
+    """Rewrite the wheels' broken CMake files inside the virtualenv (idempotent)."""
+    venv = _venv()
+    changed = repair_underlay(venv)
+    for path in changed:
+        print(f"repaired {path}")
+    print(f"{len(changed)} file(s) changed in {venv}")
+    return 0
