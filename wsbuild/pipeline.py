@@ -187,6 +187,9 @@ def run_build(plan: Plan, request: BuildRequest, emit: Emit) -> list[BuildResult
             emit(RunFinished(tuple(results), time.monotonic() - started))
             raise Interrupted("build interrupted") from None
         finally:
+            from wsbuild.setup_py import shutdown_helpers
+
+            shutdown_helpers()
             jobserver.close()
             _clean_stage_dir(ws)
         _finish_install(ws, merged, underlay)
@@ -309,7 +312,8 @@ def _build_package(plan: Plan, request: BuildRequest, name: str, base_env: Mappi
         register_package_files(stage, name, package.manifest)
         run_deps = sorted(plan.graph.edges[name][DepCategory.RUN])
         write_package_environment(stage, name, run_deps, build_type=package.build_type,
-                                  python_site=str(site_packages_relpath()))
+                                  python_site=str(site_packages_relpath()),
+                                  install_prefix=prefix)
         if merged:
             staging.commit_merged(stage, prefix, build_dir / staging.MERGED_RECORD)
         else:

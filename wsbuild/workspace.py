@@ -7,8 +7,8 @@ from pathlib import Path
 
 #: files that make a directory a package (so it cannot be a workspace root)
 PACKAGE_MARKERS = ("package.xml", "CMakeLists.txt", "setup.py", "setup.cfg", "pyproject.toml")
-#: written into build/ so a later run recognises the workspace from inside it
-BUILD_MARKER = ".wsbuild"
+#: written into build/ (as colcon does) so a later run recognises the workspace from inside it
+BUILD_MARKER = ".built_by"
 
 
 @dataclass(frozen=True, slots=True)

@@ -23,7 +23,7 @@ class AmentPythonBuildType:
 
     def steps(self, ctx: BuildContext) -> list[Step]:
         return [Step("configure", configure), Step("install", install),
-                Step("register", register), Step("record", record)]
+                Step("index", register), Step("record", record)]
 
 
 BUILD_TYPE = AmentPythonBuildType()

@@ -30,6 +30,8 @@ class CMakeBuildType:
     def configure_args(self, ctx: BuildContext) -> list[str]:
         python = ctx.options.python_executable
         args = [
+            # wsbuild passes Python hints every project may ignore: don't warn about them
+            "--no-warn-unused-cli",
             f"-DCMAKE_INSTALL_PREFIX={ctx.install_prefix}",
             "-DCMAKE_EXPORT_COMPILE_COMMANDS=ON",
             f"-DPython3_EXECUTABLE={python}",

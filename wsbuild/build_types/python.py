@@ -152,8 +152,12 @@ def _install_built_wheel(ctx: BuildContext, plan: PythonBuildPlan, target: Insta
 
     from wsbuild.pep517 import build_wheel
 
+    # a plan learnt from setup.py knows whether setup_requires is set
+    known = plan.setup is not None and bool(plan.setup.name) \
+        and "setup_requires" not in plan.fallback_reasons
     wheel = build_wheel(ctx.source_dir, ctx.build_dir, plan.build_system, run=ctx.run,
-                        environ=ctx.environ, python_executable=target.python_executable)
+                        environ=ctx.environ, python_executable=target.python_executable,
+                        setup_requires_known_empty=known)
     egg_info: Path | None = None
     basename: str | None = None
     if plan.build_system.is_setuptools:

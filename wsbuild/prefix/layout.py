@@ -1,0 +1,127 @@
+"""The install layout colcon defines: markers, per-package prefixes and the installed-package index."""
+
+from __future__ import annotations
+
+import heapq
+import os
+from collections.abc import Iterable, Mapping
+from pathlib import Path, PurePosixPath
+
+from wsbuild.errors import CycleError, WorkspaceError
+from wsbuild.prefix.files import create_if_missing, write_if_changed
+from wsbuild.prefix.quoting import validate_package_name
+
+#: marker in the install base naming its layout (colcon_core.verb.check_and_mark_install_layout)
+INSTALL_LAYOUT_MARKER = ".colcon_install_layout"
+#: marker that keeps colcon (and wsbuild) from looking for packages inside a directory
+IGNORE_MARKER = "COLCON_IGNORE"
+#: the colcon package index: one file per package holding its run dependencies
+PACKAGE_INDEX = PurePosixPath("share", "colcon-core", "packages")
+#: the ament resource index marker directory for packages
+AMENT_PACKAGE_INDEX = PurePosixPath("share", "ament_index", "resource_index", "packages")
+
+ISOLATED = "isolated"
+MERGED = "merged"
+
+
+def package_prefix(install_base: Path, package: str, *, merged: bool) -> Path:
+    """The prefix a package is installed to: `install/` (merged) or `install/<pkg>`."""
+    return install_base if merged else install_base / package
+
+
+def read_install_layout(install_base: Path) -> str | None:
+    """'isolated', 'merged', or None when the marker is missing."""
+    try:
+        return (install_base / INSTALL_LAYOUT_MARKER).read_text().rstrip()
+    except (FileNotFoundError, NotADirectoryError):
+        return None
+
+
+def mark_install_layout(install_base: Path, *, merged: bool) -> Path | None:
+    """Write the layout marker; refuse an install base created with the other layout.
+
+    Returns the marker path when it was written.
+    """
+    wanted = MERGED if merged else ISOLATED
+    previous = read_install_layout(install_base)
+    if previous is not None and previous != wanted:
+        change = "remove" if merged else "add"
+        raise WorkspaceError(
+            f"the install directory was created with the layout '{previous}'",
+            path=install_base,
+            hint=f"remove the install directory, pick a different one or {change} "
+            "the '--merge-install' option",
+        )
+    marker = install_base / INSTALL_LAYOUT_MARKER
+    return marker if write_if_changed(marker, wanted + "\n") else None
+
+
+def write_ignore_marker(directory: Path) -> Path | None:
+    """Put an empty COLCON_IGNORE in `directory` (install/ or build/) unless one exists."""
+    marker = directory / IGNORE_MARKER
+    return marker if create_if_missing(marker) else None
+
+
+def read_installed_packages(install_base: Path, *, merged: bool) -> dict[str, tuple[str, ...]]:
+    """Package → recorded run dependencies (sorted), from `share/colcon-core/packages`.
+
+    Isolated: `install/<pkg>/share/colcon-core/packages/<pkg>`; merged: every file in
+    `install/share/colcon-core/packages/`. Hidden entries are skipped, as colcon does.
+    """
+    index_files: list[Path] = []
+    if merged:
+        index_dir = install_base / PACKAGE_INDEX
+        if index_dir.is_dir():
+            index_files = [
+                p for p in index_dir.iterdir() if not p.name.startswith(".") and p.is_file()
+            ]
+    elif install_base.is_dir():
+        for entry in install_base.iterdir():
+            if entry.name.startswith(".") or not entry.is_dir():
+                continue
+            candidate = entry / PACKAGE_INDEX / entry.name
+            if candidate.is_file():
+                index_files.append(candidate)
+    packages: dict[str, tuple[str, ...]] = {}
+    for index_file in sorted(index_files):
+        name = validate_package_name(index_file.name, path=index_file)
+        content = index_file.read_text().strip()
+        packages[name] = tuple(sorted({d for d in content.split(os.pathsep) if d}))
+    return packages
+
+
+def installed_order(install_base: Path, *, merged: bool) -> list[str]:
+    """The installed packages in the order setup scripts apply them."""
+    return order_packages(read_installed_packages(install_base, merged=merged))
+
+
+def order_packages(packages: Mapping[str, Iterable[str]]) -> list[str]:
+    """Topological order by run dependencies, ties broken by name (colcon's prefix_util order).
+
+    Dependencies that are not among `packages` are ignored.
+    """
+    remaining = {name: {d for d in deps if d in packages and d != name}
+                 for name, deps in packages.items()}
+    dependents: dict[str, list[str]] = {name: [] for name in packages}
+    for name, deps in remaining.items():
+        for dep in deps:
+            dependents[dep].append(name)
+    ready = [name for name, deps in remaining.items() if not deps]
+    heapq.heapify(ready)
+    ordered: list[str] = []
+    while ready:
+        name = heapq.heappop(ready)
+        ordered.append(name)
+        for dependent in dependents[name]:
+            deps = remaining[dependent]
+            deps.discard(name)
+            if not deps:
+                heapq.heappush(ready, dependent)
+    if len(ordered) != len(remaining):
+        stuck = {n: sorted(d) for n, d in remaining.items() if d and n not in ordered}
+        edges = "; ".join(f"{n} -> {', '.join(d)}" for n, d in sorted(stuck.items()))
+        raise CycleError(
+            f"circular run dependencies between installed packages: {edges}",
+            hint="fix the exec/build_export dependencies in these package.xml files",
+        )
+    return ordered

@@ -1,0 +1,26 @@
+"""Shell templates under `templates/`, filled by plain `@TOKEN@` substitution."""
+
+from __future__ import annotations
+
+import re
+from functools import cache
+from pathlib import Path
+
+TEMPLATE_DIR = Path(__file__).parent / "templates"
+_TOKEN = re.compile(r"@([A-Z][A-Z0-9_]*)@")
+
+
+@cache
+def load_template(name: str) -> str:
+    return (TEMPLATE_DIR / name).read_text()
+
+
+def render(name: str, **values: str) -> str:
+    """Fill every `@TOKEN@` of template `name`; a missing or unused value is a bug."""
+    text = load_template(name)
+    found = set(_TOKEN.findall(text))
+    if found != set(values):
+        raise KeyError(
+            f"template {name}: tokens {sorted(found)} but values for {sorted(values)}"
+        )
+    return _TOKEN.sub(lambda m: values[m.group(1)], text)

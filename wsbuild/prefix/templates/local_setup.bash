@@ -1,0 +1,16 @@
+@HEADER@
+@ABSPATH@
+# a bash script is able to determine its own path if necessary
+if [ -z "${COLCON_CURRENT_PREFIX:-}" ]; then
+  _wsb_ls_abspath "${BASH_SOURCE[0]}/.."
+  _wsb_ls_prefix="$_wsb_ls_abspath_result"
+else
+  _wsb_ls_prefix="$COLCON_CURRENT_PREFIX"
+fi
+unset -f _wsb_ls_abspath
+unset _wsb_ls_abspath_result
+
+@FUNCTIONS@
+@BODY@
+unset -f _wsb_ls_prepend _wsb_ls_append _wsb_ls_prepend_checked _wsb_ls_append_checked _wsb_ls_filter _wsb_ls_source
+unset _wsb_ls_prefix _wsb_ls_name _wsb_ls_old _wsb_ls_new _wsb_ls_value
