@@ -233,19 +233,28 @@ def _finish_install(ws: Workspace, merged: bool, underlay: PreparedUnderlay) -> 
     # chain what was sourced before the venv was applied, then the venv itself
     underlays = underlays_from_environment(os.environ, ws.install_base)
     if underlay.venv is not None:
+        from wsbuild.underlay import BOOTSTRAP_GUARD_VAR
+
+        # with the library path set, the wheels' bootstrapper need not re-execute every Python
         underlays.append(ChainedUnderlay(prefix=underlay.venv, script_dir=None,
-                                         prepend=venv_prepends(underlay)))
+                                         prepend=venv_prepends(underlay.venv),
+                                         set=((BOOTSTRAP_GUARD_VAR, "1"),)))
     write_workspace_scripts(ws.install_base, merged=merged, underlays=underlays)
 
 
-def venv_prepends(underlay: PreparedUnderlay) -> tuple[tuple[str, str], ...]:
-    """(VAR, entry) pairs that make a shell see the venv underlay as a build did."""
+def venv_prepends(venv: Path) -> tuple[tuple[str, str], ...]:
+    """(VAR, entry) pairs that make a shell see the venv underlay as a build did.
+
+    Computed against an empty environment: wsbuild's own environment already holds what the
+    wheels' bootstrapper added when it re-executed wsbuild."""
+    from wsbuild.underlay import build_environment
+
+    full = build_environment(venv, {})
     result: list[tuple[str, str]] = []
-    for var, value in underlay.venv_changes:
-        if var in ("PATH", "AMENT_PREFIX_PATH", "CMAKE_PREFIX_PATH", "LD_LIBRARY_PATH"):
-            before = set(os.environ.get(var, "").split(os.pathsep))
-            result += [(var, entry) for entry in reversed(value.split(os.pathsep))
-                       if entry and entry not in before]
+    for var in ("AMENT_PREFIX_PATH", "CMAKE_PREFIX_PATH", "LD_LIBRARY_PATH", "PATH"):
+        # the last pair of a variable ends up first
+        result += [(var, entry) for entry in reversed(full.get(var, "").split(os.pathsep))
+                   if entry]
     return tuple(result)
 
 

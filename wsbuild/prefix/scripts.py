@@ -33,11 +33,13 @@ class ChainedUnderlay:
     to `prefix` (a colcon/ament workspace, /opt/ros/<distro>). `prepend` lists
     (VARIABLE, value) pairs to prepend without duplicates, in order, for an underlay without
     scripts (a ROS virtualenv from PyPI); the last pair of a variable ends up first.
+    `set` lists (VARIABLE, value) pairs exported as they are, after the prepends.
     """
 
     prefix: Path
     script_dir: Path | None = None
     prepend: tuple[tuple[str, str], ...] = ()
+    set: tuple[tuple[str, str], ...] = ()
 
 
 def underlays_from_environment(environ: Mapping[str, str], install_base: Path) -> list[ChainedUnderlay]:
@@ -261,6 +263,9 @@ def _setup(underlays: Sequence[ChainedUnderlay], *, shell: str, build_prefix: st
         for name, value in underlay.prepend:
             validate_variable_name(name)
             lines.append(f'_wsb_setup_prepend {name} "${{{name}-}}" {sh_quote(value)}')
+        for name, value in underlay.set:
+            validate_variable_name(name)
+            lines.append(f"export {name}={sh_quote(value)}")
         lines.append("")
     values = {
         "HEADER": render("setup_header.txt"),
