@@ -18,8 +18,8 @@ import json
 import os
 import sys
 import time
-from collections.abc import Mapping
-from dataclasses import dataclass, replace
+from collections.abc import Mapping, Sequence
+from dataclasses import asdict, dataclass, replace
 from pathlib import Path
 
 from wsbuild.build_types import BuildContext, StepFailed, get_build_type
@@ -173,8 +173,11 @@ def run_build(plan: Plan, request: BuildRequest, emit: Emit) -> list[BuildResult
         jobserver = _Jobserver(options.jobs)
         selected = set(plan.selected)
 
+        keys: dict[str, str] = {}
+
         def build_one(name: str) -> BuildResult:
-            return _build_package(plan, request, name, base_env, order, run_log, jobserver, emit)
+            return _build_package(plan, request, name, base_env, order, run_log, jobserver,
+                                  keys, emit)
 
         dependencies = {n: plan.graph.direct(n) & selected for n in plan.selected}
         try:
@@ -258,10 +261,62 @@ def venv_prepends(venv: Path) -> tuple[tuple[str, str], ...]:
     return tuple(result)
 
 
+def build_settings(plan: Plan, request: BuildRequest, name: str,
+                   base_env: Mapping[str, str]) -> str:
+    """Digest of everything besides sources and dependencies that shapes a package's build."""
+    from wsbuild import __version__
+    from wsbuild.fingerprint import digest_of
+
+    options = asdict(request.build)
+    options.pop("jobs")  # the CPU budget does not change what gets built
+    build_type = plan.packages[name].build_type
+    if build_type not in ("cmake", "ament_cmake"):
+        # CMake options do not reach Python packages
+        options = {k: v for k, v in options.items()
+                   if not k.startswith(("cmake_", "underlay_cmake"))}
+    own = str(plan.workspace.install_base)
+
+    def underlay(var: str) -> list[str]:
+        # this workspace's own prefixes (when its setup.bash is sourced) are not an underlay
+        return [p for p in base_env.get(var, "").split(os.pathsep)
+                if p and not p.startswith(own)]
+
+    return digest_of({
+        "wsbuild": __version__,
+        "build_type": build_type,
+        "options": options,
+        "python": sys.executable,
+        "ament_prefix_path": underlay("AMENT_PREFIX_PATH"),
+        "cmake_prefix_path": underlay("CMAKE_PREFIX_PATH"),
+        "install_prefix": str(package_prefix(plan.workspace, name, request.build.merge_install)),
+    })
+
+
+def _dependency_keys(plan: Plan, name: str, keys: Mapping[str, str]) -> dict[str, str]:
+    """The build keys of the workspace packages `name` builds against."""
+    from wsbuild.fingerprint import read_state
+
+    result = {}
+    for dep in sorted(plan.graph.build_closure(name)):
+        key = keys.get(dep)
+        if key is None:
+            state = read_state(plan.workspace.build_base / dep)
+            key = state.key if state is not None else "unknown"
+        result[dep] = key
+    return result
+
+
+#: created when a package build starts, removed when it finished: an interrupted build is redone
+BUILDING_MARKER = Path(".wsbuild") / "building"
+
+
 def _build_package(plan: Plan, request: BuildRequest, name: str, base_env: Mapping[str, str],
                    order: list[str], run_log: Path, jobserver: _Jobserver,
-                   emit: Emit) -> BuildResult:
+                   keys: dict[str, str], emit: Emit) -> BuildResult:
     from wsbuild import stage as staging
+    from wsbuild.fingerprint import (
+        BuildState, installed_files, read_state, snapshot_sources, why_rebuild, write_state,
+    )
     from wsbuild.prefix import register_package_files, write_package_environment
     from wsbuild.python_paths import site_packages_relpath
 
@@ -272,27 +327,43 @@ def _build_package(plan: Plan, request: BuildRequest, name: str, base_env: Mappi
     log_dir = run_log / name
     log_dir.mkdir(parents=True, exist_ok=True)
     build_dir = ws.build_base / name
-    build_dir.mkdir(parents=True, exist_ok=True)
+    started = time.monotonic()
+
+    # 1. up to date?
+    old = read_state(build_dir)
+    snapshot = snapshot_sources(package.path, old.files if old else {})
+    settings = build_settings(plan, request, name, base_env)
+    dep_keys = _dependency_keys(plan, name, keys)
+    if (build_dir / BUILDING_MARKER).exists():
+        reason: str | None = "the previous build did not finish"
+    elif request.force or options.cmake_force_configure or options.cmake_clean_cache \
+            or options.cmake_clean_first:
+        reason = "forced"
+    else:
+        reason = why_rebuild(old, snapshot, settings, dep_keys, ws.install_base)
+    with open(log_dir / "command.log", "a") as handle:
+        handle.write(f"{'Rebuilding: ' + reason if reason else 'Up to date: nothing changed'}\n")
+    if reason is None and old is not None:
+        keys[name] = old.key
+        return BuildResult(name, Outcome.UP_TO_DATE, time.monotonic() - started, log_dir=log_dir)
+
+    # 2. build into a fresh stage
+    (build_dir / BUILDING_MARKER).parent.mkdir(parents=True, exist_ok=True)
+    (build_dir / BUILDING_MARKER).touch()
     prefix = package_prefix(ws, name, merged)
     stage = staging.new_stage(ws.install_base, name)
     environ = build_environment(plan, name, base_env, merged, order)
     environ["MAKEFLAGS"] = jobserver.makeflags
     warnings: list[str] = []
-    commands: list[str] = []
-    started = time.monotonic()
 
-    def run(command, *, cwd: Path, env: Mapping[str, str] | None = None) -> None:  # type: ignore[no-untyped-def]
+    def run(command: Sequence[str], *, cwd: Path, env: Mapping[str, str] | None = None) -> None:
         use_env = dict(env) if env is not None else environ
         delta = env_delta(use_env, os.environ)
-        reproduce = format_command(command, cwd, delta)
-        commands.append(reproduce)
         with open(log_dir / "command.log", "a") as handle:
-            handle.write(f"Invoking command in '{cwd}': {reproduce}\n")
+            handle.write(f"Invoking command in '{cwd}': {format_command(command, cwd, delta)}\n")
         completed = run_command(command, cwd=cwd, env=use_env, log_dir=log_dir,
                                 pass_fds=jobserver.fds)
-        for line in completed.stderr:
-            if line.strip():
-                warnings.append(line)
+        warnings.extend(line for line in completed.stderr if line.strip())
         if completed.returncode != 0:
             raise StepFailed(
                 f"'{command[0]}' exited with code {completed.returncode}",
@@ -317,6 +388,7 @@ def _build_package(plan: Plan, request: BuildRequest, name: str, base_env: Mappi
         for step in build_type.steps(ctx):
             emit(StepStarted(name, step.label))
             step.action(ctx)
+        # 3. register: package.xml, index marker, environment hooks; then swap into place
         emit(StepStarted(name, "register"))
         register_package_files(stage, name, package.manifest)
         run_deps = sorted(plan.graph.edges[name][DepCategory.RUN])
@@ -324,9 +396,12 @@ def _build_package(plan: Plan, request: BuildRequest, name: str, base_env: Mappi
                                   python_site=str(site_packages_relpath()),
                                   install_prefix=prefix)
         if merged:
-            staging.commit_merged(stage, prefix, build_dir / staging.MERGED_RECORD)
+            record = build_dir / staging.MERGED_RECORD
+            staging.commit_merged(stage, prefix, record)
+            installed = installed_files(ws.install_base, prefix, record.read_text().splitlines())
         else:
             staging.commit_isolated(stage, prefix)
+            installed = installed_files(ws.install_base, prefix)
     except StepFailed as failure:
         staging.discard_stage(stage)
         reproduce = ""
@@ -336,13 +411,18 @@ def _build_package(plan: Plan, request: BuildRequest, name: str, base_env: Mappi
         tail = _log_tail(log_dir)
         message = str(failure) + ("\n" + "\n".join(tail) if tail else "")
         return BuildResult(name, Outcome.FAILED, time.monotonic() - started, message=message,
-                           log_dir=log_dir, reproduce=reproduce,
-                           warnings=tuple(warnings))
+                           log_dir=log_dir, reproduce=reproduce, warnings=tuple(warnings))
     except BaseException:
         staging.discard_stage(stage)
         raise
+    key = BuildState.make_key(snapshot.digest, settings, dep_keys)
+    write_state(build_dir, BuildState(key=key, source=snapshot.digest, settings=settings,
+                                      dependencies=dep_keys, files=snapshot.files,
+                                      installed=installed))
+    (build_dir / BUILDING_MARKER).unlink()
+    keys[name] = key
     return BuildResult(name, Outcome.FINISHED, time.monotonic() - started, log_dir=log_dir,
-                       warnings=tuple(_interesting(warnings)))
+                       message=reason or "", warnings=tuple(_interesting(warnings)))
 
 
 def _log_tail(log_dir: Path, lines: int = 15) -> list[str]:

@@ -60,9 +60,11 @@ class Reporter:
     def _handle(self, event: Event) -> None:
         if isinstance(event, JobStarted):
             self._running[event.package] = (time.monotonic(), "")
-            self._write(f"Starting >>> {event.package}")
         elif isinstance(event, StepStarted):
-            started, _ = self._running.get(event.package, (time.monotonic(), ""))
+            # "Starting" waits for the first step: up-to-date packages never take one
+            started, label = self._running.get(event.package, (time.monotonic(), ""))
+            if not label:
+                self._write(f"Starting >>> {event.package}")
             self._running[event.package] = (started, event.label)
         elif isinstance(event, JobFinished):
             self._running.pop(event.result.package, None)
@@ -85,7 +87,7 @@ class Reporter:
         if result.outcome is Outcome.FINISHED:
             self._write(f"Finished <<< {name} [{result.seconds:.2f}s]")
         elif result.outcome is Outcome.UP_TO_DATE:
-            self._write(f"Up to date: {name}" + (f" ({result.message})" if result.message else ""))
+            pass  # counted in the summary; the package's log says why
         elif result.outcome is Outcome.FAILED:
             self._write(f"Failed   <<< {name} [{result.seconds:.2f}s] {result.message}".rstrip())
             if result.log_dir is not None:

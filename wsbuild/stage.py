@@ -14,7 +14,7 @@ from pathlib import Path
 
 STAGE_DIR = ".wsbuild-stage"
 #: record, per package, of the files it put into a merged prefix
-MERGED_RECORD = "installed_files.txt"
+MERGED_RECORD = ".wsbuild/merged_files.txt"
 
 
 def new_stage(install_base: Path, package: str) -> Path:

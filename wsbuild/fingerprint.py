@@ -1,0 +1,209 @@
+"""Whether a package needs building: what its last build depended on, and what changed since.
+
+A package is rebuilt when its source files, its package.xml, the build options that reach it,
+the wsbuild version, the interpreter/underlay it builds against, or the build of a workspace
+dependency changed, or when its install is missing or damaged. File contents are hashed only
+when a file's size or mtime differs from the last build, so a no-op check costs a few stats.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+from collections.abc import Iterable, Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+
+STATE_FILE = Path(".wsbuild") / "state.json"
+#: directories inside a package that never affect its build
+_SKIP_DIRS = frozenset({"__pycache__", "build", "install", "log"})
+_SKIP_SUFFIXES = (".pyc", ".pyo", ".swp", "~")
+
+
+@dataclass(frozen=True, slots=True)
+class FileRecord:
+    size: int
+    mtime_ns: int
+    digest: str
+
+
+@dataclass(slots=True)
+class SourceSnapshot:
+    files: dict[str, FileRecord]
+    digest: str
+    changed: list[str] = field(default_factory=list)  # paths whose content changed
+
+
+def _walk(root: Path) -> Iterable[tuple[str, os.stat_result]]:
+    stack = [""]
+    while stack:
+        rel_dir = stack.pop()
+        directory = os.path.join(root, rel_dir) if rel_dir else str(root)
+        try:
+            entries = list(os.scandir(directory))
+        except OSError:
+            continue
+        if rel_dir and any(e.name == "COLCON_IGNORE" for e in entries):
+            continue
+        for entry in entries:
+            name = entry.name
+            if name.startswith(".") or name.endswith(_SKIP_SUFFIXES):
+                continue
+            rel = f"{rel_dir}/{name}" if rel_dir else name
+            try:
+                if entry.is_dir():
+                    if name not in _SKIP_DIRS and not name.endswith(".egg-info"):
+                        stack.append(rel)
+                    continue
+                yield rel, entry.stat()
+            except OSError:
+                continue
+
+
+def _hash_file(path: str) -> str:
+    digest = hashlib.blake2b(digest_size=16)
+    with open(path, "rb") as handle:
+        for chunk in iter(lambda: handle.read(1 << 20), b""):
+            digest.update(chunk)
+    return digest.hexdigest()
+
+
+def snapshot_sources(root: Path, previous: Mapping[str, FileRecord]) -> SourceSnapshot:
+    """Every file of a package with its content digest, reusing `previous` where size and
+    mtime are unchanged."""
+    files: dict[str, FileRecord] = {}
+    changed: list[str] = []
+    for rel, stat in _walk(root):
+        old = previous.get(rel)
+        if old is not None and old.size == stat.st_size and old.mtime_ns == stat.st_mtime_ns:
+            files[rel] = old
+            continue
+        try:
+            digest = _hash_file(os.path.join(root, rel))
+        except OSError:
+            continue
+        files[rel] = FileRecord(stat.st_size, stat.st_mtime_ns, digest)
+        if old is None or old.digest != digest:
+            changed.append(rel)
+    removed = sorted(set(previous) - set(files))
+    total = hashlib.blake2b(digest_size=16)
+    for rel in sorted(files):
+        total.update(f"{rel}\0{files[rel].digest}\n".encode())
+    return SourceSnapshot(files, total.hexdigest(), sorted(changed) + removed)
+
+
+def digest_of(value: object) -> str:
+    return hashlib.blake2b(json.dumps(value, sort_keys=True).encode(), digest_size=16).hexdigest()
+
+
+@dataclass(slots=True)
+class BuildState:
+    """What the last successful build of a package depended on (build/<pkg>/.wsbuild/state.json)."""
+
+    key: str = ""
+    source: str = ""
+    settings: str = ""
+    dependencies: dict[str, str] = field(default_factory=dict)
+    files: dict[str, FileRecord] = field(default_factory=dict)
+    #: installed files relative to the install base, with their size (-1: a symlink)
+    installed: list[tuple[str, int]] = field(default_factory=list)
+
+    @staticmethod
+    def make_key(source: str, settings: str, dependencies: Mapping[str, str]) -> str:
+        return digest_of([source, settings, sorted(dependencies.items())])
+
+
+def read_state(build_dir: Path) -> BuildState | None:
+    try:
+        data = json.loads((build_dir / STATE_FILE).read_text())
+        return BuildState(
+            key=data["key"],
+            source=data["source"],
+            settings=data["settings"],
+            dependencies=dict(data["dependencies"]),
+            files={k: FileRecord(*v) for k, v in data["files"].items()},
+            installed=[(p, s) for p, s in data["installed"]],
+        )
+    except (OSError, ValueError, KeyError, TypeError):
+        return None
+
+
+def write_state(build_dir: Path, state: BuildState) -> None:
+    path = build_dir / STATE_FILE
+    path.parent.mkdir(parents=True, exist_ok=True)
+    data = {
+        "key": state.key,
+        "source": state.source,
+        "settings": state.settings,
+        "dependencies": state.dependencies,
+        "files": {k: [v.size, v.mtime_ns, v.digest] for k, v in sorted(state.files.items())},
+        "installed": state.installed,
+    }
+    tmp = path.with_suffix(".tmp")
+    tmp.write_text(json.dumps(data, separators=(",", ":")))
+    os.replace(tmp, path)
+
+
+def forget_state(build_dir: Path) -> None:
+    """Called before a build starts: an interrupted build must not look up to date."""
+    try:
+        (build_dir / STATE_FILE).unlink()
+    except FileNotFoundError:
+        pass
+
+
+def installed_files(install_base: Path, prefix: Path,
+                    only: Iterable[str] | None = None) -> list[tuple[str, int]]:
+    """(path relative to install_base, size) of a package's installed files; -1 for symlinks."""
+    result: list[tuple[str, int]] = []
+    base = str(install_base)
+    if only is not None:
+        paths = [os.path.join(prefix, rel) for rel in only]
+    else:
+        paths = []
+        for dirpath, dirnames, filenames in os.walk(prefix):
+            for name in filenames + [d for d in dirnames if os.path.islink(os.path.join(dirpath, d))]:
+                paths.append(os.path.join(dirpath, name))
+    for path in sorted(paths):
+        try:
+            size = -1 if os.path.islink(path) else os.stat(path).st_size
+        except OSError:
+            continue
+        result.append((os.path.relpath(path, base), size))
+    return result
+
+
+def damaged_install(install_base: Path, installed: Iterable[tuple[str, int]]) -> str | None:
+    """The first installed file that is missing or changed size, if any."""
+    for rel, size in installed:
+        path = os.path.join(install_base, rel)
+        try:
+            if size == -1:
+                if not os.path.lexists(path):
+                    return rel
+            elif os.stat(path).st_size != size:
+                return rel
+        except OSError:
+            return rel
+    return None
+
+
+def why_rebuild(old: BuildState | None, snapshot: SourceSnapshot, settings: str,
+                dependencies: Mapping[str, str], install_base: Path) -> str | None:
+    """None when up to date, else the reason a user should read."""
+    if old is None:
+        return "no previous build"
+    if old.settings != settings:
+        return "build options, interpreter, underlay or wsbuild version changed"
+    if old.source != snapshot.digest:
+        shown = ", ".join(snapshot.changed[:3]) + (" …" if len(snapshot.changed) > 3 else "")
+        return f"source changed: {shown}" if shown else "source changed"
+    changed_deps = sorted(n for n in set(old.dependencies) | set(dependencies)
+                          if old.dependencies.get(n) != dependencies.get(n))
+    if changed_deps:
+        return "dependency rebuilt: " + ", ".join(changed_deps)
+    damaged = damaged_install(install_base, old.installed)
+    if damaged is not None:
+        return f"install damaged: {damaged} missing or changed"
+    return None
