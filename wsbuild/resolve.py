@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import importlib.util
 import os
+import shutil
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -88,6 +89,9 @@ class Resolver:
             if spec is not None:
                 return Resolution.PYTHON, str(spec.origin or module)
             return Resolution.UNRESOLVED, f"no importable module '{module}'"
+        tool = shutil.which(name) if name in SYSTEM_KEYS else None
+        if tool is not None:
+            return Resolution.SYSTEM, tool  # a build tool found on PATH: checked
         if name in SYSTEM_KEYS or "-" in name:
             # REP 144 names have no '-': this is a rosdep key for a system package
             return Resolution.SYSTEM, ""
@@ -151,6 +155,7 @@ def unresolved_build_dependencies(
                 continue
             if dep.resolution is Resolution.UNRESOLVED:
                 missing.setdefault(dep.name, []).append(package.name)
-            elif dep.resolution is Resolution.SYSTEM and package.manifest is not None:
+            elif (dep.resolution is Resolution.SYSTEM and package.manifest is not None
+                  and not dep.location):
                 unchecked.setdefault(dep.name, []).append(package.name)
     return missing, unchecked
