@@ -85,6 +85,18 @@ def build_parser() -> argparse.ArgumentParser:
     sub.add_argument("arguments", nargs=argparse.REMAINDER, metavar="ARGS",
                      help="passed to the executable, e.g. --ros-args -p name:=value")
 
+    from wsbuild.verbs.pkg import CREATE_DOC, add_pkg_create_arguments
+
+    sub = verbs.add_parser("pkg", help="create packages",
+                           description="Work with packages. Actions: create.",
+                           formatter_class=_Formatter)
+    actions = sub.add_subparsers(dest="action", metavar="ACTION")
+    actions.required = True
+    create = actions.add_parser("create", help=CREATE_DOC.partition("\n")[0],
+                                description=CREATE_DOC.strip(), formatter_class=_Formatter)
+    create.set_defaults(func="wsbuild.verbs.pkg:run_pkg_create")
+    add_pkg_create_arguments(create)
+
     sub = verbs.add_parser("underlay", help="check or repair the ROS underlay in the virtualenv",
                            description=UNDERLAY_DOC.strip(), formatter_class=_Formatter)
     actions = sub.add_subparsers(dest="action", metavar="ACTION")
