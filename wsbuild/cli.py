@@ -73,6 +73,14 @@ def build_parser() -> argparse.ArgumentParser:
     sub = verb("build", "wsbuild.verbs.build:run_build_verb", BUILD_DOC)
     _build_arguments(sub)
 
+    sub = verb("test", "wsbuild.verbs.test:run_test_verb", TEST_DOC)
+    _test_arguments(sub)
+
+    sub = verbs.add_parser("test-result", help="show the results of earlier test runs",
+                           description=TEST_RESULT_DOC.strip(), formatter_class=_Formatter)
+    sub.set_defaults(func="wsbuild.verbs.test:run_test_result_verb")
+    _test_result_arguments(sub)
+
     sub = verbs.add_parser("run", help="run an executable of an installed package",
                            description=RUN_DOC.strip(), formatter_class=_Formatter)
     sub.set_defaults(func="wsbuild.verbs.run:run_executable")
@@ -154,6 +162,62 @@ def _build_arguments(sub: argparse.ArgumentParser) -> None:
                        help="configure even when nothing changed")
 
 
+def _test_arguments(sub: argparse.ArgumentParser) -> None:
+    where = sub.add_argument_group("where things are")
+    where.add_argument("--build-base", default="build", metavar="DIR",
+                       help="build directory, relative to the workspace (default: build)")
+    where.add_argument("--install-base", default="install", metavar="DIR",
+                       help="install prefix, relative to the workspace (default: install)")
+    where.add_argument("--log-base", default="log", metavar="DIR",
+                       help="log directory, relative to the workspace (default: log)")
+    where.add_argument("--merge-install", action="store_true",
+                       help="the workspace was built with --merge-install "
+                            "(default: what install/ holds)")
+    where.add_argument("--test-result-base", metavar="DIR",
+                       help="write JUnit results to DIR/<pkg>/, relative to the workspace "
+                            "(default: <build-base>/<pkg>/test_results/<pkg>/)")
+    how = sub.add_argument_group("scheduling")
+    how.add_argument("--parallel-workers", type=int, metavar="N",
+                     help="packages tested at once (default: number of CPUs)")
+    how.add_argument("--executor", choices=("parallel", "sequential"), default="parallel",
+                     help="sequential is --parallel-workers 1")
+    how.add_argument("--abort-on-error", action="store_true",
+                     help="start no more packages once one has failing or erroring tests")
+    how.add_argument("--no-wait", action="store_true",
+                     help="fail at once if another wsbuild runs in this workspace "
+                          "(default: wait for it)")
+    tests = sub.add_argument_group("tests")
+    tests.add_argument("--pytest-args", action="append", metavar="ARG",
+                       help="arguments for pytest (python and ament_python packages), e.g. "
+                            "--pytest-args -k 'not slow' -x (end the list with --)")
+    tests.add_argument("--ctest-args", action="append", metavar="ARG",
+                       help="arguments for ctest (cmake and ament_cmake packages), e.g. "
+                            "--ctest-args -R gtest -j4 (end the list with --)")
+    retest = tests.add_mutually_exclusive_group()
+    retest.add_argument("--retest-until-fail", type=int, default=0, metavar="N",
+                        help="run a package's tests up to N more times while they pass "
+                             "(to catch flaky tests)")
+    retest.add_argument("--retest-until-pass", type=int, default=0, metavar="N",
+                        help="rerun a package's failing tests up to N times until they pass "
+                             "(such packages are reported as flaky)")
+    tests.add_argument("--return-code-on-test-failure", action="store_true",
+                       help="accepted for colcon compatibility: failing tests always make "
+                            "the exit code 1")
+
+
+def _test_result_arguments(sub: argparse.ArgumentParser) -> None:
+    sub.add_argument("-C", "--workspace", metavar="DIR", dest="workspace_dir",
+                     help="the workspace root (default: found from the current directory)")
+    sub.add_argument("--test-result-base", metavar="DIR",
+                     help="where the results are, relative to the workspace (default: build)")
+    sub.add_argument("--all", action="store_true",
+                     help="also list result files without failures or errors")
+    sub.add_argument("--verbose", action="store_true",
+                     help="show each failing test with its messages and output")
+    sub.add_argument("--result-files-only", action="store_true",
+                     help="print only the paths of the result files (with --all: every one)")
+
+
 def _collect_passthrough(argv: list[str]) -> list[str]:
     """`--cmake-args -DA=1 -DB=2` → `--cmake-args=-DA=1 --cmake-args=-DB=2`, as colcon allows.
 
@@ -229,6 +293,37 @@ examples:
   wsbuild build --packages-select my_driver --cmake-args -DCMAKE_BUILD_TYPE=Release
 
 exit codes: 0 all built, 1 a package failed, 2 usage or workspace error, 130 Ctrl-C
+"""
+
+
+TEST_DOC = """Run the tests of the packages against the built workspace.
+
+Packages are tested in dependency order and in parallel: pytest in the source directory of
+python and ament_python packages, CTest in the build directory of cmake and ament_cmake
+packages, each with its own install and its dependencies' on the environment, as colcon
+does. Results are JUnit XML files in build/<pkg>/test_results/<pkg>/ (or
+<test-result-base>/<pkg>/); the summary names every failing test and its log.
+Unlike colcon, a failing or erroring test makes the exit code 1 by default.
+
+examples:
+  wsbuild test
+  wsbuild test --packages-select my_driver --pytest-args -k 'not slow' --
+  wsbuild test --ctest-args -R gtest -- --retest-until-pass 2
+  wsbuild test-result --verbose
+
+exit codes: 0 all tests passed (or there were none), 1 a test failed or errored,
+2 usage or workspace error (e.g. a package is not built), 130 Ctrl-C
+"""
+
+
+TEST_RESULT_DOC = """Show the results of earlier test runs; fail when a test failed.
+
+Reads every JUnit XML file under build/ (or --test-result-base), also those colcon test
+wrote, and the CTest results colcon leaves in build/<pkg>/Testing/. Prints a line for each
+result file with failures or errors (--all: every file) and a summary, as colcon
+test-result does; an ament test is counted once, where colcon also counts its CTest entry.
+
+exit codes: 0 no failures or errors, 1 a test failed or errored, 2 no results directory
 """
 
 

@@ -1,0 +1,601 @@
+"""`wsbuild test`: every selected package's tests, run against its install, results as JUnit XML.
+
+The stages, in order:
+1. verbs.load     discover → graph → selection (the packages to test)
+2. check_built    the selected packages and everything on their test environment are installed
+3. lock           one wsbuild at a time per workspace (lock.py)
+4. underlay       the ROS virtualenv underlay's environment (underlay.py)
+5. schedule       packages in dependency order and in parallel (schedule.py); failing tests never
+                  stop the other packages (only --abort-on-error does)
+6. per package    python/ament_python: `python -m pytest` in the source directory;
+                  cmake/ament_cmake: `ctest` in the build directory; both with the package's own
+                  install and its dependencies' applied as colcon does (prefix/environment.py),
+                  repeated for --retest-until-fail / --retest-until-pass
+7. results        JUnit XML in <build>/<pkg>/test_results/<pkg>/ (or <test-result-base>/<pkg>/),
+                  read back through junit.py into each package's result and the summary
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import re
+import shutil
+import signal
+import sys
+import time
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass, field, replace
+from enum import Enum
+from pathlib import Path
+
+from wsbuild.errors import WorkspaceError
+from wsbuild.events import Emit, Event, JobFinished, Notice, StepStarted
+from wsbuild.graph import Graph
+from wsbuild.junit import (
+    BadResultFile, Case, CaseOutcome, Counts, NotJUnit, ResultFile, ament_result_file,
+    display_path, read_ctest_junit, read_junit, write_junit,
+)
+from wsbuild.model import BuildResult, DepCategory, Outcome
+from wsbuild.pipeline import Plan, is_installed, package_prefix
+from wsbuild.process import REGISTRY, Completed, env_delta, format_command, run_command
+from wsbuild.workspace import Workspace
+
+PYTEST_BUILD_TYPES = frozenset({"ament_python", "python"})
+CTEST_BUILD_TYPES = frozenset({"ament_cmake", "cmake"})
+
+#: pytest's exit code when it collected no tests
+PYTEST_NO_TESTS = 5
+#: CTest's exit code when some tests failed (anything else non-zero is CTest itself failing)
+CTEST_TESTS_FAILED = 8
+#: failing tests listed per package in the summary (the JUnit files hold all of them)
+SHOWN_PROBLEMS = 20
+
+
+@dataclass(frozen=True, slots=True)
+class TestRequest:
+    """The options of `wsbuild test` that shape the run."""
+
+    __test__ = False  # not a pytest test class
+
+    pytest_args: tuple[str, ...] = ()
+    ctest_args: tuple[str, ...] = ()
+    retest_until_fail: int = 0
+    retest_until_pass: int = 0
+    #: results go to <test_result_base>/<pkg>/ instead of <build>/<pkg>/test_results/<pkg>/
+    test_result_base: Path | None = None
+    #: None: whatever install/ holds (its layout marker)
+    merge_install: bool | None = None
+    workers: int = 1
+    abort_on_error: bool = False
+    wait_for_lock: bool = True
+    python_executable: str = sys.executable
+
+    @property
+    def max_attempts(self) -> int:
+        return 1 + max(self.retest_until_fail, self.retest_until_pass)
+
+
+class PackageStatus(Enum):
+    PASSED = "passed"
+    #: a test failed or errored, or the test tool itself failed
+    FAILED = "failed"
+    NO_TESTS = "no tests"
+    #: not started: --abort-on-error after another package failed, or Ctrl-C
+    NOT_RUN = "not run"
+    INTERRUPTED = "interrupted"
+
+
+@dataclass(frozen=True, slots=True)
+class PackageTests:
+    """What testing one package found."""
+
+    package: str
+    status: PackageStatus
+    counts: Counts = Counts()
+    #: the failed and erroring test cases
+    problems: tuple[Case, ...] = ()
+    result_files: tuple[Path, ...] = ()
+    log_dir: Path | None = None
+    message: str = ""
+    attempts: int = 1
+    max_attempts: int = 1
+    #: passed only on a retry (--retest-until-pass), or failed after passing runs (until-fail)
+    flaky: bool = False
+    seconds: float = 0.0
+
+
+@dataclass(frozen=True, slots=True)
+class TestRun:
+    __test__ = False  # not a pytest test class
+
+    results: tuple[PackageTests, ...]
+    seconds: float
+    log_dir: Path | None = None
+    interrupted: bool = False
+
+    @property
+    def counts(self) -> Counts:
+        total = Counts()
+        for result in self.results:
+            total += result.counts
+        return total
+
+    @property
+    def failed(self) -> bool:
+        return any(r.status in (PackageStatus.FAILED, PackageStatus.NOT_RUN,
+                                PackageStatus.INTERRUPTED) for r in self.results)
+
+
+# ------------------------------------------------------------------------------ planning
+
+
+def closure_under_test(graph: Graph, name: str) -> set[str]:
+    """What a package's tests run against besides itself: its direct dependencies of every
+    category and, recursively, their run dependencies (colcon test's recursive_categories=run)."""
+    result: set[str] = set()
+    stack = list(graph.direct(name))
+    while stack:
+        dep = stack.pop()
+        if dep not in result and dep != name:
+            result.add(dep)
+            stack.extend(graph.direct(dep, (DepCategory.RUN,)))
+    return result
+
+
+def results_dir(workspace: Workspace, name: str, test_result_base: Path | None) -> Path:
+    """Where a package's JUnit files go: beside ament_cmake's, or under --test-result-base."""
+    if test_result_base is not None:
+        return test_result_base / name
+    return workspace.build_base / name / "test_results" / name
+
+
+def install_layout(workspace: Workspace, merge_install: bool | None) -> bool:
+    """Whether install/ is merged: as asked, else as its layout marker says."""
+    from wsbuild.prefix.layout import MERGED, read_install_layout
+
+    existing = read_install_layout(workspace.install_base)
+    if merge_install is None:
+        return existing == MERGED
+    if existing is not None and (existing == MERGED) != merge_install:
+        flag = "without" if merge_install else "with"
+        raise WorkspaceError(
+            f"install/ holds a{'n' if existing == 'isolated' else ''} {existing} install",
+            path=workspace.install_base,
+            hint=f"test {flag} --merge-install, as the workspace was built",
+        )
+    return merge_install
+
+
+def check_built(plan: Plan, merged: bool) -> None:
+    """Refuse to test packages that are not built, or whose test environment is not: all at once."""
+    missing: dict[str, set[str]] = {}
+    for name in plan.selected:
+        for dep in sorted({name} | closure_under_test(plan.graph, name)):
+            if not is_installed(plan.workspace, dep, merged):
+                missing.setdefault(dep, set()).add(name)
+        needs_build_dir = plan.packages[name].build_type in CTEST_BUILD_TYPES
+        if needs_build_dir and not (plan.workspace.build_base / name / "CMakeCache.txt").is_file():
+            missing.setdefault(name, set()).add(name)
+    if not missing:
+        return
+    items = "; ".join(
+        dep if users == {dep} else f"{dep} (needed to test {', '.join(sorted(users - {dep}))})"
+        for dep, users in sorted(missing.items()))
+    raise WorkspaceError(
+        f"not built: {items}",
+        hint=f"build first: wsbuild build --packages-up-to {' '.join(sorted(missing))}",
+    )
+
+
+# ------------------------------------------------------------------------------- running
+
+
+def run_tests(plan: Plan, request: TestRequest, emit: Emit) -> TestRun:
+    """Test the selected packages. Test failures are results, not exceptions; a run cut short
+    by Ctrl-C comes back with `interrupted` set."""
+    from wsbuild.lock import workspace_lock
+    from wsbuild.logs import new_run_log
+    from wsbuild.schedule import RunInterrupted, run_jobs
+    from wsbuild.underlay import prepare_underlay
+
+    ws = plan.workspace
+    merged = install_layout(ws, request.merge_install)
+    check_built(plan, merged)
+    started = time.monotonic()
+    with workspace_lock(ws.build_base, wait=request.wait_for_lock,
+                        on_wait=lambda text: emit(Notice(text))):
+        underlay = prepare_underlay(os.environ, executable=sys.executable, repair=True,
+                                    shim_dir=ws.build_base / ".wsbuild" / "lint_shim",
+                                    notice=lambda text: emit(Notice(text)))
+        run_log = new_run_log(ws.log_base, "test")
+        tester = _Tester(plan, request, merged, underlay.environ, run_log)
+        reports: dict[str, PackageTests] = {}
+
+        def job(name: str) -> BuildResult:
+            report = tester.test(name, emit)
+            reports[name] = report
+            stop_others = request.abort_on_error and report.status is PackageStatus.FAILED
+            return BuildResult(name, Outcome.FAILED if stop_others else Outcome.FINISHED,
+                               report.seconds)
+
+        def show(event: Event) -> None:
+            if isinstance(event, JobFinished) and event.result.package in reports:
+                report = reports[event.result.package]
+                emit(JobFinished(_shown(report)))
+                if report.status is PackageStatus.NO_TESTS:
+                    emit(Notice(report.message or "no tests", package=report.package))
+                return
+            emit(event)
+
+        selected = set(plan.selected)
+        dependencies = {n: closure_under_test(plan.graph, n) & selected for n in plan.selected}
+        interrupted = False
+        try:
+            results = run_jobs(plan.selected, dependencies, job, workers=request.workers,
+                               continue_on_error=not request.abort_on_error, emit=show)
+        except RunInterrupted as interrupt:
+            results, interrupted = interrupt.results, True
+    final = tuple(_final(result, reports.get(result.package)) for result in results)
+    return TestRun(final, time.monotonic() - started, run_log, interrupted)
+
+
+def _shown(report: PackageTests) -> BuildResult:
+    """How the reporter shows a package: failing tests as a failed package, with its log."""
+    if report.status is PackageStatus.FAILED:
+        return BuildResult(report.package, Outcome.FAILED, report.seconds,
+                           message=problem_text(report.counts) or report.message,
+                           log_dir=report.log_dir)
+    if report.status is PackageStatus.INTERRUPTED:
+        return BuildResult(report.package, Outcome.INTERRUPTED, report.seconds)
+    return BuildResult(report.package, Outcome.FINISHED, report.seconds, log_dir=report.log_dir)
+
+
+def _final(result: BuildResult, report: PackageTests | None) -> PackageTests:
+    if report is not None:
+        return report
+    status = {Outcome.SKIPPED: PackageStatus.NOT_RUN,
+              Outcome.INTERRUPTED: PackageStatus.INTERRUPTED}.get(result.outcome,
+                                                                  PackageStatus.FAILED)
+    return PackageTests(result.package, status, message=result.message, seconds=result.seconds)
+
+
+@dataclass(slots=True)
+class _Tester:
+    """Runs one package's tests; shared by the worker threads (holds no per-package state)."""
+
+    plan: Plan
+    request: TestRequest
+    merged: bool
+    base_env: Mapping[str, str]
+    run_log: Path
+    order: list[str] = field(default_factory=list)
+
+    def __post_init__(self) -> None:
+        self.order = self.plan.graph.topological_order()
+
+    def environment(self, name: str) -> dict[str, str]:
+        """The package's install last, after its test closure in dependency order."""
+        from wsbuild.prefix import environment_for
+
+        closure = closure_under_test(self.plan.graph, name)
+        prefixes = [(package_prefix(self.plan.workspace, dep, self.merged), dep)
+                    for dep in self.order if dep in closure]
+        prefixes.append((package_prefix(self.plan.workspace, name, self.merged), name))
+        return environment_for(prefixes, self.base_env)
+
+    def test(self, name: str, emit: Emit) -> PackageTests:
+        started = time.monotonic()
+        package = self.plan.packages[name]
+        log_dir = self.run_log / name
+        log_dir.mkdir(parents=True, exist_ok=True)
+        if package.build_type in PYTEST_BUILD_TYPES:
+            tool, run_once = "pytest", self._pytest
+        elif package.build_type in CTEST_BUILD_TYPES:
+            tool, run_once = "ctest", self._ctest
+        else:
+            return PackageTests(name, PackageStatus.NO_TESTS, log_dir=log_dir,
+                                message=f"wsbuild cannot test '{package.build_type}' packages")
+        env = self.environment(name)
+        target = results_dir(self.plan.workspace, name, self.request.test_result_base)
+        target.mkdir(parents=True, exist_ok=True)
+        attempts = self.request.max_attempts
+        attempt = 0
+        while True:
+            attempt += 1
+            if attempts > 1:
+                _log(log_dir, f"--- attempt {attempt} of {attempts} ---")
+            emit(StepStarted(name, tool if attempt == 1 else f"{tool} {attempt}/{attempts}"))
+            report = run_once(name, env, target, log_dir)
+            if REGISTRY.cancelled.is_set():
+                report = replace(report, status=PackageStatus.INTERRUPTED)
+                break
+            if report.status is PackageStatus.NO_TESTS or attempt >= attempts:
+                break
+            again = (PackageStatus.FAILED if self.request.retest_until_pass
+                     else PackageStatus.PASSED)
+            if report.status is not again:
+                break
+        flaky = attempt > 1 and report.status is (
+            PackageStatus.PASSED if self.request.retest_until_pass else PackageStatus.FAILED)
+        return replace(report, log_dir=log_dir, attempts=attempt, max_attempts=attempts,
+                       flaky=flaky, seconds=time.monotonic() - started)
+
+    def _run(self, command: Sequence[str], *, cwd: Path, env: Mapping[str, str], log_dir: Path,
+             on_line: Callable[[str, bool], None] | None = None, logged: bool = True) -> Completed:
+        _log(log_dir, f"Invoking command in '{cwd}': "
+                      f"{format_command(command, cwd, env_delta(env, os.environ))}")
+        return run_command(command, cwd=cwd, env=env, log_dir=log_dir if logged else None,
+                           on_line=on_line)
+
+    # --------------------------------------------------------------------------- pytest
+
+    def _pytest(self, name: str, env: Mapping[str, str], target: Path,
+                log_dir: Path) -> PackageTests:
+        """`python -m pytest` in the source directory, as colcon-core's pytest step runs it."""
+        build_dir = self.plan.workspace.build_base / name
+        junit = target / "pytest.xml"
+        command = [
+            self.request.python_executable, "-m", "pytest", "--tb=short",
+            f"--junit-xml={junit}", f"--junit-prefix={name}",
+            "-o", f"cache_dir={build_dir / '.pytest_cache'}",
+            *self.request.pytest_args,
+        ]
+        colcon_result = build_dir / "pytest.xml"
+        if colcon_result != junit and colcon_result.is_file():
+            # colcon's result of this very suite: left in place it would be counted as current
+            colcon_result.unlink()
+        # if pytest (or wsbuild) dies before writing results, the file still says so
+        placeholder = Case(name="pytest.missing_result", classname=name, outcome=CaseOutcome.ERROR,
+                           message="pytest did not write a result file")
+        write_junit(junit, name, [placeholder])
+        before = junit.read_bytes()
+        completed = self._run(command, cwd=self.plan.packages[name].path, env=env,
+                              log_dir=log_dir)
+        code = completed.returncode
+        if junit.is_file() and junit.read_bytes() == before:
+            missing = _tool_error("pytest", code, completed, "pytest.missing_result", name,
+                                  "without writing results")
+            result = _rewrite(junit, name, [], missing)
+        else:
+            result = _read_or_error(junit, name, "pytest", completed)
+        if code == PYTEST_NO_TESTS and not result.counts.failed:
+            return PackageTests(name, PackageStatus.NO_TESTS, result.counts,
+                                result_files=(junit,), message="no tests found by pytest")
+        if code != 0 and not result.counts.failed:
+            # pytest failed (usage error, internal error, a signal) although no test did
+            result = _rewrite(junit, name, result.cases,
+                              _tool_error("pytest", code, completed, "pytest.exit_code", name))
+        return _package_result(name, [result], code)
+
+    # ---------------------------------------------------------------------------- ctest
+
+    def _ctest(self, name: str, env: Mapping[str, str], target: Path,
+               log_dir: Path) -> PackageTests:
+        """CTest in the build directory; each ament test's own JUnit file stands in for its
+        CTest entry, the other CTest tests go to ctest.xml (so no test is counted twice)."""
+        build_dir = self.plan.workspace.build_base / name
+        ctest_xml = target / "ctest.xml"
+        if not (build_dir / "CTestTestfile.cmake").is_file():
+            ctest_xml.unlink(missing_ok=True)
+            return PackageTests(name, PackageStatus.NO_TESTS,
+                                message="no tests (no CTestTestfile.cmake: testing not enabled)")
+        ctest = shutil.which("ctest", path=env.get("PATH")) or "ctest"
+        commands = self._ctest_commands(ctest, build_dir, env, log_dir)
+        if commands == {}:
+            ctest_xml.unlink(missing_ok=True)
+            return PackageTests(name, PackageStatus.NO_TESTS, message="no tests found by CTest")
+        tag = build_dir / "Testing" / "TAG"
+        if tag.is_file():
+            # points colcon test-result at the Test.xml of an earlier `colcon test`: stale now
+            tag.unlink()
+        raw = build_dir / ".wsbuild" / "ctest-junit.xml"
+        raw.parent.mkdir(parents=True, exist_ok=True)
+        raw.unlink(missing_ok=True)
+        command = [ctest, "-C", _cmake_config(build_dir), "--output-on-failure",
+                   "--force-new-ctest-process", "--output-junit", str(raw),
+                   *self.request.ctest_args]
+        verdicts: dict[str, str] = {}
+
+        def on_line(text: str, is_err: bool) -> None:
+            match = _CTEST_VERDICT.match(text)
+            if match:
+                verdicts[match["name"]] = match["verdict"]
+
+        completed = self._run(command, cwd=build_dir, env=env, log_dir=log_dir, on_line=on_line)
+        code = completed.returncode
+        own: list[Case] = []
+        files: list[ResultFile] = []
+        ran: ResultFile | None = None
+        if raw.is_file():
+            try:
+                ran = read_ctest_junit(raw)
+            except (NotJUnit, BadResultFile) as exc:
+                own.append(Case(name="ctest.result", classname=name, outcome=CaseOutcome.ERROR,
+                                message=f"CTest wrote an unreadable result file: {exc}"))
+        for case in ran.cases if ran is not None else ():
+            case = replace(case, classname=name, command=commands.get(case.name, ()))
+            if case.outcome is CaseOutcome.FAILURE and not case.message:
+                case = replace(case, message=verdicts.get(case.name, "Failed"))
+            ament = ament_result_file(case.command)
+            ran_it = case.outcome in (CaseOutcome.PASSED, CaseOutcome.FAILURE)
+            if ament is None or not ran_it or not ament.is_file():
+                own.append(case)
+                continue
+            try:
+                result = read_junit(ament)
+            except (NotJUnit, BadResultFile) as exc:
+                own.append(replace(case, outcome=CaseOutcome.ERROR,
+                                   message=f"unreadable result file: {exc}"))
+                continue
+            files.append(_publish(result, target))
+            if case.outcome is CaseOutcome.FAILURE and not result.counts.failed:
+                # e.g. a crash after gtest wrote its report: CTest's verdict stands
+                own.append(replace(case, message=f"{case.message}, although {ament.name} "
+                                                 "reports no failures"))
+        problems_seen = any(c.outcome in (CaseOutcome.FAILURE, CaseOutcome.ERROR) for c in own) \
+            or any(f.counts.failed for f in files)
+        if ran is None or code not in (0, CTEST_TESTS_FAILED) or \
+                (code == CTEST_TESTS_FAILED and not problems_seen):
+            suffix = "" if ran is not None else "without writing results"
+            own.append(_tool_error("ctest", code, completed, "ctest.exit_code", name, suffix))
+        if ran is not None and ran.counts.tests == 0 and not own:
+            ctest_xml.unlink(missing_ok=True)
+            return PackageTests(name, PackageStatus.NO_TESTS, message="no tests run by CTest")
+        if own:
+            write_junit(ctest_xml, name, own)
+            files.insert(0, ResultFile(ctest_xml, Counts.of(own), tuple(own)))
+        else:
+            ctest_xml.unlink(missing_ok=True)
+        return _package_result(name, files, code)
+
+    def _ctest_commands(self, ctest: str, build_dir: Path, env: Mapping[str, str],
+                        log_dir: Path) -> dict[str, tuple[str, ...]] | None:
+        """Every CTest test's command line (None when CTest cannot list them)."""
+        lines: list[str] = []
+
+        def on_line(text: str, is_err: bool) -> None:
+            if not is_err:
+                lines.append(text)
+
+        completed = self._run([ctest, "--show-only=json-v1"], cwd=build_dir, env=env,
+                              log_dir=log_dir, on_line=on_line, logged=False)
+        if completed.returncode != 0:
+            return None
+        try:
+            tests = json.loads("\n".join(lines)).get("tests", [])
+        except ValueError:
+            return None
+        return {str(t.get("name", "")): tuple(t.get("command") or ()) for t in tests}
+
+
+# "  3/4 Test  #3: name ..........***Timeout   1.00 sec": CTest's verdict, which its JUnit lacks
+_CTEST_VERDICT = re.compile(
+    r"^\s*\d+/\d+ Test\s+#\d+: (?P<name>\S+) \.*\s*\*\*\*(?P<verdict>.+?)\s+[\d.]+ sec")
+
+
+def _cmake_config(build_dir: Path) -> str:
+    """The configuration CTest runs (needed by multi-config generators), chosen as colcon does."""
+    try:
+        text = (build_dir / "CMakeCache.txt").read_text(errors="replace")
+    except OSError:
+        return "Release"
+    match = re.search(r"^CMAKE_BUILD_TYPE:[A-Z]*=(.*)$", text, re.MULTILINE)
+    value = match.group(1).strip() if match else ""
+    return value if value in ("Debug", "MinSizeRel", "RelWithDebInfo") else "Release"
+
+
+def _publish(result: ResultFile, target: Path) -> ResultFile:
+    """An ament JUnit file, copied into --test-result-base when that is elsewhere."""
+    if result.path.parent == target:
+        return result
+    copy = target / result.path.name
+    shutil.copyfile(result.path, copy)
+    return replace(result, path=copy)
+
+
+def _tool_error(tool: str, code: int, completed: Completed, case_name: str, package: str,
+                suffix: str = "") -> Case:
+    message = f"{tool} {_describe_exit(code)}{' ' + suffix if suffix else ''}"
+    return Case(name=case_name, classname=package, outcome=CaseOutcome.ERROR, message=message,
+                details="\n".join(completed.tail[-15:]))
+
+
+def _describe_exit(code: int) -> str:
+    if code < 0:
+        try:
+            return f"was killed by {signal.Signals(-code).name}"
+        except ValueError:
+            return f"was killed by signal {-code}"
+    if code == 127:
+        return "could not be run"
+    return f"exited with code {code}"
+
+
+def _read_or_error(path: Path, name: str, tool: str, completed: Completed) -> ResultFile:
+    try:
+        return read_junit(path)
+    except (NotJUnit, BadResultFile) as exc:
+        return _rewrite(path, name, [], Case(
+            name=f"{tool}.result", classname=name, outcome=CaseOutcome.ERROR,
+            message=f"{tool} wrote an unreadable result file: {exc}",
+            details="\n".join(completed.tail[-15:])))
+
+
+def _rewrite(path: Path, name: str, cases: Sequence[Case], extra: Case) -> ResultFile:
+    """Add a case to a result file, so `test-result` later sees what this run saw."""
+    all_cases = (*cases, extra)
+    write_junit(path, name, all_cases)
+    return ResultFile(path, Counts.of(all_cases), all_cases)
+
+
+def _package_result(name: str, files: Sequence[ResultFile], code: int) -> PackageTests:
+    counts = Counts()
+    problems: list[Case] = []
+    for result in files:
+        counts += result.counts
+        problems += result.problems()
+    status = PackageStatus.FAILED if counts.failed else PackageStatus.PASSED
+    return PackageTests(name, status, counts, tuple(problems),
+                        tuple(result.path for result in files))
+
+
+def _log(log_dir: Path, line: str) -> None:
+    with open(log_dir / "command.log", "a") as handle:
+        handle.write(line + "\n")
+
+
+# ------------------------------------------------------------------------------- summary
+
+
+def problem_text(counts: Counts) -> str:
+    """`2 failures, 1 error`, only the non-zero ones."""
+    parts = []
+    if counts.failures:
+        parts.append(f"{counts.failures} failure{'' if counts.failures == 1 else 's'}")
+    if counts.errors:
+        parts.append(f"{counts.errors} error{'' if counts.errors == 1 else 's'}")
+    return ", ".join(parts)
+
+
+def summary_lines(run: TestRun, *, shown: Path) -> list[str]:
+    """The end of `wsbuild test`: totals, packages by outcome, every failing test with its log.
+
+    Paths are shown relative to `shown` (the current directory) when inside it.
+    """
+    tested = [r for r in run.results if r.status in
+              (PackageStatus.PASSED, PackageStatus.FAILED, PackageStatus.NO_TESTS)]
+    lines = [f"Summary: {_plural(len(tested), 'package')} tested, {run.counts.describe()} "
+             f"[{run.seconds:.2f}s]"]
+    for status, label in ((PackageStatus.PASSED, "passed"),
+                          (PackageStatus.NO_TESTS, "without tests"),
+                          (PackageStatus.FAILED, "failed"),
+                          (PackageStatus.INTERRUPTED, "aborted"),
+                          (PackageStatus.NOT_RUN, "not tested")):
+        names = sorted(r.package for r in run.results if r.status is status)
+        if names:
+            lines.append(f"  {_plural(len(names), 'package')} {label}: {' '.join(names)}")
+    for result in run.results:
+        if result.flaky:
+            lines.append(f"  flaky: {result.package} {result.status.value} on attempt "
+                         f"{result.attempts} of {result.max_attempts}")
+    failed = [r for r in run.results if r.status is PackageStatus.FAILED]
+    if failed:
+        lines.append("Failed tests:")
+    for result in failed:
+        where = ""
+        if result.log_dir is not None:
+            where = f" (log: {display_path(result.log_dir / 'stdout_stderr.log', shown)})"
+        lines.append(f"  {result.package}: {result.counts.describe()}{where}")
+        for case in result.problems[:SHOWN_PROBLEMS]:
+            verdict = "ERROR" if case.outcome is CaseOutcome.ERROR else "FAILED"
+            lines.append(f"    {verdict} {case.full_name} - {case.headline}")
+        if len(result.problems) > SHOWN_PROBLEMS:
+            lines.append(f"    ... and {len(result.problems) - SHOWN_PROBLEMS} more")
+        if not result.problems and result.message:
+            lines.append(f"    {result.message}")
+    return lines
+
+
+def _plural(count: int, word: str) -> str:
+    return f"{count} {word}{'' if count == 1 else 's'}"
