@@ -7,7 +7,6 @@ from pathlib import Path
 
 import pytest
 
-from conftest import write_package
 
 BAD_MANIFESTS = {
     "not_xml": "<package format='3'><name>x</name",

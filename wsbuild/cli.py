@@ -120,30 +120,38 @@ def build_parser() -> argparse.ArgumentParser:
 PASSTHROUGH = ("--cmake-args", "--pytest-args", "--ctest-args")
 
 
+def _base_arguments(group: argparse._ArgumentGroup) -> None:
+    group.add_argument("--build-base", default="build", metavar="DIR",
+                       help="build directory, relative to the workspace (default: build)")
+    group.add_argument("--install-base", default="install", metavar="DIR",
+                       help="install prefix, relative to the workspace (default: install)")
+    group.add_argument("--log-base", default="log", metavar="DIR",
+                       help="log directory, relative to the workspace (default: log)")
+
+
+def _scheduling_arguments(group: argparse._ArgumentGroup, what: str) -> None:
+    group.add_argument("--parallel-workers", type=int, metavar="N",
+                       help=f"packages {what} at once (default: number of CPUs)")
+    group.add_argument("--executor", choices=("parallel", "sequential"), default="parallel",
+                       help="sequential is --parallel-workers 1")
+    group.add_argument("--no-wait", action="store_true",
+                       help="fail at once if another wsbuild runs in this workspace "
+                            "(default: wait for it)")
+
+
 def _build_arguments(sub: argparse.ArgumentParser) -> None:
     where = sub.add_argument_group("where things go")
-    where.add_argument("--build-base", default="build", metavar="DIR",
-                       help="build directory, relative to the workspace (default: build)")
-    where.add_argument("--install-base", default="install", metavar="DIR",
-                       help="install prefix, relative to the workspace (default: install)")
-    where.add_argument("--log-base", default="log", metavar="DIR",
-                       help="log directory, relative to the workspace (default: log)")
+    _base_arguments(where)
     where.add_argument("--merge-install", action="store_true",
                        help="one install prefix for all packages instead of install/<pkg>")
     where.add_argument("--symlink-install", action="store_true",
                        help="symlink instead of copying where possible: edits to Python files, "
                             "launch, config and URDF files take effect without rebuilding")
-    how = sub.add_argument_group("scheduling")
-    how.add_argument("--parallel-workers", type=int, metavar="N",
-                     help="packages built at once (default: number of CPUs); all packages "
-                          "share one make jobserver of that many jobs")
-    how.add_argument("--executor", choices=("parallel", "sequential"), default="parallel",
-                     help="sequential is --parallel-workers 1")
+    how = sub.add_argument_group("scheduling (all packages share one make jobserver "
+                                 "with as many jobs as CPUs)")
+    _scheduling_arguments(how, "built")
     how.add_argument("--continue-on-error", action="store_true",
                      help="after a failure keep building what does not depend on it")
-    how.add_argument("--no-wait", action="store_true",
-                     help="fail at once if another build runs in this workspace "
-                          "(default: wait for it)")
     how.add_argument("--skip-dependency-check", action="store_true",
                      help="start even when build dependencies do not resolve")
     how.add_argument("--force", action="store_true",
@@ -164,12 +172,7 @@ def _build_arguments(sub: argparse.ArgumentParser) -> None:
 
 def _test_arguments(sub: argparse.ArgumentParser) -> None:
     where = sub.add_argument_group("where things are")
-    where.add_argument("--build-base", default="build", metavar="DIR",
-                       help="build directory, relative to the workspace (default: build)")
-    where.add_argument("--install-base", default="install", metavar="DIR",
-                       help="install prefix, relative to the workspace (default: install)")
-    where.add_argument("--log-base", default="log", metavar="DIR",
-                       help="log directory, relative to the workspace (default: log)")
+    _base_arguments(where)
     where.add_argument("--merge-install", action="store_true",
                        help="the workspace was built with --merge-install "
                             "(default: what install/ holds)")
@@ -177,15 +180,9 @@ def _test_arguments(sub: argparse.ArgumentParser) -> None:
                        help="write JUnit results to DIR/<pkg>/, relative to the workspace "
                             "(default: <build-base>/<pkg>/test_results/<pkg>/)")
     how = sub.add_argument_group("scheduling")
-    how.add_argument("--parallel-workers", type=int, metavar="N",
-                     help="packages tested at once (default: number of CPUs)")
-    how.add_argument("--executor", choices=("parallel", "sequential"), default="parallel",
-                     help="sequential is --parallel-workers 1")
+    _scheduling_arguments(how, "tested")
     how.add_argument("--abort-on-error", action="store_true",
                      help="start no more packages once one has failing or erroring tests")
-    how.add_argument("--no-wait", action="store_true",
-                     help="fail at once if another wsbuild runs in this workspace "
-                          "(default: wait for it)")
     tests = sub.add_argument_group("tests")
     tests.add_argument("--pytest-args", action="append", metavar="ARG",
                        help="arguments for pytest (python and ament_python packages), e.g. "

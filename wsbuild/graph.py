@@ -59,24 +59,10 @@ class Graph:
     def topological_order(self, names: Collection[str] | None = None) -> list[str]:
         """Dependencies before dependents, ties broken by name; raise CycleError on a cycle."""
         subset = set(self.packages) if names is None else set(names)
-        pending = {n: self.direct(n) & subset for n in subset}
-        users: dict[str, list[str]] = {n: [] for n in subset}
-        for name, deps in pending.items():
-            for dep in deps:
-                users[dep].append(name)
-        ready = [n for n, deps in pending.items() if not deps]
-        heapq.heapify(ready)
-        order: list[str] = []
-        while ready:
-            name = heapq.heappop(ready)
-            order.append(name)
-            for user in users[name]:
-                pending[user].discard(name)
-                if not pending[user]:
-                    heapq.heappush(ready, user)
-        if len(order) != len(subset):
+        order, stuck = toposort({n: self.direct(n) & subset for n in subset})
+        if stuck:
             raise CycleError(
-                "dependency cycle: " + " → ".join(self.find_cycle(set(subset) - set(order))),
+                "dependency cycle: " + " → ".join(self.find_cycle(stuck)),
                 hint="remove one of these dependencies (test_depend counts too)",
             )
         return order
@@ -100,6 +86,29 @@ class Graph:
                     on_path.add(nxt)
                     iters.append(iter(sorted(self.direct(nxt) & among)))
         return sorted(among)  # unreachable for a real cycle
+
+
+def toposort(dependencies: Mapping[str, Iterable[str]]) -> tuple[list[str], set[str]]:
+    """Kahn's algorithm with ties broken by name: (order, names left over by a cycle).
+
+    Dependencies that are not keys of `dependencies` are ignored."""
+    pending = {n: {d for d in deps if d in dependencies and d != n}
+               for n, deps in dependencies.items()}
+    users: dict[str, list[str]] = {n: [] for n in pending}
+    for name, deps in pending.items():
+        for dep in deps:
+            users[dep].append(name)
+    ready = [n for n, deps in pending.items() if not deps]
+    heapq.heapify(ready)
+    order: list[str] = []
+    while ready:
+        name = heapq.heappop(ready)
+        order.append(name)
+        for user in users[name]:
+            pending[user].discard(name)
+            if not pending[user]:
+                heapq.heappush(ready, user)
+    return order, set(pending) - set(order)
 
 
 def _closure(names: Iterable[str], step: Callable[[str], set[str]]) -> set[str]:

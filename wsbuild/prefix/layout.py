@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import heapq
 import os
 from collections.abc import Iterable, Mapping
 from pathlib import Path, PurePosixPath
@@ -100,26 +99,14 @@ def order_packages(packages: Mapping[str, Iterable[str]]) -> list[str]:
 
     Dependencies that are not among `packages` are ignored.
     """
-    remaining = {name: {d for d in deps if d in packages and d != name}
-                 for name, deps in packages.items()}
-    dependents: dict[str, list[str]] = {name: [] for name in packages}
-    for name, deps in remaining.items():
-        for dep in deps:
-            dependents[dep].append(name)
-    ready = [name for name, deps in remaining.items() if not deps]
-    heapq.heapify(ready)
-    ordered: list[str] = []
-    while ready:
-        name = heapq.heappop(ready)
-        ordered.append(name)
-        for dependent in dependents[name]:
-            deps = remaining[dependent]
-            deps.discard(name)
-            if not deps:
-                heapq.heappush(ready, dependent)
-    if len(ordered) != len(remaining):
-        stuck = {n: sorted(d) for n, d in remaining.items() if d and n not in ordered}
-        edges = "; ".join(f"{n} -> {', '.join(d)}" for n, d in sorted(stuck.items()))
+    from wsbuild.graph import toposort
+
+    ordered, stuck = toposort(packages)
+    if stuck:
+        edges = "; ".join(
+            f"{n} -> {', '.join(sorted(d for d in packages[n] if d in stuck))}"
+            for n in sorted(stuck)
+        )
         raise CycleError(
             f"circular run dependencies between installed packages: {edges}",
             hint="fix the exec/build_export dependencies in these package.xml files",
