@@ -35,7 +35,14 @@ def _link(link: Path, target: str) -> None:
     os.replace(tmp, link)
 
 
+def _run_order(run: Path) -> tuple[str, int]:
+    """`<verb>_<stamp>_<n>` comes after `<verb>_<stamp>_<n-1>`: the counter is a number."""
+    base, _, counter = run.name.rpartition("_")
+    return (base, int(counter)) if counter.isdigit() else (run.name, 0)
+
+
 def _prune(log_base: Path, verb: str) -> None:
-    runs = sorted(p for p in log_base.glob(f"{verb}_*") if p.is_dir() and not p.is_symlink())
+    runs = sorted((p for p in log_base.glob(f"{verb}_*") if p.is_dir() and not p.is_symlink()),
+                  key=_run_order)
     for old in runs[:-KEEP_RUNS]:
         shutil.rmtree(old, ignore_errors=True)

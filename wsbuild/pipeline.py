@@ -54,7 +54,7 @@ def check_layout(workspace: Workspace, merged: bool) -> None:
     if existing != wanted:
         flag = "with" if existing == "merged" else "without"
         raise WorkspaceError(
-            f"install/ holds a {existing} install but this build is {wanted}",
+            f"install/ holds an {existing} install but this build is {wanted}",
             path=marker,
             hint=f"build {flag} --merge-install as before, or remove "
             f"{workspace.build_base.name}/ and {workspace.install_base.name}/ first",
@@ -206,11 +206,10 @@ def run_build(plan: Plan, request: BuildRequest, emit: Emit) -> list[BuildResult
 
 
 def _clean_stage_dir(ws: Workspace) -> None:
-    import shutil
+    from wsbuild.stage import recover_all
 
-    from wsbuild.stage import STAGE_DIR
-
-    shutil.rmtree(ws.install_base / STAGE_DIR, ignore_errors=True)
+    # a previous install parked by an unfinished direct_install goes back, never away
+    recover_all(ws.install_base)
 
 
 def _mark_workspace(ws: Workspace, merged: bool) -> None:
@@ -397,7 +396,10 @@ def _build_package(plan: Plan, request: BuildRequest, name: str, base_env: Mappi
                                   install_prefix=prefix)
         if merged:
             record = build_dir / staging.MERGED_RECORD
-            staging.commit_merged(stage, prefix, record)
+            from wsbuild.build_types.cmake import INSTALLED_IN_PLACE
+
+            in_place = ctx.extra.get(INSTALLED_IN_PLACE, ())
+            staging.commit_merged(stage, prefix, record, in_place)  # type: ignore[arg-type]
             installed = installed_files(ws.install_base, prefix, record.read_text().splitlines())
         else:
             staging.commit_isolated(stage, prefix)
@@ -410,8 +412,9 @@ def _build_package(plan: Plan, request: BuildRequest, name: str, base_env: Mappi
                                        failure.env_delta)
         tail = _log_tail(log_dir)
         message = str(failure) + ("\n" + "\n".join(tail) if tail else "")
+        # the log tail in the message already shows stderr: no separate warnings block
         return BuildResult(name, Outcome.FAILED, time.monotonic() - started, message=message,
-                           log_dir=log_dir, reproduce=reproduce, warnings=tuple(warnings))
+                           log_dir=log_dir, reproduce=reproduce)
     except BaseException:
         staging.discard_stage(stage)
         raise

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import queue
+import signal
 import threading
 import time
 from collections.abc import Callable, Mapping, Sequence
@@ -103,16 +104,22 @@ def run_jobs(
             for name in names:
                 waiting[name].discard(result.package)
     except KeyboardInterrupt:
-        registry.terminate_all()
-        deadline = time.monotonic() + 10
-        while running and time.monotonic() < deadline:
-            try:
-                result = done.get(timeout=max(0.1, deadline - time.monotonic()))
-            except queue.Empty:
-                break
-            running.pop(result.package, None)
-            results[result.package] = replace(result, outcome=Outcome.INTERRUPTED) \
-                if result.outcome is Outcome.FAILED else result
+        # another Ctrl-C must not cut this short: process groups would be left running and
+        # jobs abandoned half-way through swapping their install into place
+        previous_handler = signal.signal(signal.SIGINT, signal.SIG_IGN)
+        try:
+            registry.terminate_all()
+            deadline = time.monotonic() + 10
+            while running and time.monotonic() < deadline:
+                try:
+                    result = done.get(timeout=max(0.1, deadline - time.monotonic()))
+                except queue.Empty:
+                    break
+                running.pop(result.package, None)
+                results[result.package] = replace(result, outcome=Outcome.INTERRUPTED) \
+                    if result.outcome is Outcome.FAILED else result
+        finally:
+            signal.signal(signal.SIGINT, previous_handler)
         for name in names:
             if name not in results:
                 outcome = Outcome.INTERRUPTED if name in running else Outcome.SKIPPED

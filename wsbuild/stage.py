@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import os
 import shutil
-from collections.abc import Iterator
+from collections.abc import Iterable, Iterator
 from contextlib import contextmanager
 from pathlib import Path
 
@@ -50,17 +50,20 @@ def _files(root: Path) -> list[str]:
     return sorted(result)
 
 
-def commit_merged(stage: Path, prefix: Path, record: Path) -> None:
+def commit_merged(stage: Path, prefix: Path, record: Path,
+                  in_place: Iterable[str] = ()) -> None:
     """Move the stage's files into the shared prefix; remove what the previous build installed
-    and this one did not. `record` (in build/<pkg>/) lists the package's files."""
-    new_files = _files(stage)
+    and this one did not. `record` (in build/<pkg>/) lists the package's files; `in_place`
+    names files the build wrote straight into the prefix (they count as installed)."""
+    staged = _files(stage)
+    new_files = sorted(set(staged) | set(in_place))
     old_files = record.read_text().splitlines() if record.exists() else []
     for rel in sorted(set(old_files) - set(new_files), reverse=True):
         target = prefix / rel
         if target.is_symlink() or target.is_file():
             target.unlink()
         _remove_empty_parents(target.parent, prefix)
-    for rel in new_files:
+    for rel in staged:
         source = stage / rel
         target = prefix / rel
         target.parent.mkdir(parents=True, exist_ok=True)

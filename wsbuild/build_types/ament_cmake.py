@@ -12,6 +12,9 @@ from wsbuild.build_types.cmake import CMakeBuildType
 class AmentCMakeBuildType(CMakeBuildType):
     name: str = "ament_cmake"
 
+    def installs_in_place(self, ctx: BuildContext) -> bool:
+        return ctx.options.symlink_install
+
     def configure_args(self, ctx: BuildContext) -> list[str]:
         args = CMakeBuildType.configure_args(self, ctx)
         if ctx.options.symlink_install:

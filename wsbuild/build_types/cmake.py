@@ -13,6 +13,19 @@ from wsbuild.stage import direct_install
 
 #: what the last configure used, to know when to configure again
 CONFIGURE_RECORD = Path(".wsbuild") / "cmake_configure.json"
+#: ctx.extra key: files (relative to the prefix) an install wrote into the prefix directly
+INSTALLED_IN_PLACE = "cmake.installed_in_place"
+
+
+def _manifest_files(ctx: BuildContext) -> list[str]:
+    files: list[str] = []
+    for name in ("install_manifest.txt", "symlink_install_manifest.txt"):
+        path = ctx.build_dir / name
+        if path.is_file():
+            for line in path.read_text().splitlines():
+                if line.strip() and Path(line).is_relative_to(ctx.install_prefix):
+                    files.append(str(Path(line).relative_to(ctx.install_prefix)))
+    return sorted(set(files))
 
 
 @dataclass(frozen=True, slots=True)
@@ -76,9 +89,14 @@ class CMakeBuildType:
             command.append("--clean-first")
         ctx.run(command, cwd=ctx.build_dir)
 
+    def installs_in_place(self, ctx: BuildContext) -> bool:
+        """Whether `cmake --install` ignores DESTDIR (ament's symlink install); plain CMake
+        has no symlink install and always stages."""
+        return False
+
     def install(self, ctx: BuildContext) -> None:
         command = ["cmake", "--install", str(ctx.build_dir)]
-        if ctx.options.merge_install and not ctx.options.symlink_install:
+        if ctx.options.merge_install and not self.installs_in_place(ctx):
             # the shared prefix cannot be swapped: stage through DESTDIR instead
             destdir = ctx.build_dir / ".wsbuild" / "destdir"
             if destdir.exists():
@@ -91,8 +109,10 @@ class CMakeBuildType:
                 os.rename(staged, ctx.stage_prefix)
             shutil.rmtree(destdir, ignore_errors=True)
         elif ctx.options.merge_install:
-            # symlink install into a merged prefix writes in place, as with colcon
+            # symlink install into a merged prefix writes in place, as with colcon; the
+            # manifests say what it wrote, so the merged record keeps (and later prunes) it
             ctx.run(command, cwd=ctx.build_dir)
+            ctx.extra[INSTALLED_IN_PLACE] = tuple(_manifest_files(ctx))
         else:
             with direct_install(ctx.install_prefix, ctx.stage_prefix):
                 ctx.run(command, cwd=ctx.build_dir)

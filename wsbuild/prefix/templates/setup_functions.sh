@@ -11,6 +11,11 @@ _wsb_setup_prepend() {
 # a workspace may have been built for sh only)
 _wsb_setup_source() {
   COLCON_CURRENT_PREFIX="$1"
+  # colcon's and ament's scripts read unset variables: let them, then restore `set -u`
+  case $- in
+    *u*) _wsb_setup_nounset=1; set +u ;;
+    *) _wsb_setup_nounset= ;;
+  esac
   if [ -f "$2/local_setup.@EXT@" ]; then
     if [ -n "${COLCON_TRACE:-}" ]; then
       echo "# . \"$2/local_setup.@EXT@\""
@@ -24,4 +29,8 @@ _wsb_setup_source() {
   else
     echo "not found: \"$2/local_setup.@EXT@\"" 1>&2
   fi
+  if [ -n "$_wsb_setup_nounset" ]; then
+    set -u
+  fi
+  unset _wsb_setup_nounset
 }

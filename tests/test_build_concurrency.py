@@ -1,0 +1,225 @@
+"""`wsbuild build` and other processes: Ctrl-C, and two builds of one workspace at once."""
+
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import sys
+import time
+import uuid
+from collections.abc import Callable, Iterator
+from pathlib import Path
+
+import pytest
+
+from test_build_helpers import build, clean_env, output, snapshot, write_cmake, wsbuild
+
+GATED_CMAKE = """\
+cmake_minimum_required(VERSION 3.14)
+project({name} NONE)
+# while the gate file exists the build hangs in a command that names the marker
+add_custom_target(wait_at_gate ALL COMMAND sh ${{CMAKE_CURRENT_SOURCE_DIR}}/gate.sh {marker})
+install(FILES data.txt DESTINATION share/${{PROJECT_NAME}})
+"""
+
+
+def _pids(pattern: str) -> list[int]:
+    found = subprocess.run(["pgrep", "-f", pattern], capture_output=True, text=True)
+    return [int(p) for p in found.stdout.split()]
+
+
+def _wait_for(condition: Callable[[], bool], seconds: float, what: str,
+              running: subprocess.Popen[bytes], log: Path) -> None:
+    deadline = time.monotonic() + seconds
+    while not condition():
+        if running.poll() is not None:
+            raise AssertionError(f"wsbuild exited ({running.returncode}) before {what}:\n"
+                                 + log.read_text())
+        if time.monotonic() > deadline:
+            raise AssertionError(f"timed out waiting for {what}")
+        time.sleep(0.05)
+
+
+@pytest.fixture
+def marker() -> Iterator[str]:
+    """A unique word on the command line of every process a test's build starts; `sleep`
+    gets a unique duration derived from it (see `_duration`)."""
+    word = f"wsbuild_test_{uuid.uuid4().hex}"
+    yield word
+    # only ever our own processes: the marker and the duration are unique
+    for pid in _pids(word) + _pids(f"sleep {_duration(word)}"):
+        try:
+            os.kill(pid, signal.SIGKILL)
+        except ProcessLookupError:
+            pass
+
+
+def _duration(marker: str) -> str:
+    """`sleep 30`, with a fractional part nobody else uses, so pgrep finds exactly ours."""
+    return f"30.{int(marker[-8:], 16)}"
+
+
+def _start_build(ws: Path, *args: str, stdout: Path) -> subprocess.Popen[bytes]:
+    """`wsbuild build` in its own session, like a shell's foreground job."""
+    with open(stdout, "wb") as handle:
+        return subprocess.Popen([sys.executable, "-m", "wsbuild", "build", *args], cwd=ws,
+                                env=clean_env(), stdout=handle, stderr=subprocess.STDOUT,
+                                start_new_session=True)
+
+
+def _stop(proc: subprocess.Popen[bytes]) -> None:
+    if proc.poll() is None:
+        os.killpg(proc.pid, signal.SIGKILL)
+        proc.wait()
+
+
+def test_ctrl_c_stops_the_build_and_every_process_it_started(tmp_path: Path, marker: str) -> None:
+    ws = tmp_path / "ws"
+    gate = tmp_path / "gate"
+    duration = _duration(marker)
+    body = f"if [ -e '{gate}' ]; then exec sleep {duration}; fi\n"
+    write_cmake(ws / "src", "slow", GATED_CMAKE.format(name="slow", marker=marker),
+                files={"data.txt": "slow v1\n", "gate.sh": body})
+    build(ws)
+    before = snapshot(ws / "install" / "slow")
+    (ws / "src" / "slow" / "data.txt").write_text("slow v2\n")
+    gate.touch()
+
+    log = tmp_path / "build.out"
+    proc = _start_build(ws, stdout=log)
+    try:
+        _wait_for(lambda: bool(_pids(f"sleep {duration}")), 60, "the build to reach sleep",
+                  proc, log)
+        pressed = time.monotonic()
+        os.killpg(proc.pid, signal.SIGINT)  # what the terminal does on Ctrl-C
+        returncode = proc.wait(timeout=15)
+        seconds = time.monotonic() - pressed
+    finally:
+        _stop(proc)
+    text = log.read_text()
+    assert returncode == 130, text
+    assert seconds < 6, f"took {seconds:.1f}s to stop"
+    assert "Summary:" in text, text
+    assert "aborted: slow" in text, text
+    time.sleep(0.2)
+    assert _pids(marker) == [] and _pids(f"sleep {duration}") == []
+    # the interrupted package keeps its previous install; the next build finishes the job
+    assert snapshot(ws / "install" / "slow") == before
+    gate.unlink()
+    build(ws)
+    assert (ws / "install" / "slow" / "share" / "slow" / "data.txt").read_text() == "slow v2\n"
+
+
+def test_second_build_waits_for_the_first_or_fails_with_no_wait(tmp_path: Path,
+                                                                marker: str) -> None:
+    ws = tmp_path / "ws"
+    gate = tmp_path / "gate"
+    body = f"while [ -e '{gate}' ]; do sleep 0.05; done\n"
+    write_cmake(ws / "src", "locked", GATED_CMAKE.format(name="locked", marker=marker),
+                files={"data.txt": "locked v1\n", "gate.sh": body})
+    gate.touch()
+    first_log, second_log = tmp_path / "first.out", tmp_path / "second.out"
+    first = _start_build(ws, stdout=first_log)
+    second: subprocess.Popen[bytes] | None = None
+    try:
+        _wait_for(lambda: bool(_pids(marker)), 60, "the first build to start building",
+                  first, first_log)
+
+        refused = wsbuild("build", "--no-wait", cwd=ws, timeout=30)
+        assert refused.returncode == 2, output(refused)
+        assert f"another wsbuild (pid {first.pid})" in refused.stderr
+        assert "Starting" not in refused.stdout
+
+        second = _start_build(ws, stdout=second_log)
+        _wait_for(lambda: "waiting" in second_log.read_text(), 30, "the second build to wait",
+                  second, second_log)
+        assert second.poll() is None
+        assert first.poll() is None
+
+        # Ctrl-C on a waiting build ends it at once and leaves the running one alone
+        third_log = tmp_path / "third.out"
+        third = _start_build(ws, stdout=third_log)
+        try:
+            _wait_for(lambda: "waiting" in third_log.read_text(), 30, "the third build to wait",
+                      third, third_log)
+            os.killpg(third.pid, signal.SIGINT)
+            assert third.wait(timeout=10) == 130, third_log.read_text()
+        finally:
+            _stop(third)
+        assert "Traceback" not in third_log.read_text()
+        assert first.poll() is None
+
+        gate.unlink()
+        assert first.wait(timeout=60) == 0, first_log.read_text()
+        assert second.wait(timeout=60) == 0, second_log.read_text()
+    finally:
+        _stop(first)
+        if second is not None:
+            _stop(second)
+    assert f"another wsbuild (pid {first.pid}) is building this workspace" in \
+        second_log.read_text()
+    data = ws / "install" / "locked" / "share" / "locked" / "data.txt"
+    assert data.read_text() == "locked v1\n"
+    assert not (ws / "install" / ".wsbuild-stage").exists()
+    again = wsbuild("build", cwd=ws)
+    assert again.returncode == 0, output(again)
+
+
+SLOW_INSTALL_CMAKE = """\
+cmake_minimum_required(VERSION 3.14)
+project(slowinst NONE)
+install(FILES data.txt DESTINATION share/${PROJECT_NAME})
+install(CODE "execute_process(COMMAND sh ${CMAKE_CURRENT_SOURCE_DIR}/gate.sh {marker})")
+install(FILES more.txt DESTINATION share/${PROJECT_NAME})
+"""
+
+
+def _slow_install_ws(root: Path, gate: Path, marker: str) -> Path:
+    """A package whose install step hangs while `gate` exists, in a `sleep` that ignores
+    SIGTERM (like a tool slow to stop), after installing half of its files."""
+    ws = root / "ws"
+    body = (f"if [ -e '{gate}' ]; then trap '' TERM; sleep {_duration(marker)}; fi\n")
+    write_cmake(ws / "src", "slowinst", SLOW_INSTALL_CMAKE.replace("{marker}", marker),
+                files={"data.txt": "v1\n", "more.txt": "v1\n", "gate.sh": body})
+    return ws
+
+
+def _interrupt_install(tmp_path: Path, marker: str, presses: int) -> None:
+    ws = _slow_install_ws(tmp_path, tmp_path / "gate", marker)
+    build(ws)
+    before = snapshot(ws / "install" / "slowinst")
+    (ws / "src" / "slowinst" / "data.txt").write_text("v2\n")
+    (tmp_path / "gate").touch()
+    log = tmp_path / "build.out"
+    proc = _start_build(ws, stdout=log)
+    try:
+        _wait_for(lambda: bool(_pids(f"sleep {_duration(marker)}")), 60,
+                  "the install step to hang", proc, log)
+        pressed = time.monotonic()
+        for press in range(presses):
+            if press:
+                time.sleep(1)  # impatient: Ctrl-C again while wsbuild is still stopping
+            os.killpg(proc.pid, signal.SIGINT)
+        returncode = proc.wait(timeout=20)
+        seconds = time.monotonic() - pressed
+    finally:
+        _stop(proc)
+    text = log.read_text()
+    assert returncode == 130, text
+    assert seconds < 8, f"took {seconds:.1f}s to stop"
+    time.sleep(0.2)
+    assert _pids(f"sleep {_duration(marker)}") == [], "a process of the build survived"
+    assert snapshot(ws / "install" / "slowinst") == before, "the previous install changed"
+    (tmp_path / "gate").unlink()
+    build(ws)
+    assert (ws / "install" / "slowinst" / "share" / "slowinst" / "data.txt").read_text() == "v2\n"
+
+
+def test_ctrl_c_during_install_keeps_the_previous_install(tmp_path: Path, marker: str) -> None:
+    _interrupt_install(tmp_path, marker, presses=1)
+
+
+def test_ctrl_c_pressed_twice_still_stops_everything_and_keeps_the_install(
+        tmp_path: Path, marker: str) -> None:
+    _interrupt_install(tmp_path, marker, presses=2)

@@ -1,0 +1,252 @@
+"""`wsbuild build` when things go wrong: broken packages, missing dependencies, bad input."""
+
+from __future__ import annotations
+
+import os
+import re
+import subprocess
+from pathlib import Path
+
+import pytest
+
+from test_build_helpers import (
+    build,
+    output,
+    snapshot,
+    write,
+    write_ament_python,
+    write_cmake,
+    wsbuild,
+)
+
+DATA_CMAKE = """\
+cmake_minimum_required(VERSION 3.14)
+project({name} NONE)
+install(FILES data.txt DESTINATION share/${{PROJECT_NAME}})
+"""
+
+VICTIM_MAIN = "def main():\n    print('victim v1')\n"
+
+
+def _data_package(src: Path, name: str, deps: list[str] | None = None) -> Path:
+    return write_cmake(src, name, DATA_CMAKE.format(name=name), depend=deps or [],
+                       files={"data.txt": f"{name} v1\n"})
+
+
+def _break(pkg: Path, kind: str) -> str:
+    """Break a package that built before; return a text its failure output must show."""
+    if kind == "cmake-syntax":
+        with open(pkg / "CMakeLists.txt", "a") as handle:
+            handle.write("install(FILES data.txt\n")  # unbalanced parenthesis
+        return "Parse error"
+    setup = pkg / "setup.py"
+    setup.write_text("raise RuntimeError('broken on purpose')\n" + setup.read_text())
+    return "RuntimeError: broken on purpose"
+
+
+def _victim(src: Path, kind: str) -> Path:
+    if kind == "cmake-syntax":
+        return _data_package(src, "victim")
+    return write_ament_python(src, "victim", modules={"main.py": VICTIM_MAIN},
+                              data={"config/params.yaml": "rate: 1\n"},
+                              scripts={"victim_main": "victim.main:main"})
+
+
+@pytest.mark.parametrize("layout", ["isolated", "merged"])
+@pytest.mark.parametrize("kind", ["cmake-syntax", "setup-py-raises"])
+def test_broken_package_fails_and_keeps_its_previous_install(tmp_path: Path, kind: str,
+                                                             layout: str) -> None:
+    ws = tmp_path / "ws"
+    src = ws / "src"
+    pkg = _victim(src, kind)
+    _data_package(src, "zz_other")
+    merged = ["--merge-install"] if layout == "merged" else []
+    build(ws, *merged)
+    install = ws / "install"
+    victim_files = _package_files(ws, "victim", merged=bool(merged))
+    assert victim_files
+    victim_before = _file_states(install, victim_files)
+    shown = _break(pkg, kind)
+
+    # by default: the unrelated package, up to date or not started, is left alone
+    other_before = snapshot(install if merged else install / "zz_other")
+    result = wsbuild("build", *merged, cwd=ws)
+    assert result.returncode == 1, output(result)
+    if not merged:
+        assert snapshot(install / "zz_other") == other_before
+
+    # with --continue-on-error an unrelated package that changed builds next to the failure
+    write(src / "zz_other" / "data.txt", "zz_other v2\n")
+    result = wsbuild("build", "--continue-on-error", *merged, cwd=ws)
+
+    assert result.returncode == 1, output(result)
+    lines = result.stdout.splitlines()
+    failed = [line for line in lines if line.startswith("Failed")]
+    assert len(failed) == 1 and "victim" in failed[0], output(result)
+    assert shown in result.stdout
+    log_line = next(line for line in lines if line.strip().startswith("log:"))
+    log_dir = Path(log_line.split("log:", 1)[1].strip())
+    assert log_dir.name == "victim"
+    assert shown in (log_dir / "stdout_stderr.log").read_text()
+    assert (log_dir / "command.log").is_file()
+    reproduce = lines[lines.index("  reproduce by hand:") + 1].strip()
+    assert reproduce.startswith("cd ") and " && " in reproduce
+    assert "victim" in result.stderr and "failed" in result.stderr
+    # the previous install of the broken package is intact and still works
+    assert _file_states(install, victim_files) == victim_before
+    prefix = install if merged else install / "victim"
+    if kind == "cmake-syntax":
+        assert (prefix / "share" / "victim" / "data.txt").read_text() == "victim v1\n"
+    else:
+        run = wsbuild("run", "victim", "victim_main", cwd=ws)
+        assert run.returncode == 0 and run.stdout.strip() == "victim v1", output(run)
+    other = install if merged else install / "zz_other"
+    assert (other / "share" / "zz_other" / "data.txt").read_text() == "zz_other v2\n"
+
+
+def _package_files(ws: Path, name: str, *, merged: bool) -> list[str]:
+    """Paths (below install/) of the files `name` installed."""
+    prefix = ws / "install"
+    root = prefix if merged else prefix / name
+    return sorted(str(Path(dirpath, f).relative_to(prefix))
+                  for dirpath, _, files in os.walk(root) for f in files
+                  if not merged or name in Path(dirpath, f).relative_to(prefix).parts)
+
+
+def _file_states(prefix: Path, files: list[str]) -> dict[str, tuple[bytes, int]]:
+    return {rel: ((prefix / rel).read_bytes(), (prefix / rel).stat().st_mtime_ns)
+            for rel in files}
+
+
+def test_reproduce_command_reproduces_the_failure(tmp_path: Path) -> None:
+    ws = tmp_path / "ws"
+    pkg = _data_package(ws / "src", "victim")
+    _break(pkg, "cmake-syntax")
+    result = wsbuild("build", cwd=ws)
+    assert result.returncode == 1, output(result)
+    lines = result.stdout.splitlines()
+    reproduce = lines[lines.index("  reproduce by hand:") + 1].strip()
+    again = subprocess.run(["bash", "-c", reproduce], capture_output=True, text=True,
+                           timeout=60)
+    assert again.returncode != 0
+    assert "Parse error" in again.stdout + again.stderr
+
+
+def _failure_ws(root: Path) -> Path:
+    """aa_broken fails; bb_fine and cc_fine do not need it; dd_needs_aa does."""
+    src = root / "src"
+    _break(_data_package(src, "aa_broken"), "cmake-syntax")
+    _data_package(src, "bb_fine")
+    _data_package(src, "cc_fine")
+    _data_package(src, "dd_needs_aa", ["aa_broken"])
+    return root
+
+
+def _summary(stdout: str) -> list[str]:
+    lines = stdout.splitlines()
+    start = next(i for i, line in enumerate(lines) if line.startswith("Summary:"))
+    return lines[start:]
+
+
+def test_by_default_no_package_starts_after_a_failure(tmp_path: Path) -> None:
+    ws = _failure_ws(tmp_path / "ws")
+    result = wsbuild("build", "--executor", "sequential", cwd=ws)
+    assert result.returncode == 1, output(result)
+    assert "Starting >>> bb_fine" not in result.stdout
+    summary = _summary(result.stdout)
+    assert "  1 package failed: aa_broken" in summary, summary
+    assert "  3 packages not processed: bb_fine cc_fine dd_needs_aa" in summary, summary
+    for name in ("aa_broken", "bb_fine", "cc_fine", "dd_needs_aa"):
+        assert not (ws / "install" / name).exists()
+
+
+def test_continue_on_error_builds_everything_not_depending_on_the_failure(tmp_path: Path) -> None:
+    ws = _failure_ws(tmp_path / "ws")
+    result = wsbuild("build", "--executor", "sequential", "--continue-on-error", cwd=ws)
+    assert result.returncode == 1, output(result)
+    summary = _summary(result.stdout)
+    assert summary[0].startswith("Summary: 2 packages finished"), summary
+    assert "  1 package failed: aa_broken" in summary, summary
+    assert "  1 package not processed: dd_needs_aa" in summary, summary
+    assert (ws / "install" / "bb_fine" / "share" / "bb_fine" / "data.txt").is_file()
+    assert (ws / "install" / "cc_fine" / "share" / "cc_fine" / "data.txt").is_file()
+    assert not (ws / "install" / "dd_needs_aa").exists()
+
+
+# ------------------------------------------------------------------- checks before building
+
+def test_unresolved_dependencies_are_reported_together_before_anything_builds(
+        tmp_path: Path) -> None:
+    ws = tmp_path / "ws"
+    src = ws / "src"
+    write_cmake(src, "needy", DATA_CMAKE.format(name="needy"), files={"data.txt": "x\n"},
+                depend=["no_such_pkg"])
+    with open(src / "needy" / "package.xml") as handle:
+        xml = handle.read()
+    (src / "needy" / "package.xml").write_text(xml.replace(
+        "<depend>no_such_pkg</depend>",
+        "<depend>no_such_pkg</depend>\n  <build_depend>python3-no-such-module</build_depend>"))
+    write_cmake(src, "needy_too", DATA_CMAKE.format(name="needy_too"),
+                files={"data.txt": "x\n"}, depend=["no_such_pkg"])
+
+    result = wsbuild("build", cwd=ws)
+
+    assert result.returncode == 2, output(result)
+    errors = [line for line in result.stderr.splitlines() if line.startswith("wsbuild: error:")]
+    assert len(errors) == 1, output(result)
+    assert "no_such_pkg (needed by needy, needy_too)" in errors[0]
+    assert "python3-no-such-module (needed by needy)" in errors[0]
+    assert "--skip-dependency-check" in errors[0]
+    assert "Starting" not in result.stdout
+    assert not (ws / "install" / "needy").exists()
+    assert not (ws / "build" / "needy").exists()
+
+    result = wsbuild("build", "--skip-dependency-check", cwd=ws)
+    assert result.returncode == 0, output(result)
+    assert (ws / "install" / "needy" / "share" / "needy" / "data.txt").is_file()
+
+
+def test_unknown_package_in_packages_select_suggests_and_changes_nothing(tmp_path: Path) -> None:
+    ws = tmp_path / "ws"
+    _data_package(ws / "src", "navigation_core")
+    build(ws)
+    before = snapshot(ws / "install")
+    result = wsbuild("build", "--packages-select", "navigation_cor", cwd=ws)
+    assert result.returncode == 2, output(result)
+    assert "navigation_cor" in result.stderr
+    assert "navigation_core" in result.stderr  # the suggestion
+    assert "Traceback" not in result.stderr
+    assert snapshot(ws / "install") == before
+
+
+def test_bad_package_xml_is_one_line_naming_file_and_line(tmp_path: Path) -> None:
+    ws = tmp_path / "ws"
+    pkg = _data_package(ws / "src", "good_then_bad")
+    build(ws)
+    before = snapshot(ws / "install")
+    manifest = pkg / "package.xml"
+    lines = manifest.read_text().splitlines()
+    number = next(i for i, line in enumerate(lines, 1) if "<version>" in line)
+    lines[number - 1] = lines[number - 1].replace("</version>", "</versoin>")
+    manifest.write_text("\n".join(lines) + "\n")
+
+    result = wsbuild("build", cwd=ws)
+
+    assert result.returncode == 2, output(result)
+    stderr = [line for line in result.stderr.splitlines() if line.strip()]
+    assert len(stderr) == 1, output(result)
+    assert stderr[0].startswith(f"wsbuild: error: {manifest}:{number}: ")
+    assert snapshot(ws / "install") == before
+
+
+def test_failed_build_output_names_log_dir_in_the_final_error(tmp_path: Path) -> None:
+    ws = tmp_path / "ws"
+    _break(_data_package(ws / "src", "victim"), "cmake-syntax")
+    result = wsbuild("build", cwd=ws)
+    assert result.returncode == 1
+    match = re.search(r"logs in (\S+?)\)", result.stderr)
+    assert match, output(result)
+    assert (Path(match.group(1)) / "victim" / "stdout_stderr.log").is_file()
+    assert Path(match.group(1)).resolve() == (ws / "log" / "latest_build").resolve()
+
+

@@ -1,0 +1,82 @@
+"""`wsbuild run PKG EXECUTABLE` on a built workspace: arguments, exit codes, and its errors."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from test_build_helpers import build, output, write_ament_python, write_cmake, wsbuild
+
+ECHO_MAIN = """\
+import sys
+
+
+def main():
+    print('args:', ' '.join(sys.argv[1:]))
+    return int(sys.argv[-1]) if sys.argv[-1].isdigit() else 0
+"""
+
+
+@pytest.fixture(scope="module")
+def run_ws(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    ws = tmp_path_factory.mktemp("run") / "ws"
+    src = ws / "src"
+    write_ament_python(src, "runner_py", modules={"main.py": ECHO_MAIN},
+                       scripts={"echo_args": "runner_py.main:main",
+                                "echo_other": "runner_py.main:main"})
+    write_cmake(src, "no_exes", "cmake_minimum_required(VERSION 3.14)\nproject(no_exes NONE)\n")
+    build(ws)
+    return ws
+
+
+def _error(result) -> str:  # type: ignore[no-untyped-def]
+    errors = [line for line in result.stderr.splitlines() if line.startswith("wsbuild: error:")]
+    assert len(errors) == 1, output(result)
+    return errors[0]
+
+
+def test_arguments_and_exit_code_pass_through(run_ws: Path) -> None:
+    result = wsbuild("run", "runner_py", "echo_args", "--ros-args", "-p", "rate:=2.0", "3",
+                     cwd=run_ws)
+    assert result.returncode == 3, output(result)
+    assert result.stdout.strip() == "args: --ros-args -p rate:=2.0 3"
+
+
+def test_unknown_package_with_a_close_name_is_suggested(run_ws: Path) -> None:
+    result = wsbuild("run", "runner_pi", "echo_args", cwd=run_ws)
+    assert result.returncode == 2, output(result)
+    error = _error(result)
+    assert "runner_pi" in error and "'runner_py'" in error
+
+
+def test_unknown_package_lists_the_packages_with_executables(run_ws: Path) -> None:
+    result = wsbuild("run", "zzz", "echo_args", cwd=run_ws)
+    assert result.returncode == 2, output(result)
+    error = _error(result)
+    assert "'zzz' not found" in error
+    assert "runner_py" in error
+    assert "no_exes" not in error
+
+
+def test_unknown_executable_lists_the_package_executables(run_ws: Path) -> None:
+    result = wsbuild("run", "runner_py", "talker", cwd=run_ws)
+    assert result.returncode == 2, output(result)
+    error = _error(result)
+    assert "no executable 'talker' in package 'runner_py'" in error
+    assert "echo_args" in error and "echo_other" in error
+
+
+def test_package_without_executables_says_so(run_ws: Path) -> None:
+    result = wsbuild("run", "no_exes", "anything", cwd=run_ws)
+    assert result.returncode == 2, output(result)
+    assert "no_exes installs no executables" in _error(result)
+
+
+def test_run_before_building_says_to_build(tmp_path: Path) -> None:
+    ws = tmp_path / "ws"
+    write_ament_python(ws / "src", "unbuilt", modules={"main.py": ECHO_MAIN},
+                       scripts={"go": "unbuilt.main:main"})
+    result = wsbuild("run", "unbuilt", "go", cwd=ws)
+    assert result.returncode == 2, output(result)
+    assert "wsbuild build" in _error(result)
