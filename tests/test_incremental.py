@@ -9,6 +9,9 @@ import pytest
 
 from conftest import run_wsbuild
 
+# the tests share one workspace and edit it in turn: keep them on one xdist worker, in order
+pytestmark = pytest.mark.xdist_group("incremental")
+
 
 def built(output: str) -> list[str]:
     return sorted(re.findall(r"^Starting >>> (\S+)$", output, re.MULTILINE))
@@ -91,6 +94,7 @@ def test_cmake_args_change_rebuilds_cmake_packages(ws: Path) -> None:
     # CMake arguments do not reach the ament_python package
     assert rebuild(ws, "--cmake-args", "-DSOME_OPTION=1") == ["app", "lib", "other"]
     assert rebuild(ws, "--cmake-args", "-DSOME_OPTION=1") == []
+    assert rebuild(ws) == ["app", "lib", "other"]  # back to the defaults for the next tests
 
 
 def test_deleted_installed_file_triggers_rebuild(ws: Path) -> None:
