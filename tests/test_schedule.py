@@ -1,0 +1,87 @@
+"""The worker pool: dependency order, parallelism, failure policy."""
+
+from __future__ import annotations
+
+import threading
+import time
+
+from wsbuild.events import JobFinished, JobStarted
+from wsbuild.model import BuildResult, Outcome
+from wsbuild.schedule import run_jobs
+
+DEPS = {"a": set(), "b": {"a"}, "c": {"a"}, "d": {"b", "c"}, "e": set()}
+ORDER = ["a", "e", "b", "c", "d"]
+
+
+def test_dependencies_finish_before_dependents_start() -> None:
+    finished: list[str] = []
+    lock = threading.Lock()
+
+    def job(name: str) -> BuildResult:
+        with lock:
+            assert DEPS[name] <= set(finished), f"{name} started before its dependencies"
+        time.sleep(0.01)
+        with lock:
+            finished.append(name)
+        return BuildResult(name, Outcome.FINISHED)
+
+    results = run_jobs(ORDER, DEPS, job, workers=3, continue_on_error=False, emit=lambda e: None)
+    assert [r.package for r in results] == ORDER
+    assert all(r.outcome is Outcome.FINISHED for r in results)
+
+
+def test_workers_bound_parallelism() -> None:
+    running = 0
+    peak = 0
+    lock = threading.Lock()
+
+    def job(name: str) -> BuildResult:
+        nonlocal running, peak
+        with lock:
+            running += 1
+            peak = max(peak, running)
+        time.sleep(0.05)
+        with lock:
+            running -= 1
+        return BuildResult(name, Outcome.FINISHED)
+
+    names = [f"p{i}" for i in range(6)]
+    run_jobs(names, {}, job, workers=2, continue_on_error=False, emit=lambda e: None)
+    assert peak == 2
+
+
+def _failing_b(name: str) -> BuildResult:
+    if name == "b":
+        return BuildResult(name, Outcome.FAILED, message="boom")
+    time.sleep(0.05 if name == "e" else 0)
+    return BuildResult(name, Outcome.FINISHED)
+
+
+def test_default_policy_starts_nothing_after_a_failure() -> None:
+    events: list[object] = []
+    results = {r.package: r.outcome for r in run_jobs(
+        ["a", "b", "c", "d"], DEPS, _failing_b, workers=1, continue_on_error=False,
+        emit=events.append)}
+    assert results == {"a": Outcome.FINISHED, "b": Outcome.FAILED, "c": Outcome.SKIPPED,
+                       "d": Outcome.SKIPPED}
+    started = [e.package for e in events if isinstance(e, JobStarted)]
+    assert started == ["a", "b"]
+    assert sum(isinstance(e, JobFinished) for e in events) == 4
+
+
+def test_continue_on_error_skips_only_dependents() -> None:
+    results = {r.package: r for r in run_jobs(
+        ORDER, DEPS, _failing_b, workers=2, continue_on_error=True, emit=lambda e: None)}
+    assert results["c"].outcome is Outcome.FINISHED
+    assert results["e"].outcome is Outcome.FINISHED
+    assert results["d"].outcome is Outcome.SKIPPED
+    assert "b" in results["d"].message
+
+
+def test_a_crashing_job_is_a_failure_not_a_hang() -> None:
+    def job(name: str) -> BuildResult:
+        raise RuntimeError("bug")
+
+    results = run_jobs(["a"], {}, job, workers=1, continue_on_error=False, emit=lambda e: None)
+    assert results[0].outcome is Outcome.FAILED
+    assert "bug in wsbuild" in results[0].message
