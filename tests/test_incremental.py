@@ -57,6 +57,8 @@ def test_noop_rebuild_builds_nothing(ws: Path) -> None:
     result = run_wsbuild("build", cwd=ws)
     assert built(result.stdout) == []
     assert "4 packages up to date" in result.stdout
+    reasons = (ws / "log" / "latest_build" / "up_to_date.log").read_text()
+    assert "app: up to date, nothing changed" in reasons
 
 
 def test_touch_without_change_is_not_a_rebuild(ws: Path) -> None:
@@ -68,6 +70,8 @@ def test_python_edit_rebuilds_only_that_package(ws: Path) -> None:
     main = ws / "src" / "nodes" / "nodes" / "main.py"
     main.write_text(main.read_text() + "# edited\n")
     assert rebuild(ws) == ["nodes"]
+    why = (ws / "log" / "latest_build" / "nodes" / "command.log").read_text()
+    assert why.startswith("Rebuilding: source changed: nodes/main.py")
     installed = ws / "install" / "nodes" / "lib" / "python3.11" / "site-packages" / "nodes" / "main.py"
     assert "# edited" in installed.read_text()
 

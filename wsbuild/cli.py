@@ -35,7 +35,9 @@ def _workspace_arguments(parser: argparse.ArgumentParser, *, selection: bool = T
         add_selection_arguments(parser)
 
 
-def build_parser() -> argparse.ArgumentParser:
+def build_parser(*, pkg_arguments: bool = True) -> argparse.ArgumentParser:
+    """The whole argument tree. `pkg_arguments=False` leaves out `pkg create`'s options, whose
+    defaults need the (slow to import) template machinery: other verbs start faster."""
     parser = argparse.ArgumentParser(
         prog="wsbuild",
         description="Build ROS 2 workspaces: fast, strict, and install-compatible with colcon.",
@@ -93,7 +95,7 @@ def build_parser() -> argparse.ArgumentParser:
     sub.add_argument("arguments", nargs=argparse.REMAINDER, metavar="ARGS",
                      help="passed to the executable, e.g. --ros-args -p name:=value")
 
-    from wsbuild.verbs.pkg import CREATE_DOC, add_pkg_create_arguments
+    from wsbuild.verbs.pkg import CREATE_DOC
 
     sub = verbs.add_parser("pkg", help="create packages",
                            description="Work with packages. Actions: create.",
@@ -103,7 +105,10 @@ def build_parser() -> argparse.ArgumentParser:
     create = actions.add_parser("create", help=CREATE_DOC.partition("\n")[0],
                                 description=CREATE_DOC.strip(), formatter_class=_Formatter)
     create.set_defaults(func="wsbuild.verbs.pkg:run_pkg_create")
-    add_pkg_create_arguments(create)
+    if pkg_arguments:
+        from wsbuild.verbs.pkg import add_pkg_create_arguments
+
+        add_pkg_create_arguments(create)
 
     sub = verbs.add_parser("underlay", help="check or repair the ROS underlay in the virtualenv",
                            description=UNDERLAY_DOC.strip(), formatter_class=_Formatter)
@@ -242,7 +247,7 @@ def _collect_passthrough(argv: list[str]) -> list[str]:
 
 
 def _known_long_options() -> set[str]:
-    parser = build_parser()
+    parser = build_parser(pkg_arguments=False)
     names: set[str] = set()
     stack = [parser]
     while stack:
@@ -358,8 +363,8 @@ def _resolve_func(spec: str):  # type: ignore[no-untyped-def]
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    parser = build_parser()
     raw = list(sys.argv[1:] if argv is None else argv)
+    parser = build_parser(pkg_arguments="pkg" in raw)
     if any(item in PASSTHROUGH for item in raw):
         raw = _collect_passthrough(raw)
     args = parser.parse_args(raw)

@@ -284,7 +284,8 @@ def build_settings(plan: Plan, request: BuildRequest, name: str,
         "wsbuild": __version__,
         "build_type": build_type,
         "options": options,
-        "python": sys.executable,
+        # the interpreter by its environment and version, not by how its path is spelled
+        "python": [sys.prefix, sys.version],
         "ament_prefix_path": underlay("AMENT_PREFIX_PATH"),
         "cmake_prefix_path": underlay("CMAKE_PREFIX_PATH"),
         "install_prefix": str(package_prefix(plan.workspace, name, request.build.merge_install)),
@@ -324,7 +325,6 @@ def _build_package(plan: Plan, request: BuildRequest, name: str, base_env: Mappi
     options = request.build
     merged = options.merge_install
     log_dir = run_log / name
-    log_dir.mkdir(parents=True, exist_ok=True)
     build_dir = ws.build_base / name
     started = time.monotonic()
 
@@ -340,17 +340,22 @@ def _build_package(plan: Plan, request: BuildRequest, name: str, base_env: Mappi
         reason = "forced"
     else:
         reason = why_rebuild(old, snapshot, settings, dep_keys, ws.install_base)
-    with open(log_dir / "command.log", "a") as handle:
-        handle.write(f"{'Rebuilding: ' + reason if reason else 'Up to date: nothing changed'}\n")
     if reason is None and old is not None:
+        # one line in a shared file: a no-op build of many packages creates no directories
+        with open(run_log / "up_to_date.log", "a") as handle:
+            handle.write(f"{name}: up to date, nothing changed since the last build\n")
         keys[name] = old.key
-        return BuildResult(name, Outcome.UP_TO_DATE, time.monotonic() - started, log_dir=log_dir)
+        return BuildResult(name, Outcome.UP_TO_DATE, time.monotonic() - started)
+    log_dir.mkdir(parents=True, exist_ok=True)
+    with open(log_dir / "command.log", "a") as handle:
+        handle.write(f"Rebuilding: {reason}\n")
 
     # 2. build into a fresh stage
     (build_dir / BUILDING_MARKER).parent.mkdir(parents=True, exist_ok=True)
     (build_dir / BUILDING_MARKER).touch()
     prefix = package_prefix(ws, name, merged)
     stage = staging.new_stage(ws.install_base, name)
+    closure = plan.graph.build_closure(name)
     environ = build_environment(plan, name, base_env, merged, order)
     environ["MAKEFLAGS"] = jobserver.makeflags
     warnings: list[str] = []
@@ -378,9 +383,7 @@ def _build_package(plan: Plan, request: BuildRequest, name: str, base_env: Mappi
         environ=environ,
         run=run,
         warn=warnings.append,
-        dependency_prefixes=tuple(
-            package_prefix(ws, d, merged) for d in order if d in plan.graph.build_closure(name)
-        ),
+        dependency_prefixes=tuple(package_prefix(ws, d, merged) for d in order if d in closure),
     )
     try:
         build_type = get_build_type(package.build_type)

@@ -47,9 +47,10 @@ class CMakeBuildType:
             "--no-warn-unused-cli",
             f"-DCMAKE_INSTALL_PREFIX={ctx.install_prefix}",
             "-DCMAKE_EXPORT_COMPILE_COMMANDS=ON",
-            f"-DPython3_EXECUTABLE={python}",
             f"-DPYTHON_EXECUTABLE={python}",
         ]
+        if not any(a.startswith("-DPython3_EXECUTABLE=") for a in ctx.options.underlay_cmake_args):
+            args.append(f"-DPython3_EXECUTABLE={python}")
         return [*args, *ctx.options.underlay_cmake_args, *ctx.options.cmake_args]
 
     def needs_configure(self, ctx: BuildContext) -> bool:

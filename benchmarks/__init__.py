@@ -1,0 +1,1 @@
+"""Side-by-side benchmarks of wsbuild against colcon (see benchmarks/README.md)."""
