@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import heapq
 import queue
 import signal
 import threading
@@ -60,49 +61,61 @@ def run_jobs(
             result = replace(result, seconds=time.monotonic() - start)
         done.put(result)
 
-    def blocked_by_failure(name: str) -> bool:
-        return any(results.get(d) is not None and results[d].outcome
-                   in (Outcome.FAILED, Outcome.SKIPPED, Outcome.INTERRUPTED)
-                   for d in dependencies.get(name, set()) & members)
+    position = {name: index for index, name in enumerate(names)}
+    users: dict[str, list[str]] = {name: [] for name in names}
+    for name in names:
+        for dep in waiting[name]:
+            users[dep].append(name)
+    # a heap of positions in `order`: among ready jobs, the earliest in order starts first
+    ready = [position[name] for name in names if not waiting[name]]
+    heapq.heapify(ready)
+
+    def settle(result: BuildResult) -> None:
+        results[result.package] = result
+        emit(JobFinished(result))
+
+    def skip_dependents(failed: str) -> None:
+        stack = [failed]
+        while stack:
+            current = stack.pop()
+            for user in users[current]:
+                if user not in results:
+                    settle(BuildResult(user, Outcome.SKIPPED,
+                                       message=f"dependency failed: {current}"))
+                    stack.append(user)
 
     try:
         while len(results) < len(names):
-            stop_starting = failed_any and not continue_on_error
-            for name in names:
-                if name in results or name in running:
-                    continue
-                if stop_starting:
-                    results[name] = BuildResult(name, Outcome.SKIPPED,
-                                                message="not started after an earlier failure")
-                    emit(JobFinished(results[name]))
-                    continue
-                if blocked_by_failure(name):
-                    failed = sorted(d for d in dependencies.get(name, set()) & members
-                                    if results.get(d) and results[d].outcome is not Outcome.FINISHED
-                                    and results[d].outcome is not Outcome.UP_TO_DATE)
-                    results[name] = BuildResult(
-                        name, Outcome.SKIPPED,
-                        message=f"dependency failed: {', '.join(failed)}")
-                    emit(JobFinished(results[name]))
-                    continue
-                if waiting[name] or len(running) >= workers:
-                    continue
-                running[name] = time.monotonic()
-                emit(JobStarted(name))
-                threading.Thread(target=worker, args=(name,), daemon=True,
-                                 name=f"wsbuild-{name}").start()
-            if len(results) >= len(names):
-                break
+            if failed_any and not continue_on_error:
+                for name in names:
+                    if name not in results and name not in running:
+                        settle(BuildResult(name, Outcome.SKIPPED,
+                                           message="not started after an earlier failure"))
+            else:
+                while ready and len(running) < workers:
+                    name = names[heapq.heappop(ready)]
+                    if name in results:  # skipped meanwhile
+                        continue
+                    running[name] = time.monotonic()
+                    emit(JobStarted(name))
+                    threading.Thread(target=worker, args=(name,), daemon=True,
+                                     name=f"wsbuild-{name}").start()
             if not running:
+                if not ready and len(results) < len(names):
+                    stalled = sorted(set(names) - set(results))
+                    raise RuntimeError(f"scheduler stalled with {stalled} waiting (a bug)")
                 continue
             result = done.get()
             running.pop(result.package, None)
-            results[result.package] = result
-            emit(JobFinished(result))
-            if result.outcome is Outcome.FAILED:
+            settle(result)
+            if result.outcome in (Outcome.FINISHED, Outcome.UP_TO_DATE):
+                for user in users[result.package]:
+                    waiting[user].discard(result.package)
+                    if not waiting[user] and user not in results:
+                        heapq.heappush(ready, position[user])
+            else:
                 failed_any = True
-            for name in names:
-                waiting[name].discard(result.package)
+                skip_dependents(result.package)
     except KeyboardInterrupt:
         # another Ctrl-C must not cut this short: process groups would be left running and
         # jobs abandoned half-way through swapping their install into place
