@@ -14,6 +14,9 @@ from wsbuild.verbs.load import load
 
 
 def _relative(path: Path, root: Path) -> str:
+    text, base = str(path), str(root) + os.sep
+    if text.startswith(base):  # the common case, without relpath's normalisation work
+        return text[len(base):]
     try:
         return os.path.relpath(path, root)
     except ValueError:
