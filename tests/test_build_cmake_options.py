@@ -64,3 +64,14 @@ def test_one_jobserver_is_shared(ws: Path) -> None:
     build(ws, "--packages-select", "beta", "--force")
     command_log = (ws / "log" / "latest_build" / "beta" / "command.log").read_text()
     assert "--jobserver-auth=" in command_log
+
+
+def test_cmake_message_output_is_not_reported_as_a_warning(tmp_path: Path) -> None:
+    ws = tmp_path / "ws"
+    write_cmake(ws / "src", "chatty", "cmake_minimum_required(VERSION 3.14)\nproject(chatty NONE)\n"
+                "message(\"just saying hello\")\nmessage(WARNING \"a real problem\")\n")
+    out = build(ws).stdout
+    assert "--- warnings: chatty" in out and "a real problem" in out
+    assert "just saying hello" not in out
+    log = (ws / "log" / "latest_build" / "chatty" / "stdout_stderr.log").read_text()
+    assert "just saying hello" in log

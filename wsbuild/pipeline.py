@@ -367,7 +367,10 @@ def _build_package(plan: Plan, request: BuildRequest, name: str, base_env: Mappi
             handle.write(f"Invoking command in '{cwd}': {format_command(command, cwd, delta)}\n")
         completed = run_command(command, cwd=cwd, env=use_env, log_dir=log_dir,
                                 pass_fds=jobserver.fds)
-        warnings.extend(line for line in completed.stderr if line.strip())
+        stderr = list(completed.stderr)
+        if command[0] == "cmake" and not {"--build", "--install"} & set(command):
+            stderr = cmake_configure_problems(stderr)
+        warnings.extend(line for line in stderr if line.strip())
         if completed.returncode != 0:
             raise StepFailed(
                 f"'{command[0]}' exited with code {completed.returncode}",
@@ -437,6 +440,21 @@ def _log_tail(log_dir: Path, lines: int = 15) -> list[str]:
         return []
     text = path.read_text(errors="replace").splitlines()
     return [f"    {line}" for line in text[-lines:]]
+
+
+def cmake_configure_problems(lines: list[str]) -> list[str]:
+    """The warning and error blocks of a CMake configure's stderr. Plain `message()` output
+    also goes to stderr but is not a problem, so it stays in the log only."""
+    kept: list[str] = []
+    in_block = False
+    for line in lines:
+        if line.startswith(("CMake Warning", "CMake Deprecation Warning", "CMake Error")):
+            in_block = True
+        elif in_block and not line.strip() and kept and not kept[-1].strip():
+            in_block = False  # blocks end with an empty line after their indented body
+        if in_block:
+            kept.append(line)
+    return kept
 
 
 def _interesting(lines: list[str]) -> list[str]:
