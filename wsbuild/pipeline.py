@@ -34,9 +34,6 @@ from wsbuild.schedule import RunInterrupted, run_jobs
 from wsbuild.underlay import PreparedUnderlay
 from wsbuild.workspace import BUILD_MARKER, Workspace
 
-LAYOUT_MARKER = ".colcon_install_layout"
-
-
 @dataclass(frozen=True, slots=True)
 class Plan:
     workspace: Workspace
@@ -46,23 +43,25 @@ class Plan:
 
 
 def check_layout(workspace: Workspace, merged: bool) -> None:
-    marker = workspace.install_base / LAYOUT_MARKER
-    if not marker.exists():
-        return
-    existing = marker.read_text().strip()
-    wanted = "merged" if merged else "isolated"
-    if existing != wanted:
-        flag = "with" if existing == "merged" else "without"
+    """Refuse, before anything is touched, to mix isolated and merged installs."""
+    from wsbuild.prefix.layout import INSTALL_LAYOUT_MARKER, MERGED, read_install_layout
+
+    existing = read_install_layout(workspace.install_base)
+    wanted = MERGED if merged else "isolated"
+    if existing is not None and existing != wanted:
+        flag = "with" if existing == MERGED else "without"
         raise WorkspaceError(
             f"install/ holds an {existing} install but this build is {wanted}",
-            path=marker,
+            path=workspace.install_base / INSTALL_LAYOUT_MARKER,
             hint=f"build {flag} --merge-install as before, or remove "
             f"{workspace.build_base.name}/ and {workspace.install_base.name}/ first",
         )
 
 
 def package_prefix(workspace: Workspace, name: str, merged: bool) -> Path:
-    return workspace.install_base if merged else workspace.install_base / name
+    from wsbuild.prefix.layout import package_prefix as prefix_of
+
+    return prefix_of(workspace.install_base, name, merged=merged)
 
 
 def is_installed(workspace: Workspace, name: str, merged: bool) -> bool:
@@ -107,17 +106,6 @@ def check_dependencies(plan: Plan, request: BuildRequest, environ: Mapping[str, 
             hint="install them into the underlay (e.g. pip install ros-jazzy-<name> or apt), "
             "source the underlay that has them, or pass --skip-dependency-check",
         )
-
-
-def build_environment(plan: Plan, name: str, base: Mapping[str, str], merged: bool,
-                      order: list[str]) -> dict[str, str]:
-    """The environment a package builds in: its dependencies' prefixes applied in order."""
-    from wsbuild.prefix import environment_for
-
-    closure = plan.graph.build_closure(name)
-    prefixes = [(package_prefix(plan.workspace, dep, merged), dep) for dep in order
-                if dep in closure]
-    return environment_for(prefixes, base)
 
 
 class _Jobserver:
@@ -194,7 +182,8 @@ def run_build(plan: Plan, request: BuildRequest, emit: Emit) -> list[BuildResult
 
             shutdown_helpers()
             jobserver.close()
-            _clean_stage_dir(ws)
+            # a previous install parked by an unfinished direct_install goes back, never away
+            recover_all(ws.install_base)
         _finish_install(ws, merged, underlay)
         merge_compile_commands(ws)
     emit(RunFinished(tuple(results), time.monotonic() - started))
@@ -205,27 +194,16 @@ def run_build(plan: Plan, request: BuildRequest, emit: Emit) -> list[BuildResult
     return results
 
 
-def _clean_stage_dir(ws: Workspace) -> None:
-    from wsbuild.stage import recover_all
-
-    # a previous install parked by an unfinished direct_install goes back, never away
-    recover_all(ws.install_base)
-
-
 def _mark_workspace(ws: Workspace, merged: bool) -> None:
-    ws.build_base.mkdir(parents=True, exist_ok=True)
-    ws.install_base.mkdir(parents=True, exist_ok=True)
+    """build/ and install/ get colcon's markers, so tools and later runs recognise them."""
+    from wsbuild.prefix.files import create_if_missing
+    from wsbuild.prefix.layout import mark_install_layout, write_ignore_marker
+
     for base in (ws.build_base, ws.install_base):
-        ignore = base / "COLCON_IGNORE"
-        if not ignore.exists():
-            ignore.touch()
-    marker = ws.build_base / BUILD_MARKER
-    if not marker.exists():
-        marker.write_text("wsbuild\n")
-    layout = ws.install_base / LAYOUT_MARKER
-    text = ("merged" if merged else "isolated") + "\n"
-    if not layout.exists() or layout.read_text() != text:
-        layout.write_text(text)
+        base.mkdir(parents=True, exist_ok=True)
+        write_ignore_marker(base)
+    create_if_missing(ws.build_base / BUILD_MARKER, "wsbuild\n")
+    mark_install_layout(ws.install_base, merged=merged)
 
 
 def _finish_install(ws: Workspace, merged: bool, underlay: PreparedUnderlay) -> None:
@@ -292,12 +270,12 @@ def build_settings(plan: Plan, request: BuildRequest, name: str,
     })
 
 
-def _dependency_keys(plan: Plan, name: str, keys: Mapping[str, str]) -> dict[str, str]:
-    """The build keys of the workspace packages `name` builds against."""
+def _dependency_keys(plan: Plan, closure: set[str], keys: Mapping[str, str]) -> dict[str, str]:
+    """The build keys of the workspace packages a package builds against (its `closure`)."""
     from wsbuild.fingerprint import read_state
 
     result = {}
-    for dep in sorted(plan.graph.build_closure(name)):
+    for dep in sorted(closure):
         key = keys.get(dep)
         if key is None:
             state = read_state(plan.workspace.build_base / dep)
@@ -317,7 +295,7 @@ def _build_package(plan: Plan, request: BuildRequest, name: str, base_env: Mappi
     from wsbuild.fingerprint import (
         BuildState, installed_files, read_state, snapshot_sources, why_rebuild, write_state,
     )
-    from wsbuild.prefix import register_package_files, write_package_environment
+    from wsbuild.prefix import environment_for, register_package_files, write_package_environment
     from wsbuild.python_paths import site_packages_relpath
 
     ws = plan.workspace
@@ -332,7 +310,8 @@ def _build_package(plan: Plan, request: BuildRequest, name: str, base_env: Mappi
     old = read_state(build_dir)
     snapshot = snapshot_sources(package.path, old.files if old else {})
     settings = build_settings(plan, request, name, base_env)
-    dep_keys = _dependency_keys(plan, name, keys)
+    closure = plan.graph.build_closure(name)
+    dep_keys = _dependency_keys(plan, closure, keys)
     if (build_dir / BUILDING_MARKER).exists():
         reason: str | None = "the previous build did not finish"
     elif request.force or options.cmake_force_configure or options.cmake_clean_cache \
@@ -355,8 +334,9 @@ def _build_package(plan: Plan, request: BuildRequest, name: str, base_env: Mappi
     (build_dir / BUILDING_MARKER).touch()
     prefix = package_prefix(ws, name, merged)
     stage = staging.new_stage(ws.install_base, name)
-    closure = plan.graph.build_closure(name)
-    environ = build_environment(plan, name, base_env, merged, order)
+    # the dependencies' prefixes, applied in dependency order (what sourcing them would do)
+    dependencies = [(package_prefix(ws, dep, merged), dep) for dep in order if dep in closure]
+    environ = environment_for(dependencies, base_env)
     environ["MAKEFLAGS"] = jobserver.makeflags
     warnings: list[str] = []
 
@@ -386,7 +366,7 @@ def _build_package(plan: Plan, request: BuildRequest, name: str, base_env: Mappi
         environ=environ,
         run=run,
         warn=warnings.append,
-        dependency_prefixes=tuple(package_prefix(ws, d, merged) for d in order if d in closure),
+        dependency_prefixes=tuple(prefix for prefix, _ in dependencies),
     )
     try:
         build_type = get_build_type(package.build_type)

@@ -99,17 +99,21 @@ class Resolver:
 
     def _index(self) -> dict[str, Path]:
         if self._ament_index is None:
-            index: dict[str, Path] = {}
-            for prefix in self.ament_prefixes:
-                marker_dir = prefix / "share" / "ament_index" / "resource_index" / "packages"
-                try:
-                    names = os.listdir(marker_dir)
-                except OSError:
-                    continue
-                for marker in names:
-                    index.setdefault(marker, prefix)
-            self._ament_index = index
+            self._ament_index = ament_index(self.ament_prefixes)
         return self._ament_index
+
+
+def ament_index(prefixes: Iterable[Path]) -> dict[str, Path]:
+    """package -> the first prefix whose ament resource index lists it (as ament_index does)."""
+    index: dict[str, Path] = {}
+    for prefix in prefixes:
+        try:
+            names = os.listdir(prefix / "share" / "ament_index" / "resource_index" / "packages")
+        except OSError:
+            continue
+        for name in names:
+            index.setdefault(name, prefix)
+    return index
 
 
 def _split(value: str) -> list[Path]:

@@ -14,28 +14,21 @@ from wsbuild.errors import SelectionError, WsbuildError
 
 def _package_prefixes(environ: Mapping[str, str], install_base: Path) -> dict[str, Path]:
     """package -> prefix: AMENT_PREFIX_PATH first (what the user sourced), then this workspace."""
-    found: dict[str, Path] = {}
-    prefixes = [Path(p) for p in environ.get("AMENT_PREFIX_PATH", "").split(os.pathsep) if p]
-    for prefix in prefixes:
-        index = prefix / "share" / "ament_index" / "resource_index" / "packages"
-        try:
-            for name in os.listdir(index):
-                found.setdefault(name, prefix)
-        except OSError:
-            continue
-    if install_base.is_dir():
-        merged = (install_base / ".colcon_install_layout").exists() and (
-            install_base / ".colcon_install_layout").read_text().strip() == "merged"
-        candidates = [install_base] if merged else [p for p in sorted(install_base.iterdir())
-                                                     if p.is_dir()]
-        for prefix in candidates:
-            index = prefix / "share" / "ament_index" / "resource_index" / "packages"
-            try:
-                for name in os.listdir(index):
-                    found.setdefault(name, prefix)
-            except OSError:
-                continue
-    return found
+    from wsbuild.resolve import ament_index
+
+    sourced = [Path(p) for p in environ.get("AMENT_PREFIX_PATH", "").split(os.pathsep) if p]
+    if _is_merged(install_base):
+        own = [install_base]
+    else:
+        own = sorted(p for p in install_base.iterdir() if p.is_dir()) if install_base.is_dir() \
+            else []
+    return ament_index([*sourced, *own])
+
+
+def _is_merged(install_base: Path) -> bool:
+    from wsbuild.prefix.layout import MERGED, read_install_layout
+
+    return read_install_layout(install_base) == MERGED
 
 
 def _executables(prefix: Path, package: str) -> list[str]:
@@ -99,8 +92,7 @@ def _workspace_environment(install_base: Path, environ: dict[str, str]) -> dict[
     """What `source install/setup.sh` would give, computed without a shell."""
     from wsbuild.prefix import environment_for, installed_order
 
-    merged = (install_base / ".colcon_install_layout").exists() and (
-        install_base / ".colcon_install_layout").read_text().strip() == "merged"
+    merged = _is_merged(install_base)
     pairs = [(install_base if merged else install_base / name, name)
              for name in installed_order(install_base, merged=merged)]
     return environment_for(pairs, environ)
