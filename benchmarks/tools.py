@@ -54,7 +54,7 @@ class Tools:
     colcon_venv: Path
     #: environment for wsbuild: clean, wsbuild finds the venv underlay itself (as a user runs it)
     wsbuild_env: dict[str, str]
-    #: environment for colcon: clean + what `wsbuild.underlay.build_environment` computes
+    #: environment for colcon: clean + what `wsbuild.underlay.environment.build_environment` computes
     colcon_env: dict[str, str]
     #: a fresh terminal (no venv activated): where `source install/setup.bash` is timed
     shell_env: dict[str, str]
@@ -126,8 +126,8 @@ def _setuptools_version(python: Path) -> str:
 
 def make_tools(project_venv: Path, colcon_venv: Path) -> Tools:
     """Both tools' environments.  colcon's gets the underlay variables exactly as wsbuild
-    computes them for its own builds (`wsbuild.underlay.build_environment`)."""
-    from wsbuild.underlay import build_environment
+    computes them for its own builds (`wsbuild.underlay.environment.build_environment`)."""
+    from wsbuild.underlay.environment import build_environment
 
     base = clean_environ()
     path = [p for p in base.get("PATH", "").split(os.pathsep)

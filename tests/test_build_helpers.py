@@ -14,7 +14,7 @@ from typing import TypeVar
 import pytest
 
 from conftest import PACKAGE_XML, run_wsbuild
-from wsbuild.underlay import find_venv_underlay
+from wsbuild.underlay.detect import find_venv_underlay
 
 PY = sys.executable
 

@@ -29,7 +29,7 @@ from test_build_helpers import (
     write_cmake,
     wsbuild,
 )
-from wsbuild.underlay import build_environment
+from wsbuild.underlay.environment import build_environment
 
 # one worker builds the colcon virtualenv once for both tests (scripts/test.sh: --dist loadgroup)
 pytestmark = [*REQUIRES_ROS, pytest.mark.xdist_group("colcon")]

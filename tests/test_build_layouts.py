@@ -20,7 +20,7 @@ from test_build_helpers import (
     write_cmake,
     wsbuild,
 )
-from wsbuild.python_paths import site_packages_relpath
+from wsbuild.build_types.pybuild.paths import site_packages_relpath
 
 SITE = site_packages_relpath()
 

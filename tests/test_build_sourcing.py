@@ -16,7 +16,7 @@ from test_build_helpers import (
     shell,
     write_cmake,
 )
-from wsbuild.python_paths import site_packages_relpath
+from wsbuild.build_types.pybuild.paths import site_packages_relpath
 
 SHELLS = {"bash": "setup.bash", "dash": "setup.sh", "zsh": "setup.zsh"}
 

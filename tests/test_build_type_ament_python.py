@@ -12,10 +12,10 @@ from pathlib import Path
 import pytest
 
 from wsbuild.build_types import BuildContext, BuildOptions, StepFailed, get_build_type
-from wsbuild.model import Package
-from wsbuild.python_install import read_installed_files
-from wsbuild.python_paths import site_packages_relpath
-from wsbuild.setup_py import SETUP_LOG, shutdown_helpers
+from wsbuild.workspace.model import Package
+from wsbuild.build_types.pybuild.install import read_installed_files
+from wsbuild.build_types.pybuild.paths import site_packages_relpath
+from wsbuild.build_types.pybuild.setup_py import SETUP_LOG, shutdown_helpers
 
 SITE = site_packages_relpath()
 

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import pytest
 
-from wsbuild.condition import DEFAULT_VARIABLES, check_condition, evaluate_condition
+from wsbuild.workspace.condition import DEFAULT_VARIABLES, check_condition, evaluate_condition
 from wsbuild.errors import ConditionError, ManifestError
 
 ENV = {"ROS_VERSION": "2", "ROS_DISTRO": "jazzy", "NUM": "10", "EMPTY": ""}

@@ -8,13 +8,14 @@ from pathlib import Path
 import pytest
 
 from conftest import write_package
-from wsbuild.discover import discover_packages, find_package_dirs
+from wsbuild.workspace.discover import discover_packages, find_package_dirs
 from wsbuild.errors import ManifestError, WorkspaceError
-from wsbuild.workspace import Workspace, find_workspace_root
+from wsbuild.build_types import KnownBuildTypes
+from wsbuild.workspace.root import Workspace, find_workspace_root
 
 
 def _names(root: Path) -> list[str]:
-    found = discover_packages([], base_paths=[root], environ={})
+    found = discover_packages([], base_paths=[root], environ={}, known_build_types=KnownBuildTypes())
     return sorted(found.packages)
 
 
@@ -70,7 +71,7 @@ def test_packages_without_manifest(tmp_path: Path) -> None:
     tool_only = tmp_path / "tooling"
     tool_only.mkdir()
     (tool_only / "pyproject.toml").write_text("[tool.ruff]\nline-length = 99\n")
-    found = discover_packages([], base_paths=[tmp_path], environ={}).packages
+    found = discover_packages([], base_paths=[tmp_path], environ={}, known_build_types=KnownBuildTypes()).packages
     assert sorted(found) == ["my-lib", "plain_cmake"]
     assert found["plain_cmake"].build_type == "cmake"
     assert found["my-lib"].build_type == "python"
@@ -81,7 +82,7 @@ def test_duplicate_names_name_both_paths(tmp_path: Path) -> None:
     write_package(tmp_path, "twin", "cmake", subdir="one")
     write_package(tmp_path, "twin", "cmake", subdir="two")
     with pytest.raises(WorkspaceError) as info:
-        discover_packages([], base_paths=[tmp_path], environ={})
+        discover_packages([], base_paths=[tmp_path], environ={}, known_build_types=KnownBuildTypes())
     text = str(info.value)
     assert str(tmp_path / "one" / "twin") in text and str(tmp_path / "two" / "twin") in text
     assert "\n" not in text
@@ -92,7 +93,7 @@ def test_cmake_without_project_is_an_error(tmp_path: Path) -> None:
     bad.mkdir()
     (bad / "CMakeLists.txt").write_text("message(hi)\n")
     with pytest.raises(ManifestError, match="project"):
-        discover_packages([], base_paths=[tmp_path], environ={})
+        discover_packages([], base_paths=[tmp_path], environ={}, known_build_types=KnownBuildTypes())
 
 
 def test_workspace_root_found_from_src_and_from_inside_a_package(tmp_path: Path) -> None:

@@ -5,8 +5,8 @@ from __future__ import annotations
 import pytest
 
 from wsbuild.errors import CycleError
-from wsbuild.graph import build_graph
-from wsbuild.model import Dependency, DepKind, Package
+from wsbuild.workspace.graph import build_graph
+from wsbuild.workspace.model import Dependency, DepKind, Package
 from pathlib import Path
 
 

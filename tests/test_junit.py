@@ -9,7 +9,7 @@ from pathlib import Path
 
 import pytest
 
-from wsbuild.junit import (
+from wsbuild.testing.junit import (
     BadResultFile, Case, CaseOutcome, Collected, Counts, NotJUnit, ResultFile, ament_result_file,
     case_details, collect_results, read_ctest_junit, read_ctest_xml, read_junit, report_lines,
     write_junit,

@@ -2,13 +2,12 @@
 
 from __future__ import annotations
 
-import time
 from pathlib import Path
 
 import pytest
 
 from wsbuild.errors import ConditionError, ManifestError
-from wsbuild.manifest import (
+from wsbuild.workspace.manifest import (
     DEPENDENCY_NAME_RULE,
     PACKAGE_NAME_RULE,
     check_version_constraints,
@@ -16,7 +15,7 @@ from wsbuild.manifest import (
     is_valid_package_name,
     parse_manifest,
 )
-from wsbuild.model import DepCategory, Dependency, DepKind, Package, Person, VersionConstraint
+from wsbuild.workspace.model import DepCategory, Dependency, DepKind, Package, Person, VersionConstraint
 
 KNOWN = frozenset({"ament_cmake", "ament_python", "cmake", "python"})
 BAD_MANIFESTS = Path(__file__).parent / "data" / "bad_manifests"
@@ -594,7 +593,8 @@ def test_dependency_name_rule(name: str, valid: bool) -> None:
 # --- speed ------------------------------------------------------------------------------------
 
 
-def test_parsing_many_manifests_is_fast(tmp_path: Path) -> None:
+def test_parsing_many_manifests_keeps_them_apart(tmp_path: Path) -> None:
+    # Parsing speed is measured in benchmarks/ (`list` on 1,000 packages), not asserted here.
     body = """\
   <buildtool_depend>ament_cmake</buildtool_depend>
   <depend>rclcpp</depend>
@@ -604,12 +604,9 @@ def test_parsing_many_manifests_is_fast(tmp_path: Path) -> None:
     paths = [
         write(tmp_path, manifest(3, body, name=f"pkg_{i}"), folder=f"pkg_{i}") for i in range(500)
     ]
-    start = time.perf_counter()
     packages = [parse(path) for path in paths]
-    elapsed = time.perf_counter() - start
-    assert len({p.name for p in packages}) == 500
-    # The budget is 0.1 s per 1,000 manifests; allow a loaded CI machine 5x that.
-    assert elapsed < 0.25, f"parsing 500 manifests took {elapsed:.3f} s"
+    assert [p.name for p in packages] == [f"pkg_{i}" for i in range(500)]
+    assert all(p.dependency_names(DepCategory.BUILD) >= {"rclcpp", "std_msgs"} for p in packages)
 
 
 def test_dependency_records_are_model_objects(tmp_path: Path) -> None:

@@ -20,10 +20,10 @@ from lxml import etree
 
 from conftest import run_wsbuild
 from wsbuild.errors import TemplateError, WsbuildError
-from wsbuild.licenses import LICENSES, canonical_license, is_spdx_expression
-from wsbuild.manifest import parse_manifest
-from wsbuild.model import DepKind
-from wsbuild.pkg_create import (
+from wsbuild.create.licenses import LICENSES, canonical_license, is_spdx_expression
+from wsbuild.workspace.manifest import parse_manifest
+from wsbuild.workspace.model import DepKind
+from wsbuild.create.render import (
     TOKEN,
     Maintainer,
     PackageCreateError,
@@ -36,7 +36,7 @@ from wsbuild.pkg_create import (
     render_package,
     templates_root,
 )
-from wsbuild.underlay import find_venv_underlay
+from wsbuild.underlay.detect import find_venv_underlay
 from wsbuild.verbs.pkg import add_pkg_create_arguments, run_pkg_create
 
 BUILD_TYPES = ("ament_cmake", "ament_python", "cmake")

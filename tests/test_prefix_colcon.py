@@ -15,7 +15,7 @@ from wsbuild.prefix import (
     write_package_environment,
     write_workspace_scripts,
 )
-from wsbuild.python_paths import site_packages_relpath
+from wsbuild.build_types.pybuild.paths import site_packages_relpath
 
 COLCON_VENV = Path("/work/venvs/colcon")
 

@@ -13,7 +13,7 @@ from pathlib import Path, PurePosixPath
 import pytest
 
 from wsbuild.build_types import StepFailed
-from wsbuild.python_install import (
+from wsbuild.build_types.pybuild.install import (
     InstallTarget,
     StageWriter,
     install_plan,
@@ -25,7 +25,7 @@ from wsbuild.python_install import (
     record_installed_files,
     scripts_relpath,
 )
-from wsbuild.setup_py import DataFiles, ModuleFile, SetupPlan
+from wsbuild.build_types.pybuild.setup_py import DataFiles, ModuleFile, SetupPlan
 
 SITE = PurePosixPath("lib/python3.11/site-packages")
 

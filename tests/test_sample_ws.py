@@ -19,7 +19,7 @@ from pathlib import Path
 import pytest
 import yaml
 
-from wsbuild.underlay import find_venv_underlay
+from wsbuild.underlay.detect import find_venv_underlay
 
 REPO = Path(__file__).resolve().parent.parent
 SAMPLE_WS = REPO / "sample_ws"

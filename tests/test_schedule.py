@@ -6,8 +6,8 @@ import threading
 import time
 
 from wsbuild.events import JobFinished, JobStarted
-from wsbuild.model import BuildResult, Outcome
-from wsbuild.schedule import run_jobs
+from wsbuild.workspace.model import BuildResult, Outcome
+from wsbuild.build.schedule import run_jobs
 
 DEPS = {"a": set(), "b": {"a"}, "c": {"a"}, "d": {"b", "c"}, "e": set()}
 ORDER = ["a", "e", "b", "c", "d"]

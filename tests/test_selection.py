@@ -6,7 +6,7 @@ import pytest
 
 from test_graph import graph_of, pkg
 from wsbuild.errors import SelectionError
-from wsbuild.selection import SelectionOptions, ignored_packages, select_packages
+from wsbuild.workspace.selection import SelectionOptions, ignored_packages, select_packages
 
 # app -> lib -> base ; tool -> base ; other (independent) ; app runs viz ; viz -> base
 GRAPH = graph_of(

@@ -15,7 +15,7 @@ import pytest
 
 from wsbuild.build_types import StepFailed
 from wsbuild.errors import ManifestError
-from wsbuild.setup_py import (
+from wsbuild.build_types.pybuild.setup_py import (
     SETUP_LOG,
     BuildSystem,
     compile_bytecode,

@@ -6,7 +6,7 @@ from pathlib import Path
 
 import pytest
 
-from wsbuild.stage import (
+from wsbuild.prefix.stage import (
     commit_isolated, commit_merged, direct_install, new_stage, recover_all, STAGE_DIR,
 )
 

@@ -15,8 +15,8 @@ from pathlib import Path
 import pytest
 
 from conftest import run_wsbuild, write_package
-from wsbuild.junit import Counts, read_junit
-from wsbuild.underlay import find_venv_underlay
+from wsbuild.testing.junit import Counts, read_junit
+from wsbuild.underlay.detect import find_venv_underlay
 
 TESTS = Path(__file__).resolve().parent
 SAMPLE_WS = TESTS.parent / "sample_ws"

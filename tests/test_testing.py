@@ -11,16 +11,16 @@ import pytest
 from conftest import run_wsbuild, write_package
 from wsbuild.errors import WorkspaceError
 from wsbuild.events import Event, JobFinished, Notice
-from wsbuild.graph import build_graph
-from wsbuild.junit import Case, CaseOutcome, Counts, read_junit
-from wsbuild.model import BuildResult, Dependency, DepKind, Outcome, Package
-from wsbuild.pipeline import Plan
-from wsbuild.testing import (
+from wsbuild.workspace.graph import build_graph
+from wsbuild.testing.junit import Case, CaseOutcome, Counts, read_junit
+from wsbuild.workspace.model import BuildResult, Dependency, DepKind, Outcome, Package
+from wsbuild.build.pipeline import Plan
+from wsbuild.testing.runners import (
     PackageStatus, PackageTests, TestRequest, TestRun, check_built, closure_under_test,
     install_layout, results_dir, run_tests, summary_lines,
 )
 from wsbuild.verbs.load import load
-from wsbuild.workspace import Workspace
+from wsbuild.workspace.root import Workspace
 
 FLAKY_TEST = '''from pathlib import Path
 
@@ -302,7 +302,7 @@ def test_summary_names_every_failing_test_with_its_log(tmp_path: Path) -> None:
 
 
 def test_an_internal_error_in_a_job_is_a_failed_package() -> None:
-    from wsbuild.testing import _final
+    from wsbuild.testing.runners import _final
 
     result = _final(BuildResult("pkg", Outcome.FAILED, message="internal error (a bug)"), None)
     assert (result.status, result.message) == (PackageStatus.FAILED, "internal error (a bug)")

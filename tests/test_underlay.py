@@ -11,23 +11,12 @@ from pathlib import Path
 
 import pytest
 
-from wsbuild import underlay
 from wsbuild.errors import UnderlayError
-from wsbuild.underlay import (
-    BOOTSTRAP_GUARD_VAR,
-    MARKER_RELPATH,
-    build_environment,
-    cmake_arguments,
-    find_cmake_package,
-    find_venv_underlay,
-    is_wheel_underlay,
-    library_dirs,
-    missing_packages,
-    repair_underlay,
-    ros_distro,
-    scan_underlay,
-    write_lint_auto_shim,
-)
+from wsbuild.underlay import detect, repair
+from wsbuild.underlay.detect import BOOTSTRAP_GUARD_VAR, find_venv_underlay, is_wheel_underlay, ros_distro
+from wsbuild.underlay.environment import build_environment, cmake_arguments, library_dirs
+from wsbuild.underlay.lint import find_cmake_package, write_lint_auto_shim
+from wsbuild.underlay.repair import MARKER_RELPATH, missing_packages, repair_underlay, scan_underlay
 
 PY = f"{sys.version_info.major}.{sys.version_info.minor}"
 TAG = f"cp{sys.version_info.major}{sys.version_info.minor}"
@@ -57,7 +46,7 @@ FASTRTPS_TARGETS = r"""set_target_properties(fastrtps PROPERTIES
 
 @pytest.fixture(autouse=True)
 def _fresh_python_cache() -> None:
-    underlay._python_cache.clear()
+    detect._python_cache.clear()
 
 
 def make_fake_venv(root: Path) -> Path:
@@ -101,15 +90,15 @@ def make_fake_venv(root: Path) -> Path:
     return prefix
 
 
-def fake_python(prefix: Path, include_dir: Path) -> underlay.VenvPython:
-    python = underlay.VenvPython(
+def fake_python(prefix: Path, include_dir: Path) -> detect.VenvPython:
+    python = detect.VenvPython(
         version=PY,
         executable=prefix / "bin" / "python3",
         site_packages=prefix / "lib" / f"python{PY}" / "site-packages",
         include_dir=include_dir,
         library=None,
     )
-    underlay._python_cache[os.path.abspath(prefix)] = python
+    detect._python_cache[os.path.abspath(prefix)] = python
     return python
 
 
@@ -218,13 +207,13 @@ def test_scan_uses_marker_until_venv_changes(venv: Path, monkeypatch: pytest.Mon
     repair_underlay(venv)
     assert (venv / MARKER_RELPATH).is_file()
     calls: list[Path] = []
-    real = underlay._analyse
+    real = repair._analyse
 
-    def counting(prefix: Path, python: underlay.VenvPython):  # type: ignore[no-untyped-def]
+    def counting(prefix: Path, python: detect.VenvPython):  # type: ignore[no-untyped-def]
         calls.append(prefix)
         return real(prefix, python)
 
-    monkeypatch.setattr(underlay, "_analyse", counting)
+    monkeypatch.setattr(repair, "_analyse", counting)
     assert scan_underlay(venv) == []
     assert calls == []  # answered from the stamp
     # pip installing a package touches the ament index: the stamp no longer matches
@@ -291,7 +280,7 @@ def test_build_environment(venv: Path) -> None:
 def test_cmake_arguments(venv: Path, tmp_path: Path) -> None:
     assert cmake_arguments(venv) == [f"-DPython3_EXECUTABLE={venv}/bin/python3"]
     lib = tmp_path / "libpython.so"
-    underlay._python_cache[os.path.abspath(venv)] = underlay.VenvPython(
+    detect._python_cache[os.path.abspath(venv)] = detect.VenvPython(
         PY, venv / "bin" / "python3", venv / "lib", tmp_path, lib
     )
     args = cmake_arguments(venv)

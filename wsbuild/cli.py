@@ -10,11 +10,10 @@ import argparse
 import os
 import sys
 from collections.abc import Sequence
-from pathlib import Path
 
 from wsbuild import __version__
 from wsbuild.errors import WsbuildError
-from wsbuild.selection import SelectionOptions, add_selection_arguments
+from wsbuild.workspace.selection import SelectionOptions, add_selection_arguments
 
 
 class _Formatter(argparse.RawDescriptionHelpFormatter):
@@ -391,17 +390,3 @@ def main(argv: Sequence[str] | None = None) -> int:
 
 def selection_options(args: argparse.Namespace) -> SelectionOptions:
     return SelectionOptions.from_args(args)
-
-
-def workspace_root(args: argparse.Namespace) -> Path:
-    from wsbuild.workspace import find_workspace_root
-
-    if args.workspace_dir:
-        root = Path(args.workspace_dir).absolute()
-        if not root.is_dir():
-            from wsbuild.errors import WorkspaceError
-
-            raise WorkspaceError("workspace directory does not exist", path=root,
-                                 hint="check the -C/--workspace argument")
-        return root
-    return find_workspace_root(Path.cwd())

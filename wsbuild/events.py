@@ -5,7 +5,7 @@ from __future__ import annotations
 from collections.abc import Callable
 from dataclasses import dataclass
 
-from wsbuild.model import BuildResult
+from wsbuild.workspace.model import BuildResult
 
 
 @dataclass(frozen=True, slots=True)

@@ -1,41 +1,14 @@
-"""Validated, frozen option records for the verbs that do work."""
+"""Command-line arguments of the verbs that do work, turned into the build room's records."""
 
 from __future__ import annotations
 
 import argparse
-import os
 import shlex
 import sys
-from dataclasses import dataclass
 
+from wsbuild.build.request import BuildRequest, RunOptions, cpu_count
 from wsbuild.build_types import BuildOptions
 from wsbuild.errors import WsbuildError
-
-
-@dataclass(frozen=True, slots=True)
-class RunOptions:
-    """How packages are scheduled and reported (shared by build and test)."""
-
-    workers: int
-    sequential: bool
-    continue_on_error: bool
-    wait_for_lock: bool
-
-
-@dataclass(frozen=True, slots=True)
-class BuildRequest:
-    build: BuildOptions
-    run: RunOptions
-    skip_dependency_check: bool = False
-    force: bool = False
-    repair_underlay: bool = True
-
-
-def cpu_count() -> int:
-    try:
-        return len(os.sched_getaffinity(0))
-    except AttributeError:  # not Linux
-        return os.cpu_count() or 1
 
 
 def _split_args(values: list[str] | None) -> tuple[str, ...]:

@@ -7,8 +7,15 @@ import threading
 import time
 from typing import TextIO
 
-from wsbuild.events import Event, JobFinished, JobStarted, Notice, RunFinished, StepStarted
-from wsbuild.model import BuildResult, Outcome
+from wsbuild.events import (
+    Event,
+    JobFinished,
+    JobStarted,
+    Notice,
+    RunFinished,
+    StepStarted,
+)
+from wsbuild.workspace.model import BuildResult, Outcome
 
 
 def _plural(count: int, word: str) -> str:

@@ -7,7 +7,7 @@ Everything it touches (paths, environment, options, subprocesses) comes from the
 
 from __future__ import annotations
 
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Callable, Collection, Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Protocol
@@ -16,7 +16,7 @@ if TYPE_CHECKING:
     from importlib.metadata import EntryPoint
 
 from wsbuild.errors import ManifestError
-from wsbuild.model import Package
+from wsbuild.workspace.model import Package
 
 ENTRY_POINT_GROUP = "wsbuild.build_types"
 
@@ -138,3 +138,16 @@ def _entry_points() -> Sequence[EntryPoint]:
     from importlib.metadata import entry_points
 
     return [ep for ep in entry_points(group=ENTRY_POINT_GROUP) if ep.name not in BUILTIN]
+
+
+class KnownBuildTypes(Collection[str]):
+    """Built-in names answer at once; plugin entry points are scanned only for other names."""
+
+    def __contains__(self, name: object) -> bool:
+        return isinstance(name, str) and is_known(name)
+
+    def __iter__(self) -> Iterator[str]:
+        return iter(known_build_types())
+
+    def __len__(self) -> int:
+        return len(list(iter(self)))

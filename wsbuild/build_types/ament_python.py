@@ -11,8 +11,8 @@ from dataclasses import dataclass
 from pathlib import PurePosixPath
 
 from wsbuild.build_types import BuildContext, Step, StepFailed
+from wsbuild.build_types.pybuild.install import StageWriter
 from wsbuild.build_types.python import configure, install, origin_file, record
-from wsbuild.python_install import StageWriter
 
 INDEX_DIR = PurePosixPath("share/ament_index/resource_index/packages")
 

@@ -9,7 +9,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from wsbuild.build_types import BuildContext, Step
-from wsbuild.stage import direct_install
+from wsbuild.prefix.stage import direct_install
 
 #: what the last configure used, to know when to configure again
 CONFIGURE_RECORD = Path(".wsbuild") / "cmake_configure.json"

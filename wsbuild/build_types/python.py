@@ -1,7 +1,7 @@
 """The `python` build type: a setup.py / setup.cfg / pyproject.toml package, standards-based.
 
 Recipe: `configure` learns what setup() would install (a warm helper runs setup.py with
-setuptools patched to only report, see `wsbuild.setup_py`); `install` either places those files
+setuptools patched to only report, see `wsbuild.build_types.pybuild.setup_py`); `install` either places those files
 itself (the fast path) or, when setup.py customises the build (cmdclass, ext_modules, ...) or
 the backend is not setuptools, builds a wheel through PEP 517 and installs it with
 `installer`; `record` keeps the list of installed files in the build directory. Neither path
@@ -16,8 +16,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from wsbuild.build_types import BuildContext, Step, StepFailed
-from wsbuild.errors import WsbuildError
-from wsbuild.python_install import (
+from wsbuild.build_types.pybuild.install import (
     InstallTarget,
     install_plan,
     install_wheel,
@@ -26,8 +25,15 @@ from wsbuild.python_install import (
     record_installed_files,
     scripts_relpath,
 )
-from wsbuild.python_paths import site_packages_relpath
-from wsbuild.setup_py import BuildSystem, SetupPlan, compile_bytecode, read_build_system, read_setup
+from wsbuild.build_types.pybuild.paths import site_packages_relpath
+from wsbuild.build_types.pybuild.setup_py import (
+    BuildSystem,
+    SetupPlan,
+    compile_bytecode,
+    read_build_system,
+    read_setup,
+)
+from wsbuild.errors import WsbuildError
 
 #: ctx.extra key under which `configure` leaves a `PythonBuildPlan` for the later steps
 PLAN_KEY = "python.plan"
@@ -150,7 +156,7 @@ def _install_built_wheel(ctx: BuildContext, plan: PythonBuildPlan, target: Insta
                          origin: Path) -> list[Path]:
     from installer.utils import parse_wheel_filename
 
-    from wsbuild.pep517 import build_wheel
+    from wsbuild.build_types.pybuild.pep517 import build_wheel
 
     # a plan learnt from setup.py knows whether setup_requires is set
     known = plan.setup is not None and bool(plan.setup.name) \
@@ -161,7 +167,7 @@ def _install_built_wheel(ctx: BuildContext, plan: PythonBuildPlan, target: Insta
     egg_info: Path | None = None
     basename: str | None = None
     if plan.build_system.is_setuptools:
-        # setuptools' egg_info ran into the build directory (see wsbuild.pep517); install it
+        # setuptools' egg_info ran into the build directory (see wsbuild.build_types.pybuild.pep517); install it
         # instead of the wheel's .dist-info, as colcon's `setup.py install` would
         found = sorted(ctx.build_dir.glob("*.egg-info"))
         if len(found) == 1:

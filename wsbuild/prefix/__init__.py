@@ -24,7 +24,11 @@ from wsbuild.prefix.layout import (
     write_ignore_marker,
 )
 from wsbuild.prefix.quoting import validate_package_name
-from wsbuild.prefix.scripts import ChainedUnderlay, underlays_from_environment, write_workspace_scripts
+from wsbuild.prefix.scripts import (
+    ChainedUnderlay,
+    underlays_from_environment,
+    write_workspace_scripts,
+)
 
 __all__ = [
     "ChainedUnderlay",

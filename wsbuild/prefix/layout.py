@@ -99,7 +99,7 @@ def order_packages(packages: Mapping[str, Iterable[str]]) -> list[str]:
 
     Dependencies that are not among `packages` are ignored.
     """
-    from wsbuild.graph import toposort
+    from wsbuild.workspace.graph import toposort
 
     ordered, stuck = toposort(packages)
     if stuck:

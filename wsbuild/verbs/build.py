@@ -4,8 +4,8 @@ from __future__ import annotations
 
 import argparse
 
+from wsbuild.build.pipeline import Plan, run_build
 from wsbuild.options import build_request
-from wsbuild.pipeline import Plan, run_build
 from wsbuild.report import Reporter
 from wsbuild.verbs.load import load
 

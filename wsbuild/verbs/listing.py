@@ -8,9 +8,9 @@ import os
 from pathlib import Path
 
 from wsbuild.errors import SelectionError
-from wsbuild.graph import ALL_CATEGORIES, Graph
-from wsbuild.model import DepCategory, Package
 from wsbuild.verbs.load import load
+from wsbuild.workspace.graph import ALL_CATEGORIES, Graph
+from wsbuild.workspace.model import DepCategory, Package
 
 
 def _relative(path: Path, root: Path) -> str:
@@ -63,9 +63,10 @@ def run_list(args: argparse.Namespace) -> int:
 
 
 def _resolver():  # type: ignore[no-untyped-def]
-    from wsbuild.resolve import Resolver
-    from wsbuild.underlay import find_venv_underlay
     import sys
+
+    from wsbuild.underlay.detect import find_venv_underlay
+    from wsbuild.workspace.resolve import Resolver
 
     venv = find_venv_underlay(os.environ, sys.executable)
     return Resolver.from_environment(os.environ, [venv] if venv else [])
@@ -73,7 +74,7 @@ def _resolver():  # type: ignore[no-untyped-def]
 
 def _dependency_rows(package: Package, workspace: dict[str, Package],
                      resolver: object) -> list[dict[str, object]]:
-    from wsbuild.resolve import resolve_dependencies
+    from wsbuild.workspace.resolve import resolve_dependencies
 
     return [
         {

@@ -8,11 +8,16 @@ import sys
 from dataclasses import dataclass
 from pathlib import Path
 
-from wsbuild.discover import discover_packages, expand_paths
-from wsbuild.graph import Graph, build_graph
-from wsbuild.model import Package
-from wsbuild.selection import SelectionOptions, ignored_packages, select_packages
-from wsbuild.workspace import Workspace
+from wsbuild.build_types import KnownBuildTypes
+from wsbuild.workspace.discover import discover_packages, expand_paths
+from wsbuild.workspace.graph import Graph, build_graph
+from wsbuild.workspace.model import Package
+from wsbuild.workspace.root import Workspace
+from wsbuild.workspace.selection import (
+    SelectionOptions,
+    ignored_packages,
+    select_packages,
+)
 
 
 @dataclass(frozen=True, slots=True)
@@ -24,10 +29,23 @@ class Loaded:
     warnings: tuple[str, ...]
 
 
+def workspace_root(args: argparse.Namespace) -> Path:
+    """The workspace root: `-C/--workspace` if given, else found from the current directory."""
+    from wsbuild.workspace.root import find_workspace_root
+
+    if args.workspace_dir:
+        root = Path(args.workspace_dir).absolute()
+        if not root.is_dir():
+            from wsbuild.errors import WorkspaceError
+
+            raise WorkspaceError("workspace directory does not exist", path=root,
+                                 hint="check the -C/--workspace argument")
+        return root
+    return find_workspace_root(Path.cwd())
+
+
 def load(args: argparse.Namespace, *, select: bool = True) -> Loaded:
     """Discover the workspace named by `args` and apply the selection options."""
-    from wsbuild.cli import workspace_root
-
     workspace = Workspace.at(
         workspace_root(args),
         build_base=getattr(args, "build_base", None) or "build",
@@ -46,9 +64,10 @@ def load(args: argparse.Namespace, *, select: bool = True) -> Loaded:
         base_paths=base_paths,
         paths=paths,
         environ=os.environ,
+        known_build_types=KnownBuildTypes(),
     )
     packages = discovery.packages
-    from wsbuild.manifest import check_version_constraints
+    from wsbuild.workspace.manifest import check_version_constraints
 
     warnings = (*discovery.warnings, *check_version_constraints(packages))
     for warning in warnings:

@@ -28,14 +28,14 @@ examples:
 
 def add_pkg_create_arguments(parser: argparse.ArgumentParser) -> None:
     """The arguments of `pkg create` (those of `ros2 pkg create`, plus --launch)."""
-    from wsbuild.errors import WsbuildError
-    from wsbuild.licenses import NO_LICENSE
-    from wsbuild.pkg_create import (
+    from wsbuild.create.licenses import NO_LICENSE
+    from wsbuild.create.render import (
         DEFAULT_BUILD_TYPE,
         DEFAULT_DESCRIPTION,
         PACKAGE_FORMATS,
         available_build_types,
     )
+    from wsbuild.errors import WsbuildError
 
     try:
         build_types = ", ".join(available_build_types())
@@ -70,14 +70,14 @@ def add_pkg_create_arguments(parser: argparse.ArgumentParser) -> None:
 
 def run_pkg_create(args: argparse.Namespace) -> int:
     """Create a new package."""
-    from wsbuild.errors import WsbuildError
-    from wsbuild.licenses import LICENSES
-    from wsbuild.pkg_create import (
+    from wsbuild.create.licenses import LICENSES
+    from wsbuild.create.render import (
         PackageRequest,
         create_package,
         default_destination,
         default_maintainer,
     )
+    from wsbuild.errors import WsbuildError
 
     if args.license == "?":
         width = max(len(entry.spdx) for entry in LICENSES)

@@ -14,7 +14,7 @@ from wsbuild.errors import SelectionError, WsbuildError
 
 def _package_prefixes(environ: Mapping[str, str], install_base: Path) -> dict[str, Path]:
     """package -> prefix: AMENT_PREFIX_PATH first (what the user sourced), then this workspace."""
-    from wsbuild.resolve import ament_index
+    from wsbuild.workspace.resolve import ament_index
 
     sourced = [Path(p) for p in environ.get("AMENT_PREFIX_PATH", "").split(os.pathsep) if p]
     if _is_merged(install_base):
@@ -47,7 +47,7 @@ def _suggest(name: str, choices: list[str]) -> str:
 
 def run_executable(args: argparse.Namespace) -> int:
     """Run an executable of an installed package."""
-    from wsbuild.cli import workspace_root
+    from wsbuild.verbs.load import workspace_root
 
     root = workspace_root(args)
     install_base = root / (args.install_base or "install")

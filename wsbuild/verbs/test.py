@@ -6,11 +6,11 @@ import argparse
 import sys
 from pathlib import Path
 
+from wsbuild.build.pipeline import Plan
+from wsbuild.build.request import cpu_count
 from wsbuild.errors import Interrupted, WorkspaceError, WsbuildError
-from wsbuild.options import cpu_count
-from wsbuild.pipeline import Plan
 from wsbuild.report import Reporter
-from wsbuild.testing import TestRequest, run_tests, summary_lines
+from wsbuild.testing.runners import TestRequest, run_tests, summary_lines
 from wsbuild.verbs.load import load
 
 
@@ -69,8 +69,8 @@ def run_test_verb(args: argparse.Namespace) -> int:
 
 def run_test_result_verb(args: argparse.Namespace) -> int:
     """Show the results of earlier test runs (wsbuild's or colcon's); 1 when any failed."""
-    from wsbuild.cli import workspace_root
-    from wsbuild.junit import collect_results, report_lines
+    from wsbuild.testing.junit import collect_results, report_lines
+    from wsbuild.verbs.load import workspace_root
 
     root = workspace_root(args)
     base = root / (getattr(args, "test_result_base", None) or getattr(args, "build_base", None)

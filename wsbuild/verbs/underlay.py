@@ -7,7 +7,8 @@ import os
 import sys
 
 from wsbuild.errors import UnderlayError
-from wsbuild.underlay import find_venv_underlay, missing_packages, repair_underlay, scan_underlay
+from wsbuild.underlay.detect import find_venv_underlay
+from wsbuild.underlay.repair import missing_packages, repair_underlay, scan_underlay
 
 
 def _venv() -> "os.PathLike[str]":

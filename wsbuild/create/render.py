@@ -3,6 +3,9 @@
 templates/README.md describes the folders and the token syntax. Nothing is written until
 everything has rendered; the package is written into a hidden directory beside its destination
 and renamed into place, so a failure leaves nothing behind.
+
+One module for the whole render (options → tokens → files → atomic write): the steps share one
+token table and are only ever used together.
 """
 
 from __future__ import annotations
@@ -22,9 +25,9 @@ from dataclasses import dataclass
 from pathlib import Path, PurePosixPath
 from xml.sax.saxutils import escape
 
+from wsbuild.create.licenses import NO_LICENSE, canonical_license, find_license
 from wsbuild.errors import ManifestError, TemplateError, WsbuildError
-from wsbuild.licenses import NO_LICENSE, canonical_license, find_license
-from wsbuild.manifest import (
+from wsbuild.workspace.manifest import (
     DEPENDENCY_NAME_RULE,
     PACKAGE_NAME_RULE,
     is_valid_dependency_name,
@@ -139,10 +142,10 @@ def templates_root() -> Path:
     """The `templates/` folder: `wsbuild/templates` in a wheel, the repository's top-level
     `templates/` in a source checkout or editable install."""
     here = Path(__file__).resolve().parent
-    for candidate in (here / "templates", here.parent / "templates"):
+    for candidate in (here.parent / "templates", here.parent.parent / "templates"):
         if (candidate / "pkg").is_dir():
             return candidate
-    raise TemplateError("the pkg create templates are missing", path=here / "templates",
+    raise TemplateError("the pkg create templates are missing", path=here.parent / "templates",
                         hint="reinstall wsbuild: its wheel ships them in wsbuild/templates")
 
 
@@ -576,8 +579,8 @@ _MANIFEST_NAME = re.compile(rb"<name>\s*([^<\s]+)\s*</name>")
 def _workspace_packages(destination: Path) -> dict[str, Path]:
     """Package name → directory of the ROS packages under the workspace's src/, if
     `destination` is in one (names read cheaply; broken manifests are skipped)."""
-    from wsbuild.discover import find_package_dirs
-    from wsbuild.workspace import find_workspace_root
+    from wsbuild.workspace.discover import find_package_dirs
+    from wsbuild.workspace.root import find_workspace_root
 
     root = find_workspace_root(destination)
     src = root / "src"
@@ -628,7 +631,7 @@ def default_destination(cwd: Path) -> Path:
     """Where a new package goes: the workspace's src/, or the current directory when that is
     already inside src/ (beside the package when it is inside one); without a workspace, the
     current directory."""
-    from wsbuild.workspace import find_workspace_root
+    from wsbuild.workspace.root import find_workspace_root
 
     cwd = Path(os.path.abspath(cwd))
     root = find_workspace_root(cwd)

@@ -3,16 +3,19 @@
 The stages, in order:
 1. verbs.load     discover → graph → selection (the packages to test)
 2. check_built    the selected packages and everything on their test environment are installed
-3. lock           one wsbuild at a time per workspace (lock.py)
-4. underlay       the ROS virtualenv underlay's environment (underlay.py)
-5. schedule       packages in dependency order and in parallel (schedule.py); failing tests never
+3. lock           one wsbuild at a time per workspace (build/lock.py)
+4. underlay       the ROS virtualenv underlay's environment (underlay/environment.py)
+5. schedule       packages in dependency order and in parallel (build/schedule.py); failing tests never
                   stop the other packages (only --abort-on-error does)
 6. per package    python/ament_python: `python -m pytest` in the source directory;
                   cmake/ament_cmake: `ctest` in the build directory; both with the package's own
                   install and its dependencies' applied as colcon does (prefix/environment.py),
                   repeated for --retest-until-fail / --retest-until-pass
 7. results        JUnit XML in <build>/<pkg>/test_results/<pkg>/ (or <test-result-base>/<pkg>/),
-                  read back through junit.py into each package's result and the summary
+                  read back through testing/junit.py into each package's result and the summary
+
+The stages above share one run state (`_Tester`), which is why they stay in one module of
+over 500 lines.
 """
 
 from __future__ import annotations
@@ -29,17 +32,32 @@ from dataclasses import dataclass, field, replace
 from enum import Enum
 from pathlib import Path
 
+from wsbuild.build.pipeline import Plan, is_installed, package_prefix
+from wsbuild.build.process import (
+    REGISTRY,
+    Completed,
+    env_delta,
+    format_command,
+    run_command,
+)
 from wsbuild.errors import WorkspaceError
 from wsbuild.events import Emit, Event, JobFinished, Notice, StepStarted
-from wsbuild.graph import Graph
-from wsbuild.junit import (
-    BadResultFile, Case, CaseOutcome, Counts, NotJUnit, ResultFile, ament_result_file,
-    display_path, read_ctest_junit, read_junit, write_junit,
+from wsbuild.testing.junit import (
+    BadResultFile,
+    Case,
+    CaseOutcome,
+    Counts,
+    NotJUnit,
+    ResultFile,
+    ament_result_file,
+    display_path,
+    read_ctest_junit,
+    read_junit,
+    write_junit,
 )
-from wsbuild.model import BuildResult, DepCategory, Outcome
-from wsbuild.pipeline import Plan, is_installed, package_prefix
-from wsbuild.process import REGISTRY, Completed, env_delta, format_command, run_command
-from wsbuild.workspace import Workspace
+from wsbuild.workspace.graph import Graph
+from wsbuild.workspace.model import BuildResult, DepCategory, Outcome
+from wsbuild.workspace.root import Workspace
 
 PYTEST_BUILD_TYPES = frozenset({"ament_python", "python"})
 CTEST_BUILD_TYPES = frozenset({"ament_cmake", "cmake"})
@@ -194,10 +212,10 @@ def check_built(plan: Plan, merged: bool) -> None:
 def run_tests(plan: Plan, request: TestRequest, emit: Emit) -> TestRun:
     """Test the selected packages. Test failures are results, not exceptions; a run cut short
     by Ctrl-C comes back with `interrupted` set."""
-    from wsbuild.lock import workspace_lock
-    from wsbuild.logs import new_run_log
-    from wsbuild.schedule import RunInterrupted, run_jobs
-    from wsbuild.underlay import prepare_underlay
+    from wsbuild.build.lock import workspace_lock
+    from wsbuild.build.logs import new_run_log
+    from wsbuild.build.schedule import RunInterrupted, run_jobs
+    from wsbuild.underlay.environment import prepare_underlay
 
     ws = plan.workspace
     merged = install_layout(ws, request.merge_install)

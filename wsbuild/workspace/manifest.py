@@ -1,4 +1,8 @@
-"""package.xml → Package: formats 1–3, REP 149 conditions, groups, build_type and validation."""
+"""package.xml → Package: formats 1–3, REP 149 conditions, groups, build_type and validation.
+
+Longer than most modules on purpose: one reader walks the whole REP 140/149 element set, and
+splitting it by element would spread one schema over several files.
+"""
 
 from __future__ import annotations
 
@@ -11,9 +15,15 @@ from pathlib import Path
 from lxml import etree
 from packaging.version import InvalidVersion, Version
 
-from wsbuild.condition import evaluate_condition
 from wsbuild.errors import ConditionError, ManifestError
-from wsbuild.model import Dependency, DepKind, Package, Person, VersionConstraint
+from wsbuild.workspace.condition import evaluate_condition
+from wsbuild.workspace.model import (
+    Dependency,
+    DepKind,
+    Package,
+    Person,
+    VersionConstraint,
+)
 
 PACKAGE_NAME_RULE = (
     "a package name starts with a lowercase letter and contains only lowercase letters, "

@@ -8,7 +8,7 @@ from collections.abc import Mapping
 from pathlib import Path
 
 from wsbuild.build_types import Runner, StepFailed
-from wsbuild.setup_py import BuildSystem
+from wsbuild.build_types.pybuild.setup_py import BuildSystem
 
 #: the script the target interpreter runs; it must not import wsbuild
 HOOK_SCRIPT = Path(__file__).with_name("pep517_hook.py")

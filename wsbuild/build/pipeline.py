@@ -1,15 +1,16 @@
-"""`wsbuild build`: the stages of a build, in order.
+"""`wsbuild build`: the stages of a build, in order (each names the module that does it).
 
-1. verbs.load    discover → manifest → graph → selection (the packages to build)
-2. layout        install/ layout (isolated or merged) must match what is there already
-3. lock          one build per workspace at a time (lock.py)
-4. underlay      a ROS virtualenv underlay is detected and repaired if needed (underlay.py)
-5. resolve       every build dependency resolves before anything starts (resolve.py)
-6. schedule      packages build in parallel in dependency order (schedule.py), each through
-                 its build type's labelled steps (build_types/), into a stage (stage.py)
-7. prefix        on success the stage replaces the package's prefix; environment hooks and
-                 the workspace setup scripts are written (prefix/)
-8. report        events become console lines and a summary (report.py)
+1. verbs/load.py              workspace/discover → manifest → graph → selection (what to build)
+2. prefix/layout.py           install/ layout (isolated or merged) must match what is there already
+3. build/lock.py              one build per workspace at a time
+4. underlay/environment.py    a ROS virtualenv underlay is detected (detect.py), repaired if
+                              needed (repair.py), its environment computed, lint stand-in written
+5. workspace/resolve.py       build dependencies are resolved before anything starts
+6. build/schedule.py          packages build in parallel in dependency order, each through its
+                              build type's labelled steps (build_types/), into a stage (prefix/stage.py)
+7. prefix/                    on success the stage replaces the package's prefix; environment hooks
+                              and the workspace setup scripts are written
+8. report.py                  events (events.py) become console lines and a summary
 """
 
 from __future__ import annotations
@@ -22,17 +23,18 @@ from collections.abc import Mapping, Sequence
 from dataclasses import asdict, dataclass, replace
 from pathlib import Path
 
+from wsbuild.build.logs import new_run_log
+from wsbuild.build.process import env_delta, format_command, run_command
+from wsbuild.build.request import BuildRequest
+from wsbuild.build.schedule import RunInterrupted, run_jobs
 from wsbuild.build_types import BuildContext, StepFailed, get_build_type
 from wsbuild.errors import BuildFailed, DependencyError, Interrupted, WorkspaceError
 from wsbuild.events import Emit, Notice, RunFinished, StepStarted
-from wsbuild.graph import Graph
-from wsbuild.logs import new_run_log
-from wsbuild.model import BuildResult, DepCategory, Outcome, Package
-from wsbuild.options import BuildRequest
-from wsbuild.process import env_delta, format_command, run_command
-from wsbuild.schedule import RunInterrupted, run_jobs
-from wsbuild.underlay import PreparedUnderlay
-from wsbuild.workspace import BUILD_MARKER, Workspace
+from wsbuild.underlay.environment import PreparedUnderlay
+from wsbuild.workspace.graph import Graph
+from wsbuild.workspace.model import BuildResult, DepCategory, Outcome, Package
+from wsbuild.workspace.root import BUILD_MARKER, Workspace
+
 
 @dataclass(frozen=True, slots=True)
 class Plan:
@@ -89,7 +91,7 @@ def check_dependencies(plan: Plan, request: BuildRequest, environ: Mapping[str, 
         )
     if request.skip_dependency_check:
         return
-    from wsbuild.resolve import Resolver, unresolved_build_dependencies
+    from wsbuild.workspace.resolve import Resolver, unresolved_build_dependencies
 
     resolver = Resolver.from_environment(environ, extra_prefixes)
     missing, unchecked = unresolved_build_dependencies(
@@ -133,9 +135,9 @@ class _Jobserver:
 
 def run_build(plan: Plan, request: BuildRequest, emit: Emit) -> list[BuildResult]:
     """Build the selected packages. Raises BuildFailed / Interrupted after reporting."""
-    from wsbuild.lock import workspace_lock
-    from wsbuild.stage import recover_all
-    from wsbuild.underlay import prepare_underlay
+    from wsbuild.build.lock import workspace_lock
+    from wsbuild.prefix.stage import recover_all
+    from wsbuild.underlay.environment import prepare_underlay
 
     ws = plan.workspace
     options = request.build
@@ -178,7 +180,7 @@ def run_build(plan: Plan, request: BuildRequest, emit: Emit) -> list[BuildResult
             emit(RunFinished(tuple(results), time.monotonic() - started))
             raise Interrupted("build interrupted") from None
         finally:
-            from wsbuild.setup_py import shutdown_helpers
+            from wsbuild.build_types.pybuild.setup_py import shutdown_helpers
 
             shutdown_helpers()
             jobserver.close()
@@ -208,12 +210,16 @@ def _mark_workspace(ws: Workspace, merged: bool) -> None:
 
 def _finish_install(ws: Workspace, merged: bool, underlay: PreparedUnderlay) -> None:
     """Write install/setup.* and local_setup.* for every package installed so far."""
-    from wsbuild.prefix import ChainedUnderlay, underlays_from_environment, write_workspace_scripts
+    from wsbuild.prefix import (
+        ChainedUnderlay,
+        underlays_from_environment,
+        write_workspace_scripts,
+    )
 
     # chain what was sourced before the venv was applied, then the venv itself
     underlays = underlays_from_environment(os.environ, ws.install_base)
     if underlay.venv is not None:
-        from wsbuild.underlay import BOOTSTRAP_GUARD_VAR
+        from wsbuild.underlay.environment import BOOTSTRAP_GUARD_VAR
 
         # with the library path set, the wheels' bootstrapper need not re-execute every Python
         underlays.append(ChainedUnderlay(prefix=underlay.venv, script_dir=None,
@@ -227,7 +233,7 @@ def venv_prepends(venv: Path) -> tuple[tuple[str, str], ...]:
 
     Computed against an empty environment: wsbuild's own environment already holds what the
     wheels' bootstrapper added when it re-executed wsbuild."""
-    from wsbuild.underlay import build_environment
+    from wsbuild.underlay.environment import build_environment
 
     full = build_environment(venv, {})
     result: list[tuple[str, str]] = []
@@ -242,7 +248,7 @@ def build_settings(plan: Plan, request: BuildRequest, name: str,
                    base_env: Mapping[str, str]) -> str:
     """Digest of everything besides sources and dependencies that shapes a package's build."""
     from wsbuild import __version__
-    from wsbuild.fingerprint import digest_of
+    from wsbuild.build.fingerprint import digest_of
 
     options = asdict(request.build)
     options.pop("jobs")  # the CPU budget does not change what gets built
@@ -272,7 +278,7 @@ def build_settings(plan: Plan, request: BuildRequest, name: str,
 
 def _dependency_keys(plan: Plan, closure: set[str], keys: Mapping[str, str]) -> dict[str, str]:
     """The build keys of the workspace packages a package builds against (its `closure`)."""
-    from wsbuild.fingerprint import read_state
+    from wsbuild.build.fingerprint import read_state
 
     result = {}
     for dep in sorted(closure):
@@ -291,12 +297,21 @@ BUILDING_MARKER = Path(".wsbuild") / "building"
 def _build_package(plan: Plan, request: BuildRequest, name: str, base_env: Mapping[str, str],
                    order: list[str], run_log: Path, jobserver: _Jobserver,
                    keys: dict[str, str], emit: Emit) -> BuildResult:
-    from wsbuild import stage as staging
-    from wsbuild.fingerprint import (
-        BuildState, installed_files, read_state, snapshot_sources, why_rebuild, write_state,
+    from wsbuild.build.fingerprint import (
+        BuildState,
+        installed_files,
+        read_state,
+        snapshot_sources,
+        why_rebuild,
+        write_state,
     )
-    from wsbuild.prefix import environment_for, register_package_files, write_package_environment
-    from wsbuild.python_paths import site_packages_relpath
+    from wsbuild.build_types.pybuild.paths import site_packages_relpath
+    from wsbuild.prefix import (
+        environment_for,
+        register_package_files,
+        write_package_environment,
+    )
+    from wsbuild.prefix import stage as staging
 
     ws = plan.workspace
     package = plan.packages[name]

@@ -1,4 +1,4 @@
-"""ROS 2 underlays installed from PyPI wheels into a virtualenv: detection, repair, environment.
+"""Repair of the files a wheel-venv ROS underlay carries from the wheels' build machine.
 
 `pip install ros-jazzy-rclpy ...` turns a virtualenv into a ROS underlay: the venv prefix
 holds `share/ament_index/...`, `share/<pkg>/cmake/...`, `include/` and `lib/` like
@@ -30,57 +30,28 @@ config lives in site-packages (`cmake_prefixes`).
 idempotently; `scan_underlay` reports what it would change and caches a clean result in
 `<venv>/.wsbuild/underlay.json` so repeated calls cost a few `stat`s.
 
-The wheels' shared libraries live in `<venv>/lib` and in `site-packages/ros_*.libs`
-(auditwheel copies of libssl, tinyxml2, spdlog, yaml, lttng-ust ...).  Their RPATHs point
-outside the venv, so nothing loads without `LD_LIBRARY_PATH`.  The
-`ros_wheels_bootstrapper.pth` file therefore makes every Python started in the venv
-re-execute itself once with `LD_LIBRARY_PATH` extended, unless `BOOTSTRAP_GUARD_VAR` is set
-in its environment; `build_environment` computes the same variables so that neither the
-build nor the processes it starts pay for (or depend on) that re-exec.
+Above 500 lines because each rule carries the wheel defect it mends as documentation.
 """
 
 from __future__ import annotations
 
-import inspect
 import json
 import os
 import re
-import subprocess
-import sys
 import tempfile
-from collections.abc import Callable, Iterable, Iterator, Mapping
+from collections.abc import Callable, Iterator, Mapping
 from dataclasses import asdict, dataclass
 from pathlib import Path
 
 from wsbuild.errors import UnderlayError
-
-__all__ = [
-    "BOOTSTRAP_GUARD_VAR",
-    "EXTRA_REQUIREMENTS",
-    "LINT_AUTO_SHIM_VERSION",
-    "MARKER_RELPATH",
-    "MissingPackage",
-    "Problem",
-    "VenvPython",
-    "build_environment",
-    "cmake_arguments",
-    "cmake_prefixes",
-    "find_cmake_package",
-    "find_venv_underlay",
-    "is_wheel_underlay",
-    "library_dirs",
-    "missing_packages",
-    "repair_underlay",
-    "ros_distro",
-    "scan_underlay",
-    "venv_python",
-    "write_lint_auto_shim",
-]
-
-#: Set (to any non-empty value) in a child's environment, it stops
-#: `ros_wheels_bootstrapper` from re-executing the interpreter.  Only set it together
-#: with the `LD_LIBRARY_PATH` entries of `library_dirs`, or rclpy fails to import.
-BOOTSTRAP_GUARD_VAR = "_ROS_WHEELS_BOOTSTRAP_COMPLETE"
+from wsbuild.underlay.detect import (
+    RESOURCE_INDEX,
+    VenvPython,
+    is_ament_prefix,
+    ros_distro,
+    site_packages_dirs,
+    venv_python,
+)
 
 #: Where the repair stamp lives, relative to the venv prefix.
 MARKER_RELPATH = Path(".wsbuild") / "underlay.json"
@@ -89,8 +60,6 @@ MARKER_RELPATH = Path(".wsbuild") / "underlay.json"
 RULES_VERSION = 1
 
 #: Version written into the ament_lint_auto stand-in (see `write_lint_auto_shim`).
-LINT_AUTO_SHIM_VERSION = "0.17.3"
-
 #: Wheels the ros-jazzy-* metadata forgets: `find_package()` fails without them (the first
 #: three for any ament_cmake / rosidl package, the gtest/gmock/pytest ones once
 #: ament_cmake_ros is there, the vendors for `ament_add_gtest`/`ament_add_gmock`).
@@ -106,8 +75,6 @@ EXTRA_REQUIREMENTS = (
     "ros-jazzy-gtest-vendor",
     "ros-jazzy-gmock-vendor",
 )
-
-_INDEX = Path("share", "ament_index", "resource_index")
 _OPT_PYTHON = re.compile(
     r"/opt/python/cp(?P<major>\d)(?P<minor>\d+)-cp\d+[a-z]*(?P<rest>(?:/[A-Za-z0-9_.+\-/]*)?)"
 )
@@ -146,161 +113,6 @@ class MissingPackage:
     name: str
     required_by: tuple[str, ...]
     requirement: str
-
-
-@dataclass(frozen=True)
-class VenvPython:
-    """Facts about the venv's interpreter that a build needs (see `venv_python`)."""
-
-    version: str
-    executable: Path
-    site_packages: Path
-    include_dir: Path
-    library: Path | None
-
-    @property
-    def has_headers(self) -> bool:
-        """Whether `Python.h` is there (rosidl's Python extensions need it)."""
-        return (self.include_dir / "Python.h").is_file()
-
-
-# ---------------------------------------------------------------------------- detection
-
-
-def _is_ament_prefix(prefix: Path) -> bool:
-    return (prefix / _INDEX / "packages").is_dir()
-
-
-def find_venv_underlay(environ: Mapping[str, str], executable: str) -> Path | None:
-    """The active virtualenv's prefix if it is a ROS underlay (holds an ament index).
-
-    Candidates in order: `$VIRTUAL_ENV`; the venv that `executable` lives in
-    (`<venv>/bin/python`, recognised by `<venv>/pyvenv.cfg`, symlinks not followed);
-    `sys.prefix` of the running interpreter when it differs from `sys.base_prefix`.
-    """
-    candidates: list[Path] = []
-    if environ.get("VIRTUAL_ENV"):
-        candidates.append(Path(environ["VIRTUAL_ENV"]))
-    if executable:
-        venv = Path(os.path.abspath(executable)).parent.parent
-        if (venv / "pyvenv.cfg").is_file():
-            candidates.append(venv)
-    if sys.prefix != sys.base_prefix:
-        candidates.append(Path(sys.prefix))
-    for candidate in candidates:
-        if _is_ament_prefix(candidate):
-            return Path(os.path.abspath(candidate))
-    return None
-
-
-def _site_packages_dirs(prefix: Path) -> list[Path]:
-    return sorted(p for p in (prefix / "lib").glob("python3*/site-packages") if p.is_dir())
-
-
-def is_wheel_underlay(prefix: Path) -> bool:
-    """Whether `prefix` got its ROS packages from the PyPI wheels (not from apt or a build)."""
-    for site in _site_packages_dirs(prefix):
-        if (site / "ros_wheels_bootstrapper").is_dir() or next(site.glob("ros_*.libs"), None):
-            return True
-    return False
-
-
-def ros_distro(prefix: Path) -> str | None:
-    """The distro named by the installed `ros-<distro>-*` meta wheels (e.g. `"jazzy"`)."""
-    for site in _site_packages_dirs(prefix):
-        for info in sorted(site.glob("ros_*_*-*.dist-info")):
-            parts = info.name.split("-", 1)[0].split("_")  # ros_jazzy_rclpy-7.1.6.dist-info
-            if len(parts) >= 3 and parts[1] in _KNOWN_DISTROS:
-                return parts[1]
-    return None
-
-
-_KNOWN_DISTROS = frozenset({"humble", "iron", "jazzy", "kilted", "rolling"})
-
-
-# ------------------------------------------------------------------------------ python
-
-
-def _python_facts() -> dict[str, str | None]:
-    """Run inside the venv's interpreter (in-process or via `python -c`): stdlib only."""
-    import os
-    import sys
-    import sysconfig
-
-    var = sysconfig.get_config_var
-    library = None
-    if var("Py_ENABLE_SHARED") and var("LIBDIR"):
-        for name in (var("LDLIBRARY"), var("INSTSONAME")):
-            if name and os.path.isfile(os.path.join(var("LIBDIR"), name)):
-                library = os.path.join(var("LIBDIR"), name)
-                break
-    return {
-        "version": f"{sys.version_info[0]}.{sys.version_info[1]}",
-        "site_packages": sysconfig.get_path("platlib"),
-        "include_dir": sysconfig.get_path("include"),
-        "library": library,
-    }
-
-
-_python_cache: dict[str, VenvPython] = {}
-
-
-def _venv_executable(prefix: Path) -> Path:
-    for name in ("python3", "python"):
-        candidate = prefix / "bin" / name
-        if candidate.exists():
-            return candidate
-    raise UnderlayError(
-        "the underlay has no Python interpreter",
-        path=prefix / "bin",
-        hint="create it with `python3 -m venv` and pip-install the ros-jazzy-* wheels into it",
-    )
-
-
-def venv_python(prefix: Path) -> VenvPython:
-    """Interpreter facts for the venv at `prefix` (cached per process).
-
-    In-process when the running interpreter is that venv's; otherwise one
-    `python -E -c ...` with the bootstrap guard set, so it does not re-exec (`-S` is no
-    option: Python 3.11 sets `sys.prefix` to the venv in `site`).
-    """
-    key = os.path.abspath(prefix)
-    cached = _python_cache.get(key)
-    if cached is not None:
-        return cached
-    executable = _venv_executable(prefix)
-    facts: dict[str, str | None]
-    if os.path.abspath(sys.prefix) == key:
-        facts = _python_facts()
-    else:
-        script = f"import json\n{inspect.getsource(_python_facts)}\nprint(json.dumps(_python_facts()))\n"
-        env = {k: v for k, v in os.environ.items() if k != "PYTHONHOME"}
-        env[BOOTSTRAP_GUARD_VAR] = "1"
-        try:
-            done = subprocess.run(
-                [str(executable), "-E", "-c", script],
-                capture_output=True,
-                text=True,
-                env=env,
-                timeout=60,
-                check=False,
-            )
-        except OSError as exc:
-            raise UnderlayError(f"cannot run the underlay's Python: {exc}", path=executable) from exc
-        if done.returncode != 0:
-            raise UnderlayError(
-                f"the underlay's Python failed: {done.stderr.strip()[-500:]}", path=executable
-            )
-        facts = json.loads(done.stdout)
-    result = VenvPython(
-        version=str(facts["version"]),
-        executable=executable,
-        site_packages=Path(str(facts["site_packages"])),
-        include_dir=Path(str(facts["include_dir"])),
-        library=Path(facts["library"]) if facts["library"] else None,
-    )
-    _python_cache[key] = result
-    return result
 
 
 # ------------------------------------------------------------------------------ rules
@@ -448,7 +260,7 @@ def _cmake_files(prefix: Path) -> Iterator[Path]:
 
 
 def _parent_prefix_files(prefix: Path) -> Iterator[Path]:
-    folder = prefix / _INDEX / "parent_prefix_path"
+    folder = prefix / RESOURCE_INDEX / "parent_prefix_path"
     if folder.is_dir():
         with os.scandir(folder) as entries:
             for entry in sorted(entries, key=lambda e: e.name):
@@ -492,7 +304,7 @@ def _analyse(prefix: Path, python: VenvPython) -> Iterator[tuple[Path, str, str,
             yield path, old, new, edits
 
 
-def _atomic_write(path: Path, text: str) -> None:
+def atomic_write(path: Path, text: str) -> None:
     """Replace `path` by a fully written temp file in the same directory, keeping its mode."""
     try:
         mode = path.stat().st_mode & 0o7777
@@ -520,7 +332,7 @@ def _atomic_write(path: Path, text: str) -> None:
 def _stamp(prefix: Path) -> list[int]:
     """Changes whenever pip installs, upgrades or removes anything in the venv."""
     values: list[int] = [RULES_VERSION]
-    for path in [prefix / _INDEX / "packages", *_site_packages_dirs(prefix)]:
+    for path in [prefix / RESOURCE_INDEX / "packages", *site_packages_dirs(prefix)]:
         try:
             values.append(path.stat().st_mtime_ns)
             with os.scandir(path) as entries:  # mtimes can be coarse: count entries too
@@ -553,7 +365,7 @@ def _write_marker(prefix: Path, stamp: list[int], python: VenvPython, repaired: 
         payload["repaired"] = sorted({*map(str, earlier), *(str(p.relative_to(prefix)) for p in repaired)})
     try:
         marker.parent.mkdir(parents=True, exist_ok=True)
-        _atomic_write(marker, json.dumps(payload, indent=1, sort_keys=True) + "\n")
+        atomic_write(marker, json.dumps(payload, indent=1, sort_keys=True) + "\n")
     except OSError:
         pass  # a read-only venv just does not cache
 
@@ -588,7 +400,7 @@ def scan_underlay(prefix: Path, *, use_cache: bool = True) -> list[Problem]:
     the next call with an unchanged venv costs a few `stat`s.
     """
     prefix = Path(os.path.abspath(prefix))
-    if not _is_ament_prefix(prefix):
+    if not is_ament_prefix(prefix):
         raise UnderlayError(
             "not a ROS underlay (no share/ament_index/resource_index/packages)",
             path=prefix,
@@ -637,7 +449,7 @@ def repair_underlay(prefix: Path) -> list[Path]:
     recorded so that `scan_underlay` is free afterwards.
     """
     prefix = Path(os.path.abspath(prefix))
-    if not _is_ament_prefix(prefix):
+    if not is_ament_prefix(prefix):
         raise UnderlayError("not a ROS underlay (no share/ament_index/resource_index/packages)", path=prefix)
     stamp = _stamp(prefix)
     python = venv_python(prefix)
@@ -646,7 +458,7 @@ def repair_underlay(prefix: Path) -> list[Path]:
         if not _under(prefix, path):  # _analyse checks too; never write outside the venv
             continue
         try:
-            _atomic_write(path, new)
+            atomic_write(path, new)
         except OSError as exc:
             raise UnderlayError(
                 f"cannot rewrite underlay file: {exc.strerror or exc}",
@@ -666,7 +478,7 @@ def _resolvable(prefix: Path, name: str) -> bool:
     for folder in (share / "cmake", share, prefix / "lib" / "cmake" / name, prefix / "lib" / name / "cmake"):
         if (folder / f"{name}Config.cmake").is_file() or (folder / f"{name}-config.cmake").is_file():
             return True
-    return (prefix / _INDEX / "packages" / name).is_file()
+    return (prefix / RESOURCE_INDEX / "packages" / name).is_file()
 
 
 def missing_packages(prefix: Path) -> list[MissingPackage]:
@@ -721,229 +533,3 @@ def missing_packages(prefix: Path) -> list[MissingPackage]:
 # ------------------------------------------------------------------- public: environment
 
 
-def library_dirs(prefix: Path) -> list[Path]:
-    """`LD_LIBRARY_PATH` entries the wheels need, at build (link) time and at run time.
-
-    `<prefix>/lib`, every `site-packages/ros_*.libs` (sorted; the bootstrapper uses set
-    order), and the base interpreter's libpython directory when it is not a system one
-    (pyenv, uv): executables linking rcl or message targets need libpython, see
-    `cmake_arguments`.
-    """
-    prefix = Path(os.path.abspath(prefix))
-    dirs = [prefix / "lib"]
-    for site in _site_packages_dirs(prefix):
-        dirs.extend(sorted(p for p in site.glob("ros_*.libs") if p.is_dir()))
-    try:
-        python = venv_python(prefix)
-    except UnderlayError:
-        python = None
-    if python is not None and python.library is not None:
-        libdir = python.library.parent
-        if not str(libdir).startswith(("/usr/lib", "/lib")) and libdir not in dirs:
-            dirs.append(libdir)
-    return dirs
-
-
-def cmake_prefixes(prefix: Path) -> list[Path]:
-    """`CMAKE_PREFIX_PATH` entries of the underlay: the venv, and the `pybind11` PyPI package's
-    own prefix (the pybind11_vendor wheel depends on it instead of vendoring pybind11, and
-    its `pybind11Config.cmake` lives in `site-packages/pybind11/share/cmake/pybind11`)."""
-    prefix = Path(os.path.abspath(prefix))
-    result = [prefix]
-    for site in _site_packages_dirs(prefix):
-        if (site / "pybind11" / "share" / "cmake" / "pybind11").is_dir():
-            result.append(site / "pybind11")
-    return result
-
-
-def _prepend(value: str | None, entries: Iterable[str]) -> str:
-    current = [p for p in (value or "").split(os.pathsep) if p]
-    new = [e for e in entries if e not in current]
-    return os.pathsep.join(new + current)
-
-
-def build_environment(prefix: Path, environ: Mapping[str, str]) -> dict[str, str]:
-    """The variables to set (their complete new values) for builds and for ROS processes.
-
-    Equivalent of sourcing the underlay's setup script: prepends the venv to `PATH`,
-    `AMENT_PREFIX_PATH` (rosidl finds its typesupports through the ament index:
-    without it `No 'rosidl_typesupport_c' found`), `CMAKE_PREFIX_PATH` (`cmake_prefixes`) and
-    `LD_LIBRARY_PATH` (`library_dirs`), sets `VIRTUAL_ENV`, the bootstrap guard (so
-    child Pythons do not re-exec) and, when unset, `ROS_VERSION`, `ROS_PYTHON_VERSION`,
-    `ROS_DISTRO`.  Entries already present are not repeated.  `RMW_IMPLEMENTATION` is
-    left alone: only rmw_fastrtps_cpp ships as a wheel and it is the default.
-    """
-    prefix = Path(os.path.abspath(prefix))
-    text = str(prefix)
-    changes: dict[str, str] = {
-        "VIRTUAL_ENV": text,
-        "PATH": _prepend(environ.get("PATH"), [str(prefix / "bin")]),
-        "AMENT_PREFIX_PATH": _prepend(environ.get("AMENT_PREFIX_PATH"), [text]),
-        "CMAKE_PREFIX_PATH": _prepend(
-            environ.get("CMAKE_PREFIX_PATH"), [str(p) for p in cmake_prefixes(prefix)]
-        ),
-        "LD_LIBRARY_PATH": _prepend(environ.get("LD_LIBRARY_PATH"), [str(d) for d in library_dirs(prefix)]),
-        BOOTSTRAP_GUARD_VAR: "1",
-    }
-    defaults = {"ROS_VERSION": "2", "ROS_PYTHON_VERSION": "3", "ROS_DISTRO": ros_distro(prefix) or "jazzy"}
-    for key, value in defaults.items():
-        if not environ.get(key):
-            changes[key] = value
-    return {k: v for k, v in changes.items() if environ.get(k) != v}
-
-
-def cmake_arguments(prefix: Path, *, link_libpython: bool = True) -> list[str]:
-    """CMake `-D` arguments for ament_cmake packages built against the wheel underlay.
-
-    * `Python3_EXECUTABLE`: the venv's python (ament_cmake, rosidl generators, install dir).
-    * `CMAKE_EXE_LINKER_FLAGS`: link libpython into executables.  The wheels'
-      `lib*__rosidl_generator_py.so` do not link libpython (manylinux rules) but rcl and
-      every message package export them, so a C/C++ executable linking rcl or
-      `${msgs_TARGETS}` fails with `undefined reference to _Py_Dealloc` otherwise.  Only
-      executables get it (never Python extension modules).  Callers that pass their own
-      `CMAKE_EXE_LINKER_FLAGS` must append theirs to this value.
-    """
-    python = venv_python(Path(os.path.abspath(prefix)))
-    args = [f"-DPython3_EXECUTABLE={python.executable}"]
-    if link_libpython and python.library is not None:
-        args.append(
-            f"-DCMAKE_EXE_LINKER_FLAGS=-Wl,--push-state,--no-as-needed {python.library} -Wl,--pop-state"
-        )
-    return args
-
-
-# -------------------------------------------------------------------- ament_lint_auto
-
-
-def find_cmake_package(name: str, prefixes: Iterable[Path]) -> Path | None:
-    """The directory holding `<name>Config.cmake` / `<name>-config.cmake` in `prefixes`, if any
-    (the common ament layouts only, not CMake's full search procedure)."""
-    for prefix in prefixes:
-        for folder in (
-            prefix / "share" / name / "cmake",
-            prefix / "share" / name,
-            prefix / "lib" / "cmake" / name,
-            prefix / "lib" / name / "cmake",
-        ):
-            if (folder / f"{name}Config.cmake").is_file() or (folder / f"{name}-config.cmake").is_file():
-                return folder
-    return None
-
-
-_LINT_AUTO_CONFIG = """\
-# Generated by wsbuild: a stand-in for ament_lint_auto, which is not available as a
-# PyPI wheel.  It finds the package's <test_depend>s like the real one (QUIET), but
-# registers no linters.  wsbuild appends its prefix to CMAKE_PREFIX_PATH only when no
-# real ament_lint_auto is installed, so a real one always wins.
-set(ament_lint_auto_FOUND TRUE)
-set(ament_lint_auto_VERSION "{version}")
-set(AMENT_LINT_AUTO_IS_WSBUILD_SHIM TRUE)
-
-macro(ament_lint_auto_find_test_dependencies)
-  if(NOT _AMENT_PACKAGE_NAME)
-    ament_package_xml()
-  endif()
-  foreach(_wsbuild_lint_dep ${{${{PROJECT_NAME}}_TEST_DEPENDS}})
-    if(NOT _wsbuild_lint_dep STREQUAL "ament_lint_auto")
-      find_package(${{_wsbuild_lint_dep}} QUIET)
-    endif()
-  endforeach()
-  unset(_wsbuild_lint_dep)
-endmacro()
-"""
-
-_LINT_AUTO_VERSION_FILE = """\
-# Generated by wsbuild: the ament_lint_auto stand-in accepts any requested version.
-set(PACKAGE_VERSION "{version}")
-set(PACKAGE_VERSION_COMPATIBLE TRUE)
-set(PACKAGE_VERSION_EXACT FALSE)
-"""
-
-
-def write_lint_auto_shim(directory: Path) -> Path:
-    """Write the ament_lint_auto stand-in under `directory` (idempotent); return the prefix
-    to append to `CMAKE_PREFIX_PATH`.
-
-    Use it when `find_cmake_package("ament_lint_auto", prefixes)` finds nothing: packages
-    then configure with `BUILD_TESTING` left ON (their gtest/pytest tests still build and
-    run), only the linters are skipped.  `directory` should be wsbuild-owned (e.g. under
-    the build base), never the user's venv.
-    """
-    folder = directory / "share" / "ament_lint_auto" / "cmake"
-    files = {
-        folder / "ament_lint_autoConfig.cmake": _LINT_AUTO_CONFIG.format(version=LINT_AUTO_SHIM_VERSION),
-        folder / "ament_lint_autoConfigVersion.cmake": _LINT_AUTO_VERSION_FILE.format(
-            version=LINT_AUTO_SHIM_VERSION
-        ),
-    }
-    try:
-        folder.mkdir(parents=True, exist_ok=True)
-        for path, text in files.items():
-            if not path.is_file() or path.read_text(encoding="utf-8") != text:
-                _atomic_write(path, text)
-    except OSError as exc:
-        raise UnderlayError(f"cannot write the ament_lint_auto stand-in: {exc}", path=folder) from exc
-    return directory
-
-
-# ------------------------------------------------------------------ the build's view
-
-
-@dataclass(frozen=True)
-class PreparedUnderlay:
-    """What a build needs to know about the underlay it builds against."""
-
-    environ: dict[str, str]
-    #: the virtualenv underlay (None when the ROS underlay came from a sourced setup script)
-    venv: Path | None
-    #: extra CMake arguments (Python3_EXECUTABLE, libpython link flags) for the wheel underlay
-    cmake_args: tuple[str, ...]
-    #: variables `install/setup.*` must set for the venv underlay (complete values at build time)
-    venv_changes: tuple[tuple[str, str], ...] = ()
-
-
-def prepare_underlay(
-    environ: Mapping[str, str],
-    *,
-    executable: str,
-    repair: bool,
-    shim_dir: Path,
-    notice: Callable[[str], None],
-) -> PreparedUnderlay:
-    """Detect the ROS underlay, repair a wheel venv if needed, and compute the build environment.
-
-    Also makes `find_package(ament_lint_auto)` work when no real ament_lint_auto is installed
-    (no wheel exists): a stand-in that registers no linters is appended to CMAKE_PREFIX_PATH.
-    """
-    env = dict(environ)
-    venv = find_venv_underlay(environ, executable)
-    cmake_args: tuple[str, ...] = ()
-    changes: dict[str, str] = {}
-    if venv is not None:
-        problems = scan_underlay(venv)
-        fatal = [p for p in problems if not p.repairable]
-        if fatal:
-            raise UnderlayError(fatal[0].text, path=fatal[0].path, hint=fatal[0].fix)
-        if problems:
-            if not repair:
-                raise UnderlayError(
-                    f"the ROS underlay has {len(problems)} broken line(s) from the wheels' "
-                    "build machine",
-                    path=problems[0].path, line=problems[0].line,
-                    hint="run: wsbuild underlay repair",
-                )
-            changed = repair_underlay(venv)
-            notice(f"repaired {len(changed)} file(s) of the ROS underlay in {venv} "
-                   "(paths of the wheels' build machine); see 'wsbuild underlay check'")
-        changes = build_environment(venv, env)
-        env.update(changes)
-        cmake_args = tuple(cmake_arguments(venv))
-    prefixes = [Path(p) for p in env.get("CMAKE_PREFIX_PATH", "").split(os.pathsep) if p]
-    prefixes += [Path(p) for p in env.get("AMENT_PREFIX_PATH", "").split(os.pathsep) if p]
-    has_ament = any(_is_ament_prefix(p) for p in prefixes)
-    if has_ament and find_cmake_package("ament_lint_auto", prefixes) is None:
-        shim = write_lint_auto_shim(shim_dir)
-        current = env.get("CMAKE_PREFIX_PATH", "")
-        env["CMAKE_PREFIX_PATH"] = os.pathsep.join(p for p in (current, str(shim)) if p)
-    return PreparedUnderlay(environ=env, venv=venv, cmake_args=cmake_args,
-                            venv_changes=tuple(sorted(changes.items())))

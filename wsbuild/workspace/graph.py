@@ -7,7 +7,7 @@ from collections.abc import Callable, Collection, Iterable, Mapping
 from dataclasses import dataclass
 
 from wsbuild.errors import CycleError
-from wsbuild.model import CATEGORY_KINDS, DepCategory, DepKind, Package
+from wsbuild.workspace.model import CATEGORY_KINDS, DepCategory, DepKind, Package
 
 ALL_CATEGORIES = (DepCategory.BUILD, DepCategory.RUN, DepCategory.TEST)
 

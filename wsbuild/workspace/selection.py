@@ -9,8 +9,8 @@ from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass, fields
 
 from wsbuild.errors import SelectionError
-from wsbuild.graph import Graph
-from wsbuild.model import DepCategory, Package
+from wsbuild.workspace.graph import Graph
+from wsbuild.workspace.model import DepCategory, Package
 
 
 @dataclass(frozen=True, slots=True)

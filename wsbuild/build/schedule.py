@@ -10,9 +10,9 @@ import time
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import replace
 
+from wsbuild.build.process import REGISTRY, ProcessRegistry
 from wsbuild.events import Emit, JobFinished, JobStarted
-from wsbuild.model import BuildResult, Outcome
-from wsbuild.process import REGISTRY, ProcessRegistry
+from wsbuild.workspace.model import BuildResult, Outcome
 
 Job = Callable[[str], BuildResult]
 

@@ -9,7 +9,7 @@ from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from wsbuild.model import DepKind, Package, Resolution, ResolvedDependency
+from wsbuild.workspace.model import DepKind, Package, Resolution, ResolvedDependency
 
 #: rosdep keys whose Python module name is not the key minus "python3-"
 _PYTHON_MODULES = {

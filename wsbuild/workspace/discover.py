@@ -6,12 +6,12 @@ import configparser
 import glob
 import os
 import re
-from collections.abc import Collection, Iterable, Iterator, Mapping, Sequence
+from collections.abc import Collection, Iterable, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
 from wsbuild.errors import ManifestError, WorkspaceError
-from wsbuild.model import Dependency, DepKind, Package
+from wsbuild.workspace.model import Dependency, DepKind, Package
 
 IGNORE_MARKERS = ("COLCON_IGNORE", "AMENT_IGNORE", "CATKIN_IGNORE")
 _PYTHON_FILES = ("pyproject.toml", "setup.py", "setup.cfg")
@@ -98,7 +98,7 @@ def identify_package(
     """Read one package directory: package.xml first, else CMake, else Python metadata."""
     manifest = path / "package.xml"
     if manifest.exists():
-        from wsbuild.manifest import parse_manifest
+        from wsbuild.workspace.manifest import parse_manifest
 
         return parse_manifest(
             manifest, environ=environ, known_build_types=known_build_types, warnings=warnings
@@ -219,33 +219,19 @@ def discover_packages(
     base_paths: Sequence[Path],
     paths: Sequence[Path] = (),
     environ: Mapping[str, str],
+    known_build_types: Collection[str],
 ) -> Discovery:
-    """Find and identify every package; `paths` (explicit package dirs) win over crawling."""
+    """Find and identify every package; `paths` (explicit package dirs) win over crawling.
+
+    `known_build_types` answers which `<build_type>` names exist (the build_types room's
+    `KnownBuildTypes()`; the workspace room does not import the build types itself)."""
     dirs = list(paths) if paths else find_package_dirs(base_paths, skip=workspace_dirs)
     warnings: list[str] = []
     found = []
-    known = _KnownBuildTypes()
     for directory in dirs:
         package = identify_package(
-            directory, environ=environ, known_build_types=known, warnings=warnings
+            directory, environ=environ, known_build_types=known_build_types, warnings=warnings
         )
         if package is not None:
             found.append(package)
     return Discovery(packages=check_unique(found), warnings=tuple(warnings))
-
-
-class _KnownBuildTypes(Collection[str]):
-    """Built-in names answer at once; plugin entry points are scanned only for other names."""
-
-    def __contains__(self, name: object) -> bool:
-        from wsbuild.build_types import is_known
-
-        return isinstance(name, str) and is_known(name)
-
-    def __iter__(self) -> Iterator[str]:
-        from wsbuild.build_types import known_build_types
-
-        return iter(known_build_types())
-
-    def __len__(self) -> int:
-        return len(list(iter(self)))

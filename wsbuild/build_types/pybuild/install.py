@@ -12,7 +12,7 @@ from dataclasses import dataclass
 from pathlib import Path, PurePosixPath
 
 from wsbuild.build_types import StepFailed
-from wsbuild.setup_py import ModuleFile, SetupPlan
+from wsbuild.build_types.pybuild.setup_py import ModuleFile, SetupPlan
 
 #: what was installed, relative to the prefix, one path a line (in the build directory)
 INSTALLED_FILES = "installed_files.txt"

@@ -1,6 +1,6 @@
 """The long-lived process that learns setup() arguments: run by the target interpreter as a script.
 
-wsbuild starts it once per interpreter (see `wsbuild.setup_py`) and talks JSON lines over its
+wsbuild starts it once per interpreter (see `wsbuild.build_types.pybuild.setup_py`) and talks JSON lines over its
 stdin/stdout. It imports setuptools once; each `read` request forks a child that executes the
 package's setup.py with `Distribution.run_commands` replaced, so setuptools itself parses
 setup.py, setup.cfg and pyproject.toml, runs only `egg_info` (into the build directory) and

@@ -1,0 +1,37 @@
+"""What a `wsbuild build` (or `wsbuild test`) run was asked to do: validated, frozen records.
+
+`options.py` (the shell) turns command-line arguments into these; the build room reads them.
+"""
+
+from __future__ import annotations
+
+import os
+from dataclasses import dataclass
+
+from wsbuild.build_types import BuildOptions
+
+
+@dataclass(frozen=True, slots=True)
+class RunOptions:
+    """How packages are scheduled and reported (shared by build and test)."""
+
+    workers: int
+    sequential: bool
+    continue_on_error: bool
+    wait_for_lock: bool
+
+
+@dataclass(frozen=True, slots=True)
+class BuildRequest:
+    build: BuildOptions
+    run: RunOptions
+    skip_dependency_check: bool = False
+    force: bool = False
+    repair_underlay: bool = True
+
+
+def cpu_count() -> int:
+    try:
+        return len(os.sched_getaffinity(0))
+    except AttributeError:  # not Linux
+        return os.cpu_count() or 1
