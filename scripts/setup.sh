@@ -6,13 +6,14 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 
 need=()
-for tool in cmake make g++ zsh dash git; do
-  command -v "$tool" >/dev/null 2>&1 || need+=("$tool")
+# nginx (with WebDAV) serves as the HTTP build-cache server in the cache tests
+for tool in cmake make g++ zsh dash git nginx; do
+  command -v "$tool" >/dev/null 2>&1 || [ -x "/usr/sbin/$tool" ] || need+=("$tool")
 done
 if [ ${#need[@]} -gt 0 ]; then
   pkgs=()
   for tool in "${need[@]}"; do
-    case "$tool" in g++) pkgs+=(g++) ;; *) pkgs+=("$tool") ;; esac
+    case "$tool" in g++) pkgs+=(g++) ;; nginx) pkgs+=(nginx-light) ;; *) pkgs+=("$tool") ;; esac
   done
   echo "setup: installing ${pkgs[*]} with apt-get"
   SUDO=""

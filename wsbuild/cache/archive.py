@@ -1,0 +1,156 @@
+"""Cache entries on disk: a package's installed files as a zstd-compressed tar.
+
+Packing is deterministic (sorted members, no owners) and refuses trees a cache must not carry
+(special files, setuid bits, links leaving the prefix). Unpacking trusts nothing: every member
+is checked before it is written, then extracted through the standard library's `data` filter,
+which resolves links on disk, so nothing is ever written outside the destination.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import os
+import posixpath
+import stat
+import tarfile
+from collections.abc import Iterable
+from pathlib import Path
+from typing import BinaryIO
+
+import zstandard
+
+#: zstd level 3: better ratio than gzip -6 at several times its speed (docs/benchmarks.md)
+ZSTD_LEVEL = 3
+_HIGH_BITS = stat.S_ISUID | stat.S_ISGID | stat.S_ISVTX
+
+
+class RefusedEntry(Exception):
+    """A tree that cannot be packed, or an entry that must not be unpacked: one line why."""
+
+
+def _link_escapes(name: str, target: str) -> bool:
+    if target.startswith("/"):
+        return True
+    resolved = posixpath.normpath(posixpath.join(posixpath.dirname(name), target))
+    return resolved == ".." or resolved.startswith("../")
+
+
+def _tree(root: Path, files: Iterable[str] | None) -> list[str]:
+    """Relative paths to pack: every directory, file and link below `root`, or `files` only."""
+    if files is not None:
+        return sorted(set(files))
+    names: list[str] = []
+    for dirpath, dirnames, filenames in os.walk(root):
+        rel = os.path.relpath(dirpath, root)
+        for name in dirnames + filenames:
+            names.append(os.path.normpath(os.path.join(rel, name)))
+    return sorted(names)
+
+
+class _HashingWriter:
+    """Counts and hashes what passes through to `out`."""
+
+    def __init__(self, out: BinaryIO) -> None:
+        self.out = out
+        self.sha = hashlib.sha256()
+        self.size = 0
+
+    def write(self, data: bytes) -> int:
+        self.sha.update(data)
+        self.size += len(data)
+        return self.out.write(data)
+
+
+def pack(root: Path, out: BinaryIO, files: Iterable[str] | None = None) -> tuple[str, int]:
+    """Write `root` (or just `files` below it) to `out` as tar.zst; (sha256, size) of the bytes.
+
+    Raises RefusedEntry for a tree a cache entry must not hold."""
+    hashing = _HashingWriter(out)
+    compressor = zstandard.ZstdCompressor(level=ZSTD_LEVEL)
+    with compressor.stream_writer(hashing, closefd=False) as zstd_out:  # type: ignore[arg-type]
+        with tarfile.open(fileobj=zstd_out, mode="w|", format=tarfile.PAX_FORMAT) as tar:
+            for rel in _tree(root, files):
+                path = root / rel
+                info = tar.gettarinfo(str(path), arcname=rel)
+                if not (info.isreg() or info.isdir() or info.issym() or info.islnk()):
+                    raise RefusedEntry(f"{rel} is a special file")
+                if info.mode & _HIGH_BITS:
+                    raise RefusedEntry(f"{rel} has a setuid, setgid or sticky bit")
+                if info.issym() and _link_escapes(rel, info.linkname):
+                    raise RefusedEntry(f"{rel} links outside the prefix ({info.linkname})")
+                info.uid = info.gid = 0
+                info.uname = info.gname = ""
+                if info.isreg():
+                    with open(path, "rb") as handle:
+                        tar.addfile(info, handle)
+                else:
+                    tar.addfile(info)
+    return hashing.sha.hexdigest(), hashing.size
+
+
+def check_member(member: tarfile.TarInfo) -> None:
+    """Refuse what an install tree never holds; raise RefusedEntry naming the member."""
+    name = member.name
+    parts = name.split("/")
+    if name.startswith("/") or not name.strip("./"):
+        raise RefusedEntry(f"member with an absolute or empty path: {name!r}")
+    if ".." in parts:
+        raise RefusedEntry(f"member with '..' in its path: {name!r}")
+    if not (member.isreg() or member.isdir() or member.issym() or member.islnk()):
+        raise RefusedEntry(f"device or special file: {name!r}")
+    if member.mode & _HIGH_BITS:
+        raise RefusedEntry(f"setuid, setgid or sticky bit: {name!r}")
+    if member.issym() and _link_escapes(name, member.linkname):
+        raise RefusedEntry(f"link leading outside the prefix: {name!r} -> {member.linkname!r}")
+    if member.islnk() and (member.linkname.startswith("/") or ".." in member.linkname.split("/")):
+        raise RefusedEntry(f"hard link leading outside the prefix: {name!r} -> {member.linkname!r}")
+
+
+def _filter(member: tarfile.TarInfo, dest: str) -> tarfile.TarInfo:
+    check_member(member)
+    try:
+        # resolves links already on disk: a chain of harmless-looking links cannot escape
+        filtered = tarfile.data_filter(member, dest)
+    except tarfile.FilterError as error:
+        raise RefusedEntry(str(error)) from None
+    # keep the packed mode (data_filter would widen directories to the umask default)
+    return filtered.replace(mode=member.mode, deep=False) if member.isdir() else filtered
+
+
+def unpack(source: BinaryIO, dest: Path) -> int:
+    """Extract a tar.zst into the empty directory `dest`; the number of members.
+
+    Raises RefusedEntry for a bad or truncated archive; `dest` may then hold part of it and is
+    the caller's to discard — nothing outside `dest` is written."""
+    if not hasattr(tarfile, "data_filter"):
+        raise RefusedEntry("this Python has no tarfile extraction filters (3.10.12+ needed)")
+    count = 0
+
+    def counted(member: tarfile.TarInfo, path: str) -> tarfile.TarInfo:
+        nonlocal count
+        count += 1
+        return _filter(member, path)
+
+    try:
+        reader = zstandard.ZstdDecompressor().stream_reader(source, closefd=False)
+        with tarfile.open(fileobj=reader, mode="r|") as tar:  # type: ignore[call-overload]
+            tar.errorlevel = 2
+            tar.extractall(dest, filter=counted)
+    except RefusedEntry:
+        raise
+    except (tarfile.TarError, zstandard.ZstdError, OSError, EOFError, ValueError) as error:
+        raise RefusedEntry(f"unreadable archive: {error}") from None
+    if count == 0:
+        raise RefusedEntry("empty archive")
+    return count
+
+
+def file_digest(path: Path) -> tuple[str, int]:
+    """(sha256, size) of a file."""
+    sha = hashlib.sha256()
+    size = 0
+    with open(path, "rb") as handle:
+        for chunk in iter(lambda: handle.read(1 << 20), b""):
+            sha.update(chunk)
+            size += len(chunk)
+    return sha.hexdigest(), size
