@@ -1,0 +1,30 @@
+// Copyright 2024 wsbuild developers
+//
+// Licensed under the Apache License, Version 2.0 (the "License");
+// you may not use this file except in compliance with the License.
+// You may obtain a copy of the License at
+//
+//     http://www.apache.org/licenses/LICENSE-2.0
+//
+// Unless required by applicable law or agreed to in writing, software
+// distributed under the License is distributed on an "AS IS" BASIS,
+// WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+// See the License for the specific language governing permissions and
+// limitations under the License.
+
+#ifndef CORPUS_HEADER_LIB__CLAMP_HPP_
+#define CORPUS_HEADER_LIB__CLAMP_HPP_
+
+namespace corpus_header_lib
+{
+
+/// Limit a value to the closed interval [low, high].
+template<typename T>
+constexpr T clamp(T value, T low, T high)
+{
+  return value < low ? low : (high < value ? high : value);
+}
+
+}  // namespace corpus_header_lib
+
+#endif  // CORPUS_HEADER_LIB__CLAMP_HPP_

@@ -1,0 +1,27 @@
+# Copyright 2024 wsbuild developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+#
+# Install the given directories of the calling package into its share
+# directory, skipping the ones that do not exist.
+#
+# :param ARGN: directory names relative to the package's source directory
+#
+function(corpus_install_share_dirs)
+  foreach(_dir ${ARGN})
+    if(IS_DIRECTORY "${CMAKE_CURRENT_SOURCE_DIR}/${_dir}")
+      install(DIRECTORY "${_dir}" DESTINATION "share/${PROJECT_NAME}")
+    endif()
+  endforeach()
+endfunction()

@@ -1,0 +1,28 @@
+# Copyright 2024 wsbuild developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+
+"""Expand xacro files found in installed packages."""
+
+import xacro
+
+from .. import share_file
+
+__all__ = ['expand']
+
+
+def expand(package, *parts, mappings=None):
+    """Return the URDF text of a xacro file in an installed package."""
+    document = xacro.process_file(share_file(package, *parts), mappings=mappings or {})
+    return document.toxml()

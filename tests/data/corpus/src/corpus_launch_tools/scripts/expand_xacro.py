@@ -1,0 +1,30 @@
+#!/usr/bin/env python3
+# Copyright 2024 wsbuild developers
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+
+"""Print the URDF of a xacro file of an installed package: expand_xacro.py PACKAGE PATH."""
+
+import sys
+
+from corpus_launch_tools.xacro import expand
+
+
+def main(argv):
+    print(expand(argv[1], argv[2]))
+    return 0
+
+
+if __name__ == '__main__':
+    sys.exit(main(sys.argv))
