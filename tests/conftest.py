@@ -1,7 +1,9 @@
-"""Shared fixtures: tiny real workspaces written from a dict, and a way to run the CLI."""
+"""Shared fixtures: tiny real workspaces written from a dict, a way to run the CLI, the colcon
+oracle; and the check that fails a run in which a test was skipped for an unexpected reason."""
 
 from __future__ import annotations
 
+import fcntl
 import os
 import subprocess
 import sys
@@ -11,6 +13,10 @@ from pathlib import Path
 import pytest
 
 REPO = Path(__file__).resolve().parent.parent
+
+# No build cache unless a test asks for one (tests/test_cache_*.py): a restore would stand in
+# for the build a test means to run, and ~/.cache/wsbuild would fill up.
+os.environ["WSBUILD_CACHE"] = "off"
 
 PACKAGE_XML = """<?xml version="1.0"?>
 <package format="3">
@@ -121,3 +127,56 @@ def run_wsbuild(*args: str, cwd: Path, env: Mapping[str, str] | None = None,
 @pytest.fixture
 def wsbuild() -> Callable[..., subprocess.CompletedProcess[str]]:
     return run_wsbuild
+
+
+# ------------------------------------------------------------------------- the colcon oracle
+
+#: variables a sourced workspace or the wheels' bootstrapper set: the oracle is made without them
+_SOURCED = ("AMENT_PREFIX_PATH", "CMAKE_PREFIX_PATH", "COLCON_PREFIX_PATH", "PYTHONPATH",
+            "LD_LIBRARY_PATH", "VIRTUAL_ENV", "_ROS_WHEELS_BOOTSTRAP_COMPLETE")
+
+
+@pytest.fixture(scope="session")
+def colcon(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """The `colcon` executable of a virtualenv with colcon-common-extensions from PyPI: the oracle
+    the interop and corpus tests hold wsbuild against. Made once per run; the xdist workers share
+    it through a lock in their common temporary directory.
+
+    colcon runs setup.py with its own interpreter, which then becomes the console scripts'
+    shebang: like a user who pip-installs colcon into the ROS virtualenv, that interpreter must
+    see the ROS Python packages, so the colcon venv gets a .pth file adding the ROS venv's
+    site-packages.
+    """
+    base = tmp_path_factory.getbasetemp()
+    if os.environ.get("PYTEST_XDIST_WORKER"):
+        base = base.parent  # the directory all workers of this run have in common
+    root = base / "colcon-oracle"
+    root.mkdir(exist_ok=True)
+    venv = root / "venv"
+    with open(root / "lock", "w") as lock:
+        fcntl.flock(lock, fcntl.LOCK_EX)
+        if not (root / "ready").exists():
+            _make_colcon_venv(venv)
+            (root / "ready").write_text("")
+    return venv / "bin" / "colcon"
+
+
+def _make_colcon_venv(venv: Path) -> None:
+    from wsbuild.underlay.detect import find_venv_underlay
+
+    env = {k: v for k, v in os.environ.items() if k not in _SOURCED}
+    made = subprocess.run([sys.executable, "-m", "venv", str(venv)], env=env,
+                          capture_output=True, text=True, check=False)
+    if made.returncode != 0:
+        pytest.fail(f"cannot create a virtualenv for colcon: {made.stderr[-500:]}")
+    pip = subprocess.run([str(venv / "bin" / "python"), "-m", "pip", "install", "-q",
+                          "colcon-common-extensions"], env=env, capture_output=True, text=True,
+                         timeout=900, check=False)
+    if pip.returncode != 0:
+        pytest.fail(f"cannot pip install colcon-common-extensions: {pip.stderr[-500:]}")
+    ros = find_venv_underlay(os.environ, sys.executable)
+    if ros is not None:
+        ros_site = next((ros / "lib").glob("python3*/site-packages"))
+        own_site = next((venv / "lib").glob("python3*/site-packages"))
+        (own_site / "zz_ros_underlay.pth").write_text(
+            f"import site; site.addsitedir({str(ros_site)!r})\n")

@@ -1,16 +1,12 @@
 """colcon interop both ways: a colcon overlay on a wsbuild underlay and a wsbuild overlay on a
 colcon underlay; each builds, is sourced alone and finds the other's packages.
 
-colcon comes from PyPI into a virtualenv of the session (CI machines have none). colcon runs
-setup.py with its own interpreter, which then becomes the console scripts' shebang: like a
-user who pip-installs colcon into the ROS virtualenv, that interpreter must see the ROS Python
-packages, so the colcon venv gets a .pth file adding the ROS venv's site-packages.
+colcon comes from PyPI into a virtualenv of the session (the `colcon` fixture of conftest.py).
 """
 
 from __future__ import annotations
 
 import subprocess
-import sys
 from pathlib import Path
 
 import pytest
@@ -31,31 +27,8 @@ from test_build_helpers import (
 )
 from wsbuild.underlay.environment import build_environment
 
-# one worker builds the colcon virtualenv once for both tests (scripts/test.sh: --dist loadgroup)
-pytestmark = [*REQUIRES_ROS, pytest.mark.xdist_group("colcon")]
-
-
-@pytest.fixture(scope="session")
-def colcon(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    """The `colcon` executable of a fresh virtualenv with colcon-common-extensions."""
-    venv = tmp_path_factory.mktemp("colcon") / "venv"
-    env = clean_env()
-    made = subprocess.run([sys.executable, "-m", "venv", str(venv)], env=env,
-                          capture_output=True, text=True)
-    if made.returncode != 0:
-        pytest.skip(f"cannot create a virtualenv for colcon: {made.stderr[-500:]}")
-    pip = subprocess.run([str(venv / "bin" / "python"), "-m", "pip", "install", "-q",
-                          "colcon-common-extensions"], env=env, capture_output=True, text=True,
-                         timeout=600)
-    if pip.returncode != 0:
-        pytest.skip(f"cannot pip install colcon-common-extensions: {pip.stderr[-500:]}")
-    ros = ros_underlay()
-    assert ros is not None
-    ros_site = next((ros / "lib").glob("python3*/site-packages"))
-    own_site = next((venv / "lib").glob("python3*/site-packages"))
-    (own_site / "zz_ros_underlay.pth").write_text(
-        f"import site; site.addsitedir({str(ros_site)!r})\n")
-    return venv / "bin" / "colcon"
+# `colcon` (tests/conftest.py): the oracle's executable, in a virtualenv made once per run
+pytestmark = [*REQUIRES_ROS, pytest.mark.slow]
 
 
 def colcon_build(colcon: Path, ws: Path, *, source: Path | None, home: Path,

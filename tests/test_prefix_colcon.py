@@ -1,4 +1,5 @@
-"""Interoperability with real colcon (in /work/venvs/colcon): overlays both ways, same files."""
+"""Interoperability with real colcon (the `colcon` oracle of conftest.py): overlays both ways,
+same files."""
 
 from __future__ import annotations
 
@@ -17,20 +18,14 @@ from wsbuild.prefix import (
 )
 from wsbuild.build_types.pybuild.paths import site_packages_relpath
 
-COLCON_VENV = Path("/work/venvs/colcon")
-
-pytestmark = [
-    pytest.mark.slow,
-    pytest.mark.skipif(not (COLCON_VENV / "bin" / "colcon").exists(),
-                       reason="needs colcon in /work/venvs/colcon (pip install colcon-common-extensions)"),
-]
+pytestmark = [pytest.mark.slow]
 
 SITE = str(site_packages_relpath())
-PYTHON = str(COLCON_VENV / "bin" / "python")
 
 
-def colcon_env() -> dict[str, str]:
-    return clean_env(PATH=f"{COLCON_VENV / 'bin'}:/usr/bin:/bin")
+def colcon_env(colcon: Path) -> dict[str, str]:
+    """A fresh terminal with only the oracle's virtualenv and the system on PATH."""
+    return clean_env(PATH=f"{colcon.parent}:/usr/bin:/bin")
 
 
 def write_setup_py_package(src: Path, name: str, value: str) -> None:
@@ -41,11 +36,11 @@ def write_setup_py_package(src: Path, name: str, value: str) -> None:
     )
 
 
-def colcon_build(workspace: Path, *, before: str = "") -> None:
+def colcon_build(colcon: Path, workspace: Path, *, before: str = "") -> None:
     bash = shell_or_skip("bash")
     completed = subprocess.run(
         [bash, "-c", f"set -e\n{before}\ncd '{workspace}'\ncolcon build --event-handlers console_cohesion-"],
-        env=colcon_env(), capture_output=True, check=False, timeout=300,
+        env=colcon_env(colcon), capture_output=True, check=False, timeout=300,
     )
     assert completed.returncode == 0, (completed.stdout + completed.stderr).decode()
 
@@ -63,38 +58,41 @@ def wsbuild_python_workspace(
     write_workspace_scripts(install, merged=False, underlays=underlays)
 
 
-def test_colcon_overlay_on_a_wsbuild_workspace(tmp_path: Path) -> None:
+def test_colcon_overlay_on_a_wsbuild_workspace(colcon: Path, tmp_path: Path) -> None:
     underlay = tmp_path / "under ws" / "install"
     wsbuild_python_workspace(underlay, "base_py")
     overlay = tmp_path / "over"
     write_setup_py_package(overlay / "src", "over_py", "from colcon")
 
-    colcon_build(overlay, before=f". '{underlay}/setup.bash'")
-    env, _ = source_and_dump("bash", overlay / "install" / "setup.bash", env=colcon_env(), nounset=False)
+    colcon_build(colcon, overlay, before=f". '{underlay}/setup.bash'")
+    env, _ = source_and_dump("bash", overlay / "install" / "setup.bash", env=colcon_env(colcon),
+                             nounset=False)
 
     assert str(underlay / "base_py" / SITE) in entries(env, "PYTHONPATH")
     assert str(overlay / "install" / "over_py" / SITE) in entries(env, "PYTHONPATH")
     assert entries(env, "AMENT_PREFIX_PATH") == [str(underlay / "base_py")]
     assert entries(env, "COLCON_PREFIX_PATH") == [str(overlay / "install"), str(underlay)]
     imported = subprocess.run(
-        [PYTHON, "-c", "import base_py, over_py; print(base_py.VALUE, '/', over_py.VALUE)"],
+        [colcon.parent / "python", "-c",
+         "import base_py, over_py; print(base_py.VALUE, '/', over_py.VALUE)"],
         env=env, capture_output=True, check=True,
     )
     assert imported.stdout.decode().strip() == "from wsbuild / from colcon"
 
 
-def test_wsbuild_workspace_chains_a_colcon_underlay(tmp_path: Path) -> None:
+def test_wsbuild_workspace_chains_a_colcon_underlay(colcon: Path, tmp_path: Path) -> None:
     underlay = tmp_path / "colcon ws"
     write_setup_py_package(underlay / "src", "col_py", "from colcon")
-    colcon_build(underlay)
+    colcon_build(colcon, underlay)
     active, _ = source_and_dump(
-        "bash", underlay / "install" / "setup.bash", env=colcon_env(), nounset=False
+        "bash", underlay / "install" / "setup.bash", env=colcon_env(colcon), nounset=False
     )
     install = tmp_path / "ws" / "install"
 
     underlays = underlays_from_environment(active, install)
     wsbuild_python_workspace(install, "our_py", underlays=tuple(underlays))
-    env, _ = source_and_dump("bash", install / "setup.bash", env=colcon_env(), nounset=False)
+    env, _ = source_and_dump("bash", install / "setup.bash", env=colcon_env(colcon),
+                             nounset=False)
 
     assert underlays == [ChainedUnderlay(underlay / "install", underlay / "install")]
     assert entries(env, "COLCON_PREFIX_PATH") == [str(install), str(underlay / "install")]
@@ -111,9 +109,7 @@ _MANIFEST = """<?xml version="1.0"?>
 """
 
 
-def test_package_files_match_what_colcon_writes(tmp_path: Path) -> None:
-    if shutil.which("cmake") is None or shutil.which("cc") is None:
-        pytest.skip("needs cmake and a C compiler")
+def test_package_files_match_what_colcon_writes(colcon: Path, tmp_path: Path) -> None:
     src = tmp_path / "src"
     write_setup_py_package(src, "plain_py", "x")
     (src / "plain_py" / "setup.py").write_text(
@@ -139,7 +135,7 @@ def test_package_files_match_what_colcon_writes(tmp_path: Path) -> None:
         "install(FILES ${CMAKE_BINARY_DIR}/ros_cConfig.cmake DESTINATION share/ros_c/cmake)\n"
         "install(FILES ros_c.pc DESTINATION lib/pkgconfig)\n"
     )
-    colcon_build(tmp_path)
+    colcon_build(colcon, tmp_path)
     ours = tmp_path / "ours"
     shutil.copytree(tmp_path / "install", ours, symlinks=True)
     build_types = {"plain_py": "python", "ros_py": "ament_python", "ros_c": "cmake"}
