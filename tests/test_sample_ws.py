@@ -229,6 +229,26 @@ def test_move_joint_receives_the_published_setpoints_through_a_remap(
     assert -1.0 <= float(received["value"]) <= 1.0  # the publisher's default amplitude
 
 
+@pytest.mark.parametrize(("node", "ready"), [("setpoint_publisher", "publishing on"),
+                                             ("move_joint", "move_joint ready"),
+                                             ("mode_server", "serving")])
+def test_the_nodes_stop_cleanly_on_ctrl_c_also_under_ros2_launch(
+        start: Callable[[str], Running], node: str, ready: str) -> None:
+    process = start(f"install/demo_nodes_py/lib/demo_nodes_py/{node} "
+                    "--ros-args -p joint_name:=right_e0")
+    process.wait_for(ready)
+    time.sleep(0.5)  # spinning (see test_sigint.py)
+    os.killpg(process.popen.pid, signal.SIGINT)  # Ctrl-C: the whole foreground group
+    time.sleep(0.02)
+    try:
+        os.kill(process.popen.pid, signal.SIGINT)  # ros2 launch passes it on to each node
+    except ProcessLookupError:
+        pass
+    assert process.popen.wait(15) == 0, process.output  # launch: "exit code -2" otherwise
+    process.stop()
+    assert "Traceback" not in process.output, process.output
+
+
 def test_move_joint_without_joint_name_fails_with_a_clear_message(workspace: Workspace) -> None:
     result = workspace.bash(f"{WSBUILD} run demo_nodes_py move_joint")
     assert result.returncode == 2

@@ -5,9 +5,11 @@ from __future__ import annotations
 import sys
 
 import rclpy
+from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
 
 from demo_interfaces.srv import ChangeMode
+from demo_nodes_py.shutdown import interrupt_once
 
 USAGE = 'usage: change_mode_client MODE [--timeout SECONDS] [--ros-args ...]'
 
@@ -35,9 +37,10 @@ def main(args: list[str] | None = None) -> int:
     except ValueError as exc:
         print(f'change_mode_client: error: {exc}\n{USAGE}', file=sys.stderr)
         return 2
-    rclpy.init(args=argv)
-    node = Node('change_mode_client')
+    interrupt_once()
     try:
+        rclpy.init(args=argv)
+        node = Node('change_mode_client')
         client = node.create_client(ChangeMode, 'change_mode')
         if not client.wait_for_service(timeout_sec=timeout):
             print(f'change_mode_client: error: no {client.srv_name} service after {timeout} s '
@@ -52,8 +55,9 @@ def main(args: list[str] | None = None) -> int:
         print(f'success={response.success} previous_mode={response.previous_mode} '
               f'message={response.message}')
         return 0 if response.success else 3
+    except (KeyboardInterrupt, ExternalShutdownException):
+        return 0  # Ctrl-C: stop quietly, like the other nodes
     finally:
-        node.destroy_node()
         rclpy.try_shutdown()
 
 

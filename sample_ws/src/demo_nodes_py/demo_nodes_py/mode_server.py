@@ -10,6 +10,7 @@ from rclpy.node import Node
 
 from demo_interfaces.srv import ChangeMode
 from demo_nodes_py.modes import change_mode
+from demo_nodes_py.shutdown import interrupt_once
 
 
 class ModeServer(Node):
@@ -31,11 +32,12 @@ class ModeServer(Node):
 
 
 def main(args: list[str] | None = None) -> int:
-    rclpy.init(args=args)
+    interrupt_once()
     try:
+        rclpy.init(args=args)
         rclpy.spin(ModeServer())
     except (KeyboardInterrupt, ExternalShutdownException):
-        pass
+        pass  # Ctrl-C, or `ros2 launch` stopping the node: a normal end
     finally:
         rclpy.try_shutdown()
     return 0

@@ -12,6 +12,7 @@ from std_msgs.msg import Float64
 
 from demo_interfaces.msg import Setpoint
 from demo_nodes_py.setpoints import clamp, describe_setpoint
+from demo_nodes_py.shutdown import interrupt_once
 
 
 class MissingParameter(Exception):
@@ -53,20 +54,18 @@ class MoveJoint(Node):
 
 
 def main(args: list[str] | None = None) -> int:
-    rclpy.init(args=args)
+    interrupt_once()
     try:
+        rclpy.init(args=args)
         node = MoveJoint()
-    except MissingParameter as exc:
-        print(f'move_joint: error: {exc}', file=sys.stderr)
-        rclpy.try_shutdown()
-        return 2
-    try:
         while rclpy.ok() and not node.done:
             rclpy.spin_once(node)
+    except MissingParameter as exc:
+        print(f'move_joint: error: {exc}', file=sys.stderr)
+        return 2
     except (KeyboardInterrupt, ExternalShutdownException):
-        pass
+        pass  # Ctrl-C, or `ros2 launch` stopping the node: a normal end
     finally:
-        node.destroy_node()
         rclpy.try_shutdown()
     return 0
 

@@ -10,6 +10,7 @@ from rclpy.node import Node
 from std_msgs.msg import Float64
 
 from demo_nodes_py.setpoints import sine_setpoint
+from demo_nodes_py.shutdown import interrupt_once
 
 
 class SetpointPublisher(Node):
@@ -32,11 +33,12 @@ class SetpointPublisher(Node):
 
 
 def main(args: list[str] | None = None) -> int:
-    rclpy.init(args=args)
+    interrupt_once()
     try:
+        rclpy.init(args=args)
         rclpy.spin(SetpointPublisher())
     except (KeyboardInterrupt, ExternalShutdownException):
-        pass
+        pass  # Ctrl-C, or `ros2 launch` stopping the node: a normal end
     finally:
         rclpy.try_shutdown()
     return 0
