@@ -19,7 +19,8 @@ import zstandard
 
 from nginx_server import NginxServer, nginx, nginx_no_put  # noqa: F401 (fixtures)
 from wsbuild.cache.client import BuildCache
-from wsbuild.cache.http import HttpCache, redact
+from wsbuild.cache.http import HttpCache
+from wsbuild.cache.settings import redact
 from wsbuild.cache.key import CacheKey
 from wsbuild.cache.local import LocalCache
 from wsbuild.cache.record import Record, parse_record

@@ -10,9 +10,10 @@ from pathlib import Path
 
 import pytest
 
-from wsbuild.cache.client import BuildCache, settings_from_environment
+from wsbuild.cache.client import BuildCache
+from wsbuild.cache.settings import default_cache_dir, parse_size, settings_from_environment
 from wsbuild.cache.key import CacheKey, cache_key
-from wsbuild.cache.local import LocalCache, default_cache_dir, parse_size
+from wsbuild.cache.local import LocalCache
 from wsbuild.errors import WsbuildError
 
 

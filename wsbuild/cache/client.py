@@ -17,55 +17,13 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from wsbuild.cache.archive import RefusedEntry, file_digest, pack, unpack
-from wsbuild.cache.http import (
-    DEFAULT_TIMEOUT, CacheRejected, CacheUnavailable, HttpCache, TruncatedDownload,
-)
+from wsbuild.cache.http import CacheRejected, CacheUnavailable, HttpCache, TruncatedDownload
 from wsbuild.cache.key import CacheKey
-from wsbuild.cache.local import DEFAULT_MAX_BYTES, LocalCache, default_cache_dir, parse_size
+from wsbuild.cache.local import LocalCache
 from wsbuild.cache.record import Record, parse_record
+from wsbuild.cache.settings import CacheSettings, default_cache_dir
 
 Warn = Callable[[str], None]
-#: WSBUILD_CACHE values that turn the cache off
-OFF = frozenset({"off", "none", "no", "false", "0"})
-
-
-@dataclass(frozen=True, slots=True)
-class CacheSettings:
-    """What the command line and environment say about the cache."""
-
-    enabled: bool = True
-    url: str | None = None
-    read_only: bool = False
-    directory: Path | None = None
-    max_bytes: int = DEFAULT_MAX_BYTES
-    timeout: float = DEFAULT_TIMEOUT
-
-
-def settings_from_environment(environ: Mapping[str, str], *, url: str | None = None,
-                              no_cache: bool = False, read_only: bool = False) -> CacheSettings:
-    """Flags win over WSBUILD_CACHE (the remote URL, or `off`: no cache at all, not even the
-    local one); WSBUILD_CACHE_MAX_SIZE bounds the local tier, WSBUILD_CACHE_TIMEOUT the
-    seconds one request may wait."""
-    from wsbuild.cache.http import check_cache_url
-
-    from_env = environ.get("WSBUILD_CACHE", "").strip()
-    if url is None and from_env.lower() in OFF:
-        no_cache = True
-        from_env = ""
-    remote = url if url is not None else from_env or None
-    if remote is not None:
-        remote = check_cache_url(remote)
-    max_bytes = DEFAULT_MAX_BYTES
-    if environ.get("WSBUILD_CACHE_MAX_SIZE"):
-        max_bytes = parse_size(environ["WSBUILD_CACHE_MAX_SIZE"])
-    timeout = DEFAULT_TIMEOUT
-    try:
-        timeout = float(environ.get("WSBUILD_CACHE_TIMEOUT") or DEFAULT_TIMEOUT)
-    except ValueError:
-        pass
-    return CacheSettings(enabled=not no_cache, url=remote, read_only=read_only,
-                         directory=default_cache_dir(environ), max_bytes=max_bytes,
-                         timeout=timeout)
 
 
 @dataclass(frozen=True, slots=True)

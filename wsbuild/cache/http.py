@@ -19,9 +19,8 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import BinaryIO
 
-from wsbuild.errors import WsbuildError
+from wsbuild.cache.settings import DEFAULT_TIMEOUT, check_cache_url, redact
 
-DEFAULT_TIMEOUT = 3.0
 _MAX_RECORD = 1 << 20
 _CHUNK = 1 << 16
 
@@ -36,29 +35,6 @@ class CacheRejected(Exception):
 
 class TruncatedDownload(Exception):
     """The body ended before its announced length."""
-
-
-def check_cache_url(url: str) -> str:
-    """The URL with a trailing slash removed; a usage error for anything but http(s)."""
-    parsed = urllib.parse.urlsplit(url)
-    if parsed.scheme not in ("http", "https") or not parsed.hostname:
-        raise WsbuildError(f"unsupported cache URL {redact(url)!r}",
-                           hint="give an http:// or https:// URL of a bazel-remote or "
-                           "WebDAV server, e.g. --cache http://cache.example:8080/")
-    if parsed.query or parsed.fragment:
-        raise WsbuildError(f"cache URL {redact(url)!r} has a query or fragment",
-                           hint="give the server's base URL only")
-    return url.rstrip("/")
-
-
-def redact(url: str) -> str:
-    """The URL without user:password, for messages."""
-    parsed = urllib.parse.urlsplit(url)
-    if parsed.username is None and parsed.password is None:
-        return url
-    host = parsed.hostname or ""
-    netloc = f"{host}:{parsed.port}" if parsed.port else host
-    return urllib.parse.urlunsplit((parsed.scheme, netloc, parsed.path, parsed.query, parsed.fragment))
 
 
 def _authorization(parsed: urllib.parse.SplitResult, environ: Mapping[str, str],

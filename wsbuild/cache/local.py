@@ -8,35 +8,17 @@ entry and two builds filling the same entry at once leave one good one.
 from __future__ import annotations
 
 import os
-import re
 import tempfile
 import time
-from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
 
 from wsbuild.cache.archive import file_digest
 from wsbuild.cache.key import is_digest
-from wsbuild.errors import WsbuildError
+from wsbuild.cache.settings import DEFAULT_MAX_BYTES
 
-DEFAULT_MAX_BYTES = 5 * 1024**3
-_SIZE = re.compile(r"\s*(\d+(?:\.\d+)?)\s*([kmgt]?)(?:i?b)?\s*", re.IGNORECASE)
 #: temporary files older than this belong to a killed run
 _STALE_SECONDS = 3600
-
-
-def default_cache_dir(environ: Mapping[str, str]) -> Path:
-    base = environ.get("XDG_CACHE_HOME") or str(Path.home() / ".cache")
-    return Path(base) / "wsbuild"
-
-
-def parse_size(text: str) -> int:
-    """'5G', '500M', '1.5GiB', '1024' → bytes (binary multiples)."""
-    match = _SIZE.fullmatch(text)
-    if match is None:
-        raise WsbuildError(f"not a size: {text!r}", hint="write it like 5G, 500M or 1048576")
-    number, unit = match.groups()
-    return int(float(number) * 1024 ** " kmgt".index(unit.lower() or " "))
 
 
 @dataclass(frozen=True, slots=True)

@@ -1,0 +1,94 @@
+"""The build cache as `wsbuild build` uses it: opened when the first package needs building
+(a no-op build never pays for it), a package's cache key from its build key, and restores
+committed into install/ exactly as a build commits its stage."""
+
+from __future__ import annotations
+
+import threading
+from collections.abc import Mapping
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+from wsbuild.cache.settings import CacheSettings
+from wsbuild.events import Emit, Notice
+from wsbuild.workspace.root import Workspace
+
+if TYPE_CHECKING:
+    from wsbuild.cache.client import BuildCache, Restored
+    from wsbuild.cache.key import CacheKey
+
+
+class RunCache:
+    """One run's cache. Thread-safe: packages build in worker threads."""
+
+    def __init__(self, settings: CacheSettings | None, workspace: Workspace, emit: Emit, *,
+                 symlink_install: bool) -> None:
+        # a symlink install points into src/ and build/: nothing a cache could carry
+        self.settings = None if symlink_install else settings
+        self.workspace = workspace
+        self._emit = emit
+        self._lock = threading.Lock()
+        self._cache: BuildCache | None = None
+
+    @property
+    def enabled(self) -> bool:
+        return self.settings is not None
+
+    def _open(self) -> BuildCache:
+        with self._lock:
+            if self._cache is None:
+                from wsbuild.cache.client import BuildCache
+
+                assert self.settings is not None
+                self._cache = BuildCache.open(self.settings, warn=self._warn)
+            assert self._cache is not None
+            return self._cache
+
+    def _warn(self, text: str) -> None:
+        self._emit(Notice(text, warning=True))
+
+    def key(self, name: str, build_type: str, build_key: str, prefix: Path,
+            environ: Mapping[str, str]) -> CacheKey | None:
+        if self.settings is None:
+            return None
+        from wsbuild import __version__
+        from wsbuild.cache.key import cache_key
+
+        return cache_key(package=name, build_key=build_key, install_prefix=prefix,
+                         build_type=build_type, environ=environ, version=__version__,
+                         workspace_install=self.workspace.install_base)
+
+    def restore(self, key: CacheKey, prefix: Path, merged_record: Path | None
+                ) -> tuple[Restored, list[tuple[str, int]]] | None:
+        """Unpack the entry into a fresh stage and commit it to `prefix` as a build would
+        (`merged_record`: the package's file list in a merged install). None on a miss."""
+        from wsbuild.build.fingerprint import installed_files
+        from wsbuild.prefix import stage as staging
+
+        cache = self._open()
+        install_base = self.workspace.install_base
+        stage = staging.new_stage(install_base, key.package)
+        try:
+            restored = cache.restore(key, stage)
+            if restored is None:
+                staging.discard_stage(stage)
+                return None
+            if merged_record is not None:
+                staging.commit_merged(stage, prefix, merged_record)
+                files = merged_record.read_text().splitlines()
+                return restored, installed_files(install_base, prefix, files)
+            staging.commit_isolated(stage, prefix)
+            return restored, installed_files(install_base, prefix)
+        except BaseException:
+            staging.discard_stage(stage)
+            raise
+
+    def store(self, key: CacheKey, prefix: Path, merged_record: Path | None) -> str | None:
+        """Store the package just installed at `prefix`; None when stored, else why not."""
+        files = merged_record.read_text().splitlines() if merged_record is not None else None
+        return self._open().store(key, prefix, files)
+
+    def close(self, *, wait: bool = True) -> None:
+        """Finish uploads and evict old local entries (wait=False after Ctrl-C)."""
+        if self._cache is not None:
+            self._cache.close(wait=wait)
