@@ -10,7 +10,6 @@ import argparse
 import os
 import sys
 from collections.abc import Sequence
-from pathlib import Path
 
 from wsbuild import __version__
 from wsbuild.errors import WsbuildError
@@ -118,6 +117,20 @@ def build_parser(*, pkg_arguments: bool = True) -> argparse.ArgumentParser:
     check.set_defaults(func="wsbuild.verbs.underlay:run_check")
     repair = actions.add_parser("repair", help="fix the wheels' hard-coded paths in place")
     repair.set_defaults(func="wsbuild.verbs.underlay:run_repair")
+
+    sub = verbs.add_parser("cache", help="look after the local build cache",
+                           description=CACHE_DOC.strip(), formatter_class=_Formatter)
+    actions = sub.add_subparsers(dest="action", metavar="ACTION")
+    actions.required = True
+    stats = actions.add_parser("stats", help="entries and space used")
+    stats.set_defaults(func="wsbuild.verbs.cache:run_stats")
+    prune = actions.add_parser("prune", help="evict the least recently used entries")
+    prune.add_argument("--max-size", metavar="SIZE",
+                       help="evict until the cache fits SIZE, e.g. 2G (0 empties it; default: "
+                            "$WSBUILD_CACHE_MAX_SIZE or 5G)")
+    prune.set_defaults(func="wsbuild.verbs.cache:run_prune")
+    verify = actions.add_parser("verify", help="check every entry, remove bad ones")
+    verify.set_defaults(func="wsbuild.verbs.cache:run_verify")
     return parser
 
 
@@ -173,6 +186,16 @@ def _build_arguments(sub: argparse.ArgumentParser) -> None:
                        help="build the 'clean' target first")
     cmake.add_argument("--cmake-force-configure", action="store_true",
                        help="configure even when nothing changed")
+    cache = sub.add_argument_group("build cache (local ~/.cache/wsbuild always; a remote "
+                                   "bazel-remote or WebDAV server on request)")
+    cache.add_argument("--cache", metavar="URL",
+                       help="also restore from and store into this HTTP cache server "
+                            "(default: $WSBUILD_CACHE)")
+    cache.add_argument("--no-cache", action="store_true",
+                       help="neither restore from nor store into any cache")
+    cache.add_argument("--cache-read-only", action="store_true",
+                       help="restore from the caches, store nothing (untrusted builds, "
+                            "e.g. of pull requests)")
 
 
 def _test_arguments(sub: argparse.ArgumentParser) -> None:
@@ -266,6 +289,16 @@ The ros-jazzy-* wheels export CMake files naming their build machine's paths
 rewrites those lines to this virtualenv's paths, touching nothing outside it;
 `wsbuild build` does the same automatically before building. `check` also lists ROS
 packages the wheels' metadata forgot, with the pip command that installs them.
+"""
+
+CACHE_DOC = """Look after the local build cache.
+
+`wsbuild build` stores every package it builds in $XDG_CACHE_HOME/wsbuild (default
+~/.cache/wsbuild) and restores it from there, or from the HTTP server named by --cache /
+WSBUILD_CACHE, whenever the same package is built again with the same sources, options,
+dependencies, underlay, compilers and install path. `stats` shows its size, `prune` evicts
+the least recently used entries (builds do so above WSBUILD_CACHE_MAX_SIZE, default 5G),
+`verify` checks every archive against its digest and removes bad entries.
 """
 
 
@@ -364,20 +397,10 @@ def _resolve_func(spec: str):  # type: ignore[no-untyped-def]
 
 def main(argv: Sequence[str] | None = None) -> int:
     raw = list(sys.argv[1:] if argv is None else argv)
+    parser = build_parser(pkg_arguments="pkg" in raw)
     if any(item in PASSTHROUGH for item in raw):
         raw = _collect_passthrough(raw)
-    from wsbuild.defaults import parse_with_defaults
-
-    def make_parser(verbs_in_defaults: set[str]) -> argparse.ArgumentParser:
-        full = "pkg" in raw or any(v.split(".")[0] == "pkg" for v in verbs_in_defaults)
-        return build_parser(pkg_arguments=full)
-
-    try:
-        # defaults files (colcon-defaults' ~/.colcon/defaults.yaml, then <ws>/wsbuild.yaml)
-        args = parse_with_defaults(raw, os.environ, Path.cwd(), make_parser)
-    except WsbuildError as exc:
-        print(f"wsbuild: error: {exc}", file=sys.stderr)
-        return exc.exit_code
+    args = parser.parse_args(raw)
     try:
         return int(_resolve_func(args.func)(args) or 0)
     except WsbuildError as exc:

@@ -34,11 +34,19 @@ class Notice:
 
 
 @dataclass(frozen=True, slots=True)
+class CacheRestored:
+    """A package was installed from the build cache instead of being built."""
+
+    package: str
+    source: str
+
+
+@dataclass(frozen=True, slots=True)
 class RunFinished:
     results: tuple[BuildResult, ...]
     seconds: float
     verb: str = "build"
 
 
-Event = JobStarted | StepStarted | JobFinished | Notice | RunFinished
+Event = JobStarted | StepStarted | JobFinished | Notice | CacheRestored | RunFinished
 Emit = Callable[[Event], None]

@@ -3,11 +3,13 @@
 from __future__ import annotations
 
 import argparse
+import os
 import shlex
 import sys
 
 from wsbuild.build.request import BuildRequest, RunOptions, cpu_count
 from wsbuild.build_types import BuildOptions
+from wsbuild.cache.settings import CacheSettings, settings_from_environment
 from wsbuild.errors import WsbuildError
 
 
@@ -47,4 +49,14 @@ def build_request(args: argparse.Namespace) -> BuildRequest:
         ),
         skip_dependency_check=args.skip_dependency_check,
         force=getattr(args, "force", False),
+        cache=_cache_settings(args),
     )
+
+
+def _cache_settings(args: argparse.Namespace) -> CacheSettings | None:
+    """--cache URL / --no-cache / --cache-read-only over WSBUILD_CACHE; None when off."""
+    if not hasattr(args, "no_cache"):
+        return None  # a verb without the cache options (wsbuild test)
+    settings = settings_from_environment(os.environ, url=args.cache, no_cache=args.no_cache,
+                                         read_only=args.cache_read_only)
+    return settings if settings.enabled else None

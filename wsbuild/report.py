@@ -8,6 +8,7 @@ import time
 from typing import TextIO
 
 from wsbuild.events import (
+    CacheRestored,
     Event,
     JobFinished,
     JobStarted,
@@ -33,6 +34,8 @@ class Reporter:
         self._lock = threading.Lock()
         self._running: dict[str, tuple[float, str]] = {}
         self._finished = 0
+        #: packages installed from the build cache (their JobFinished says FINISHED)
+        self._restored: set[str] = set()
         self._status_shown = False
         self._start = time.monotonic()
         self._ticker: threading.Thread | None = None
@@ -77,6 +80,8 @@ class Reporter:
             self._running.pop(event.result.package, None)
             self._finished += 1
             self._finished_lines(event.result)
+        elif isinstance(event, CacheRestored):
+            self._restored.add(event.package)
         elif isinstance(event, Notice):
             prefix = "WARNING: " if event.warning else ""
             where = f"[{event.package}] " if event.package else ""
@@ -91,7 +96,9 @@ class Reporter:
             for warning in result.warnings:
                 self._write(warning)
             self._write("---")
-        if result.outcome is Outcome.FINISHED:
+        if result.outcome is Outcome.FINISHED and name in self._restored:
+            self._write(f"Restored <<< {name} [{result.seconds:.2f}s] from cache")
+        elif result.outcome is Outcome.FINISHED:
             self._write(f"Finished <<< {name} [{result.seconds:.2f}s]")
         elif result.outcome is Outcome.UP_TO_DATE:
             pass  # counted in the summary; the package's log says why
@@ -113,6 +120,9 @@ class Reporter:
         verb_done = "finished"
         lines = [f"Summary: {_plural(len(by_outcome.get(Outcome.FINISHED, [])), 'package')} "
                  f"{verb_done} [{event.seconds:.2f}s]"]
+        restored = [n for n in by_outcome.get(Outcome.FINISHED, []) if n in self._restored]
+        if restored:
+            lines.append(f"  {_plural(len(restored), 'package')} restored from cache")
         labels = (
             (Outcome.UP_TO_DATE, "up to date"),
             (Outcome.FAILED, "failed"),

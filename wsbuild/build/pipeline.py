@@ -23,13 +23,14 @@ from collections.abc import Mapping, Sequence
 from dataclasses import asdict, dataclass, replace
 from pathlib import Path
 
+from wsbuild.build.cached import RunCache
 from wsbuild.build.logs import new_run_log
 from wsbuild.build.process import env_delta, format_command, run_command
 from wsbuild.build.request import BuildRequest
 from wsbuild.build.schedule import RunInterrupted, run_jobs
 from wsbuild.build_types import BuildContext, StepFailed, get_build_type
 from wsbuild.errors import BuildFailed, DependencyError, Interrupted, WorkspaceError
-from wsbuild.events import Emit, Notice, RunFinished, StepStarted
+from wsbuild.events import CacheRestored, Emit, Notice, RunFinished, StepStarted
 from wsbuild.underlay.environment import PreparedUnderlay
 from wsbuild.workspace.graph import Graph
 from wsbuild.workspace.model import BuildResult, DepCategory, Outcome, Package
@@ -164,17 +165,20 @@ def run_build(plan: Plan, request: BuildRequest, emit: Emit) -> list[BuildResult
         selected = set(plan.selected)
 
         keys: dict[str, str] = {}
+        cache = RunCache(request.cache, ws, emit, symlink_install=options.symlink_install)
 
         def build_one(name: str) -> BuildResult:
             return _build_package(plan, request, name, base_env, order, run_log, jobserver,
-                                  keys, emit)
+                                  keys, emit, cache)
 
         dependencies = {n: plan.graph.direct(n) & selected for n in plan.selected}
         try:
             results = run_jobs(plan.selected, dependencies, build_one,
                                workers=request.run.workers,
                                continue_on_error=request.run.continue_on_error, emit=emit)
+            cache.close()
         except RunInterrupted as interrupt:
+            cache.close(wait=False)
             results = interrupt.results
             _finish_install(ws, merged, underlay)
             emit(RunFinished(tuple(results), time.monotonic() - started))
@@ -296,7 +300,7 @@ BUILDING_MARKER = Path(".wsbuild") / "building"
 
 def _build_package(plan: Plan, request: BuildRequest, name: str, base_env: Mapping[str, str],
                    order: list[str], run_log: Path, jobserver: _Jobserver,
-                   keys: dict[str, str], emit: Emit) -> BuildResult:
+                   keys: dict[str, str], emit: Emit, cache: RunCache) -> BuildResult:
     from wsbuild.build.fingerprint import (
         BuildState,
         installed_files,
@@ -343,6 +347,27 @@ def _build_package(plan: Plan, request: BuildRequest, name: str, base_env: Mappi
     log_dir.mkdir(parents=True, exist_ok=True)
     with open(log_dir / "command.log", "a") as handle:
         handle.write(f"Rebuilding: {reason}\n")
+
+    # 1b. built before with the same inputs, here or on another machine: restore, don't build
+    build_key = BuildState.make_key(snapshot.digest, settings, dep_keys)
+    merged_record = build_dir / staging.MERGED_RECORD if merged else None
+    cache_key = cache.key(name, package.build_type, build_key,
+                          package_prefix(ws, name, merged), base_env)
+    if cache_key is not None and reason != "forced":
+        restored = cache.restore(cache_key, package_prefix(ws, name, merged), merged_record)
+        if restored is not None:
+            entry, installed = restored
+            write_state(build_dir, BuildState(key=build_key, source=snapshot.digest,
+                                              settings=settings, dependencies=dep_keys,
+                                              files=snapshot.files, installed=installed))
+            (build_dir / BUILDING_MARKER).unlink(missing_ok=True)
+            keys[name] = build_key
+            with open(log_dir / "command.log", "a") as handle:
+                handle.write(f"Restored from the build cache ({entry.source}, "
+                             f"archive {entry.digest})\n")
+            emit(CacheRestored(name, entry.source))
+            return BuildResult(name, Outcome.FINISHED, time.monotonic() - started,
+                               log_dir=log_dir, message="restored from cache")
 
     # 2. build into a fresh stage
     (build_dir / BUILDING_MARKER).parent.mkdir(parents=True, exist_ok=True)
@@ -425,6 +450,11 @@ def _build_package(plan: Plan, request: BuildRequest, name: str, base_env: Mappi
                                       installed=installed))
     (build_dir / BUILDING_MARKER).unlink()
     keys[name] = key
+    if cache_key is not None:
+        not_stored = cache.store(cache_key, prefix, merged_record)
+        if not_stored:
+            with open(log_dir / "command.log", "a") as handle:
+                handle.write(f"Build cache: {not_stored}\n")
     return BuildResult(name, Outcome.FINISHED, time.monotonic() - started, log_dir=log_dir,
                        message=reason or "", warnings=tuple(_interesting(warnings)))
 

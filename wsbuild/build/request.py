@@ -9,6 +9,7 @@ import os
 from dataclasses import dataclass
 
 from wsbuild.build_types import BuildOptions
+from wsbuild.cache.settings import CacheSettings
 
 
 @dataclass(frozen=True, slots=True)
@@ -28,6 +29,8 @@ class BuildRequest:
     skip_dependency_check: bool = False
     force: bool = False
     repair_underlay: bool = True
+    #: the build cache; None: off (what --no-cache and WSBUILD_CACHE=off ask for)
+    cache: CacheSettings | None = None
 
 
 def cpu_count() -> int:
