@@ -74,3 +74,13 @@ def test_imports_point_downward(name: str, path: Path) -> None:
         if RANKS.get(room_of(target), 0) > own
     ]
     assert not upward, "\n".join(upward)
+
+
+def test_every_room_ships_in_the_wheel() -> None:
+    """pyproject.toml lists the packages explicitly (templates/ is mapped in): a new room must be
+    added there, or a non-editable install lacks it."""
+    import tomllib
+
+    listed = set(tomllib.loads((PACKAGE.parent / "pyproject.toml").read_text())["tool"]["setuptools"]["packages"])
+    on_disk = {".".join(init.parent.relative_to(PACKAGE.parent).parts) for init in PACKAGE.rglob("__init__.py")}
+    assert on_disk - listed == set(), f"add to [tool.setuptools] packages: {sorted(on_disk - listed)}"

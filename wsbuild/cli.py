@@ -10,6 +10,7 @@ import argparse
 import os
 import sys
 from collections.abc import Sequence
+from pathlib import Path
 
 from wsbuild import __version__
 from wsbuild.errors import WsbuildError
@@ -397,10 +398,20 @@ def _resolve_func(spec: str):  # type: ignore[no-untyped-def]
 
 def main(argv: Sequence[str] | None = None) -> int:
     raw = list(sys.argv[1:] if argv is None else argv)
-    parser = build_parser(pkg_arguments="pkg" in raw)
     if any(item in PASSTHROUGH for item in raw):
         raw = _collect_passthrough(raw)
-    args = parser.parse_args(raw)
+    from wsbuild.defaults import parse_with_defaults
+
+    def make_parser(verbs_in_defaults: set[str]) -> argparse.ArgumentParser:
+        full = "pkg" in raw or any(v.split(".")[0] == "pkg" for v in verbs_in_defaults)
+        return build_parser(pkg_arguments=full)
+
+    try:
+        # defaults files (colcon-defaults' ~/.colcon/defaults.yaml, then <ws>/wsbuild.yaml)
+        args = parse_with_defaults(raw, os.environ, Path.cwd(), make_parser)
+    except WsbuildError as exc:
+        print(f"wsbuild: error: {exc}", file=sys.stderr)
+        return exc.exit_code
     try:
         return int(_resolve_func(args.func)(args) or 0)
     except WsbuildError as exc:
