@@ -78,6 +78,11 @@ def build_parser(*, pkg_arguments: bool = True) -> argparse.ArgumentParser:
     sub = verb("test", "wsbuild.verbs.test:run_test_verb", TEST_DOC)
     _test_arguments(sub)
 
+    from wsbuild.verbs.clean import CLEAN_DOC, add_clean_arguments
+
+    sub = verb("clean", "wsbuild.verbs.clean:run_clean", CLEAN_DOC)
+    add_clean_arguments(sub)
+
     sub = verbs.add_parser("test-result", help="show the results of earlier test runs",
                            description=TEST_RESULT_DOC.strip(), formatter_class=_Formatter)
     sub.set_defaults(func="wsbuild.verbs.test:run_test_result_verb")

@@ -83,7 +83,7 @@ def underlays_from_environment(environ: Mapping[str, str], install_base: Path) -
 
 
 def write_workspace_scripts(
-    install_base: Path, *, merged: bool, underlays: Sequence[ChainedUnderlay]
+    install_base: Path, *, merged: bool, underlays: Sequence[ChainedUnderlay] | None
 ) -> list[Path]:
     """Write install/{local_setup,setup}.{sh,bash,zsh} and the install markers.
 
@@ -91,8 +91,9 @@ def write_workspace_scripts(
     `share/colcon-core/packages`) in dependency order, with each package.dsv already
     interpreted: sourcing it runs no Python and starts no process. `setup.*` first sources
     the `underlays` (given highest priority first, applied lowest first, as colcon does),
-    then `local_setup.*`. Also writes `.colcon_install_layout` (raising if the install base
-    has the other layout) and `COLCON_IGNORE`. Returns the paths actually written.
+    then `local_setup.*`; `underlays=None` keeps existing `setup.*` as they are (`wsbuild
+    clean` removing packages). Also writes `.colcon_install_layout` (raising if the install
+    base has the other layout) and `COLCON_IGNORE`. Returns the paths actually written.
     """
     install_base.mkdir(parents=True, exist_ok=True)
     written = [p for p in (mark_install_layout(install_base, merged=merged),
@@ -108,8 +109,10 @@ def write_workspace_scripts(
             install_base / f"local_setup.{shell}": _local_setup(
                 install_base, environments, merged=merged, shell=shell, build_prefix=build_prefix
             ),
-            install_base / f"setup.{shell}": _setup(underlays, shell=shell, build_prefix=build_prefix),
         }
+        setup = install_base / f"setup.{shell}"
+        if underlays is not None or not setup.exists():
+            files[setup] = _setup(underlays or (), shell=shell, build_prefix=build_prefix)
         written += [path for path, content in files.items() if write_if_changed(path, content)]
     return written
 
