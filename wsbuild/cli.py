@@ -83,6 +83,13 @@ def build_parser(*, pkg_arguments: bool = True) -> argparse.ArgumentParser:
     sub = verb("clean", "wsbuild.verbs.clean:run_clean", CLEAN_DOC)
     add_clean_arguments(sub)
 
+    from wsbuild.verbs.completion import COMPLETION_DOC, add_completion_arguments
+
+    sub = verbs.add_parser("completion", help=COMPLETION_DOC.partition("\n")[0],
+                           description=COMPLETION_DOC.strip(), formatter_class=_Formatter)
+    sub.set_defaults(func="wsbuild.verbs.completion:run_completion")
+    add_completion_arguments(sub)
+
     sub = verbs.add_parser("test-result", help="show the results of earlier test runs",
                            description=TEST_RESULT_DOC.strip(), formatter_class=_Formatter)
     sub.set_defaults(func="wsbuild.verbs.test:run_test_result_verb")
@@ -403,6 +410,10 @@ def _resolve_func(spec: str):  # type: ignore[no-untyped-def]
 
 def main(argv: Sequence[str] | None = None) -> int:
     raw = list(sys.argv[1:] if argv is None else argv)
+    if "_ARGCOMPLETE" in os.environ:  # the shell asks for completions (wsbuild completion)
+        from wsbuild.verbs.completion import complete
+
+        complete(build_parser(pkg_arguments="pkg" in os.environ.get("COMP_LINE", "")))
     if any(item in PASSTHROUGH for item in raw):
         raw = _collect_passthrough(raw)
     from wsbuild.defaults import parse_with_defaults
