@@ -139,6 +139,9 @@ def make_tools(project_venv: Path, colcon_venv: Path) -> Tools:
     wsbuild_env = dict(base)
     wsbuild_env["VIRTUAL_ENV"] = str(project_venv)
     wsbuild_env["PATH"] = os.pathsep.join([str(project_venv / "bin"), *path])
+    # full builds must build: the build cache would restore repeats (benchmarks/cache.py
+    # measures the cache and turns it back on)
+    wsbuild_env["WSBUILD_CACHE"] = "off"
     return Tools(project_venv=project_venv, colcon_venv=colcon_venv,
                  wsbuild_env=wsbuild_env, colcon_env=colcon_env, shell_env=dict(base))
 

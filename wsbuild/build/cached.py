@@ -54,9 +54,11 @@ class RunCache:
         from wsbuild import __version__
         from wsbuild.cache.key import cache_key
 
+        directory = self.settings.directory
         return cache_key(package=name, build_key=build_key, install_prefix=prefix,
                          build_type=build_type, environ=environ, version=__version__,
-                         workspace_install=self.workspace.install_base)
+                         workspace_install=self.workspace.install_base,
+                         memo=directory / "toolchain.json" if directory else None)
 
     def restore(self, key: CacheKey, prefix: Path, merged_record: Path | None
                 ) -> tuple[Restored, list[tuple[str, int]]] | None:

@@ -50,9 +50,10 @@ class CacheKey:
 
 def cache_key(*, package: str, build_key: str, install_prefix: Path, build_type: str,
               environ: Mapping[str, str], version: str,
-              workspace_install: Path | None = None) -> CacheKey:
+              workspace_install: Path | None = None, memo: Path | None = None) -> CacheKey:
     """The key under which `package`'s install is stored. `environ` is the build environment
-    (its compilers and underlay count); prefixes below `workspace_install` are not underlay."""
+    (its compilers and underlay count); prefixes below `workspace_install` are not underlay;
+    `memo` remembers compiler versions between runs (see toolchain_id)."""
     parts = {
         "format": ENTRY_FORMAT,
         "package": package,
@@ -62,7 +63,7 @@ def cache_key(*, package: str, build_key: str, install_prefix: Path, build_type:
         "wsbuild": version,
         "platform": platform_id(),
         "toolchain": toolchain_id(environ.get("CC", ""), environ.get("CXX", ""),
-                                  environ.get("PATH", os.defpath)),
+                                  environ.get("PATH", os.defpath), memo),
         "underlay": underlay_id(environ.get("AMENT_PREFIX_PATH", ""),
                                 str(workspace_install) if workspace_install else ""),
     }
@@ -85,27 +86,70 @@ def platform_id() -> str:
     return f"{sys.platform} {platform.machine()} {release.strip()} {libc}".strip()
 
 
-def _first_line(command: list[str]) -> str:
-    try:
-        completed = subprocess.run(command, capture_output=True, text=True, timeout=10,
-                                   stdin=subprocess.DEVNULL)
-    except (OSError, subprocess.SubprocessError):
-        return "unavailable"
-    lines = (completed.stdout or completed.stderr).splitlines()
-    return lines[0].strip() if lines else "unavailable"
+def _version_lines(programs: list[str]) -> dict[str, str]:
+    """First line of `program --version` for each program, the calls running at once."""
+    running = []
+    for program in programs:
+        try:
+            running.append((program, subprocess.Popen(
+                [program, "--version"], stdin=subprocess.DEVNULL, stdout=subprocess.PIPE,
+                stderr=subprocess.STDOUT, text=True)))
+        except OSError:
+            continue
+    lines: dict[str, str] = {}
+    for program, process in running:
+        try:
+            out, _ = process.communicate(timeout=10)
+        except subprocess.TimeoutExpired:
+            process.kill()
+            out, _ = process.communicate()
+        first = out.splitlines()
+        lines[program] = first[0].strip() if first else "unavailable"
+    return lines
 
 
 @functools.lru_cache(maxsize=8)
-def toolchain_id(cc: str, cxx: str, path: str) -> str:
-    """The C and C++ compilers CMake would pick and CMake itself, by resolved path and version."""
-    found = []
+def toolchain_id(cc: str, cxx: str, path: str, memo: Path | None = None) -> str:
+    """The C and C++ compilers CMake would pick and CMake itself, by resolved path and version.
+
+    `memo` (a JSON file) remembers each program's version line by its path, size and mtime,
+    so later runs need three stats instead of three processes."""
+    programs: dict[str, str | None] = {}
     for tool in (cc or "cc", cxx or "c++", "cmake"):
         program = tool.split()[0] if tool.strip() else tool
         located = shutil.which(program, path=path)
-        if located is None:
-            found.append(f"{program}: none")
-            continue
-        found.append(f"{os.path.realpath(located)}: {_first_line([located, '--version'])}")
+        programs[program] = os.path.realpath(located) if located else None
+    known: dict[str, list[object]] = {}
+    if memo is not None:
+        try:
+            known = json.loads(memo.read_text())
+        except (OSError, ValueError):
+            known = {}
+    stamps: dict[str, list[object]] = {}
+    for real in filter(None, programs.values()):
+        try:
+            info = os.stat(real)
+            stamps[real] = [info.st_size, info.st_mtime_ns]
+        except OSError:
+            stamps[real] = [0, 0]
+    missing = [real for real in stamps
+               if not (isinstance(known.get(real), list) and known[real][:2] == stamps[real])]
+    if missing:
+        for real, line in _version_lines(missing).items():
+            known[real] = [*stamps[real], line]
+        if memo is not None:
+            try:
+                memo.parent.mkdir(parents=True, exist_ok=True)
+                temp = memo.with_name(f"{memo.name}.{os.getpid()}")
+                temp.write_text(json.dumps(known, sort_keys=True))
+                os.replace(temp, memo)
+            except OSError:
+                pass
+    found = []
+    for program, real in programs.items():
+        entry = known.get(real) if real else None
+        line = entry[2] if isinstance(entry, list) and len(entry) > 2 else "unavailable"
+        found.append(f"{real}: {line}" if real else f"{program}: none")
     return "; ".join(found)
 
 
