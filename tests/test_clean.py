@@ -193,3 +193,18 @@ def test_a_merged_install_loses_only_the_packages_files(make_workspace: Callable
     sourced = subprocess.run(["bash", "-c", script], cwd=ws, capture_output=True, text=True,
                              timeout=60)
     assert sourced.returncode == 0, sourced.stderr
+
+
+def test_a_symlink_install_is_removed_without_following_its_links(
+        make_workspace: Callable[..., Path]) -> None:
+    ws = make_workspace(SPEC)
+    result = run_wsbuild("build", "--symlink-install", cwd=ws)
+    assert result.returncode == 0, result.stderr
+    links = [p for p in (ws / "install").rglob("*") if p.is_symlink()]
+    assert any(str(os.readlink(p)).startswith(str(ws / "src")) for p in links)
+    sources = {p: p.read_bytes() for p in (ws / "src").rglob("*") if p.is_file()}
+    for args in (["--packages-select", "pa", "-y"], ["-y"]):
+        result = run_wsbuild("clean", *args, cwd=ws)
+        assert result.returncode == 0, result.stderr
+        assert {p: p.read_bytes() for p in (ws / "src").rglob("*") if p.is_file()} == sources
+    assert sorted(os.listdir(ws)) == ["src"]
