@@ -5,6 +5,7 @@ committed into install/ exactly as a build commits its stage."""
 from __future__ import annotations
 
 import threading
+import time
 from collections.abc import Mapping
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -22,13 +23,22 @@ class RunCache:
     """One run's cache. Thread-safe: packages build in worker threads."""
 
     def __init__(self, settings: CacheSettings | None, workspace: Workspace, emit: Emit, *,
-                 symlink_install: bool) -> None:
+                 symlink_install: bool, log: Path | None = None) -> None:
         # a symlink install points into src/ and build/: nothing a cache could carry
         self.settings = None if symlink_install else settings
         self.workspace = workspace
         self._emit = emit
         self._lock = threading.Lock()
         self._cache: BuildCache | None = None
+        #: where close() writes what the cache cost and did (the run's log directory)
+        self._log = log
+        self._seconds = {"lookup": 0.0, "restore": 0.0, "store": 0.0}
+        self._counts = {"lookup": 0, "restore": 0, "store": 0}
+
+    def _account(self, what: str, started: float) -> None:
+        with self._lock:
+            self._seconds[what] += time.perf_counter() - started
+            self._counts[what] += 1
 
     @property
     def enabled(self) -> bool:
@@ -51,14 +61,18 @@ class RunCache:
             environ: Mapping[str, str]) -> CacheKey | None:
         if self.settings is None:
             return None
+        started = time.perf_counter()
         from wsbuild import __version__
         from wsbuild.cache.key import cache_key
 
         directory = self.settings.directory
-        return cache_key(package=name, build_key=build_key, install_prefix=prefix,
-                         build_type=build_type, environ=environ, version=__version__,
-                         workspace_install=self.workspace.install_base,
-                         memo=directory / "toolchain.json" if directory else None)
+        key = cache_key(package=name, build_key=build_key, install_prefix=prefix,
+                        build_type=build_type, environ=environ, version=__version__,
+                        workspace_install=self.workspace.install_base,
+                        memo=directory / "toolchain.json" if directory else None)
+        with self._lock:  # counted with the lookups
+            self._seconds["lookup"] += time.perf_counter() - started
+        return key
 
     def restore(self, key: CacheKey, prefix: Path, merged_record: Path | None
                 ) -> tuple[Restored, list[tuple[str, int]]] | None:
@@ -67,6 +81,7 @@ class RunCache:
         from wsbuild.build.fingerprint import installed_files
         from wsbuild.prefix import stage as staging
 
+        started = time.perf_counter()
         cache = self._open()
         install_base = self.workspace.install_base
         stage = staging.new_stage(install_base, key.package)
@@ -74,23 +89,45 @@ class RunCache:
             restored = cache.restore(key, stage)
             if restored is None:
                 staging.discard_stage(stage)
+                self._account("lookup", started)
                 return None
             if merged_record is not None:
                 staging.commit_merged(stage, prefix, merged_record)
                 files = merged_record.read_text().splitlines()
-                return restored, installed_files(install_base, prefix, files)
-            staging.commit_isolated(stage, prefix)
-            return restored, installed_files(install_base, prefix)
+                result = restored, installed_files(install_base, prefix, files)
+            else:
+                staging.commit_isolated(stage, prefix)
+                result = restored, installed_files(install_base, prefix)
         except BaseException:
             staging.discard_stage(stage)
             raise
+        self._account("restore", started)
+        return result
 
     def store(self, key: CacheKey, prefix: Path, merged_record: Path | None) -> str | None:
         """Store the package just installed at `prefix`; None when stored, else why not."""
+        started = time.perf_counter()
         files = merged_record.read_text().splitlines() if merged_record is not None else None
-        return self._open().store(key, prefix, files)
+        why_not = self._open().store(key, prefix, files)
+        self._account("store", started)
+        return why_not
 
     def close(self, *, wait: bool = True) -> None:
-        """Finish uploads and evict old local entries (wait=False after Ctrl-C)."""
-        if self._cache is not None:
-            self._cache.close(wait=wait)
+        """Finish uploads and evict old local entries (wait=False after Ctrl-C); write what
+        the cache cost into the run's log."""
+        if self._cache is None:
+            return
+        started = time.perf_counter()
+        self._cache.close(wait=wait)
+        closing = time.perf_counter() - started
+        if self._log is not None:
+            s, n = self._seconds, self._counts
+            text = (f"build cache: {n['lookup']} missed ({s['lookup']:.3f} s), "
+                    f"{n['restore']} restored ({s['restore']:.3f} s), "
+                    f"{n['store']} stored ({s['store']:.3f} s), "
+                    f"closing (uploads, eviction) {closing:.3f} s\n")
+            try:
+                with open(self._log, "a") as handle:
+                    handle.write(text)
+            except OSError:
+                pass

@@ -165,7 +165,8 @@ def run_build(plan: Plan, request: BuildRequest, emit: Emit) -> list[BuildResult
         selected = set(plan.selected)
 
         keys: dict[str, str] = {}
-        cache = RunCache(request.cache, ws, emit, symlink_install=options.symlink_install)
+        cache = RunCache(request.cache, ws, emit, symlink_install=options.symlink_install,
+                         log=run_log / "cache.log")
 
         def build_one(name: str) -> BuildResult:
             return _build_package(plan, request, name, base_env, order, run_log, jobserver,

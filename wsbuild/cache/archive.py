@@ -61,27 +61,52 @@ class _HashingWriter:
         return self.out.write(data)
 
 
+def _tar_info(root: Path, rel: str, hardlinks: dict[tuple[int, int], str]) -> tarfile.TarInfo:
+    """The member for `root/rel`, without owner names (no passwd lookups) and with whole-second
+    mtimes (no PAX header per member)."""
+    path = os.path.join(root, rel)
+    st = os.lstat(path)
+    info = tarfile.TarInfo(rel)
+    info.mode = stat.S_IMODE(st.st_mode)
+    info.mtime = int(st.st_mtime)
+    info.uid = info.gid = 0
+    info.uname = info.gname = ""
+    if stat.S_ISREG(st.st_mode):
+        first = hardlinks.get((st.st_dev, st.st_ino)) if st.st_nlink > 1 else None
+        if first is not None:
+            info.type = tarfile.LNKTYPE
+            info.linkname = first
+        else:
+            info.size = st.st_size
+            if st.st_nlink > 1:
+                hardlinks[(st.st_dev, st.st_ino)] = rel
+    elif stat.S_ISDIR(st.st_mode):
+        info.type = tarfile.DIRTYPE
+    elif stat.S_ISLNK(st.st_mode):
+        info.type = tarfile.SYMTYPE
+        info.linkname = os.readlink(path)
+    else:
+        raise RefusedEntry(f"{rel} is a special file")
+    return info
+
+
 def pack(root: Path, out: BinaryIO, files: Iterable[str] | None = None) -> tuple[str, int]:
     """Write `root` (or just `files` below it) to `out` as tar.zst; (sha256, size) of the bytes.
 
     Raises RefusedEntry for a tree a cache entry must not hold."""
     hashing = _HashingWriter(out)
     compressor = zstandard.ZstdCompressor(level=ZSTD_LEVEL)
+    hardlinks: dict[tuple[int, int], str] = {}
     with compressor.stream_writer(hashing, closefd=False) as zstd_out:  # type: ignore[arg-type]
         with tarfile.open(fileobj=zstd_out, mode="w|", format=tarfile.PAX_FORMAT) as tar:
             for rel in _tree(root, files):
-                path = root / rel
-                info = tar.gettarinfo(str(path), arcname=rel)
-                if not (info.isreg() or info.isdir() or info.issym() or info.islnk()):
-                    raise RefusedEntry(f"{rel} is a special file")
+                info = _tar_info(root, rel, hardlinks)
                 if info.mode & _HIGH_BITS:
                     raise RefusedEntry(f"{rel} has a setuid, setgid or sticky bit")
                 if info.issym() and _link_escapes(rel, info.linkname):
                     raise RefusedEntry(f"{rel} links outside the prefix ({info.linkname})")
-                info.uid = info.gid = 0
-                info.uname = info.gname = ""
                 if info.isreg():
-                    with open(path, "rb") as handle:
+                    with open(os.path.join(root, rel), "rb") as handle:
                         tar.addfile(info, handle)
                 else:
                     tar.addfile(info)
@@ -106,15 +131,15 @@ def check_member(member: tarfile.TarInfo) -> None:
         raise RefusedEntry(f"hard link leading outside the prefix: {name!r} -> {member.linkname!r}")
 
 
-def _filter(member: tarfile.TarInfo, dest: str) -> tarfile.TarInfo:
-    check_member(member)
-    try:
-        # resolves links already on disk: a chain of harmless-looking links cannot escape
-        filtered = tarfile.data_filter(member, dest)
-    except tarfile.FilterError as error:
-        raise RefusedEntry(str(error)) from None
-    # keep the packed mode (data_filter would widen directories to the umask default)
-    return filtered.replace(mode=member.mode, deep=False) if member.isdir() else filtered
+def _safe_mode(member: tarfile.TarInfo) -> int:
+    """What the standard library's `data` filter keeps: no group/other write; a file is
+    readable and writable by its owner, executable by others only if by its owner."""
+    mode = member.mode & ~0o022
+    if member.isreg():
+        mode |= 0o600
+        if not mode & stat.S_IXUSR:
+            mode &= ~(stat.S_IXGRP | stat.S_IXOTH)
+    return mode
 
 
 def unpack(source: BinaryIO, dest: Path) -> int:
@@ -125,17 +150,29 @@ def unpack(source: BinaryIO, dest: Path) -> int:
     if not hasattr(tarfile, "data_filter"):
         raise RefusedEntry("this Python has no tarfile extraction filters (3.10.12+ needed)")
     count = 0
+    links_seen = False
 
-    def counted(member: tarfile.TarInfo, path: str) -> tarfile.TarInfo:
-        nonlocal count
+    def checked(member: tarfile.TarInfo, path: str) -> tarfile.TarInfo:
+        nonlocal count, links_seen
         count += 1
-        return _filter(member, path)
+        check_member(member)
+        links_seen = links_seen or member.issym() or member.islnk()
+        if links_seen:
+            # once a link exists on disk, a path may run through it: the standard library's
+            # filter resolves every member against the disk (costly, so only from here on)
+            try:
+                tarfile.data_filter(member, path)
+            except tarfile.FilterError as error:
+                raise RefusedEntry(str(error)) from None
+        # without links on disk (the stage starts empty) the name checks above are complete
+        return member.replace(mode=_safe_mode(member), uid=None, gid=None, uname=None,
+                              gname=None, deep=False)
 
     try:
         reader = zstandard.ZstdDecompressor().stream_reader(source, closefd=False)
         with tarfile.open(fileobj=reader, mode="r|") as tar:  # type: ignore[call-overload]
             tar.errorlevel = 2
-            tar.extractall(dest, filter=counted)
+            tar.extractall(dest, filter=checked)
     except RefusedEntry:
         raise
     except (tarfile.TarError, zstandard.ZstdError, OSError, EOFError, ValueError) as error:

@@ -15,13 +15,16 @@ import threading
 from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from wsbuild.cache.archive import RefusedEntry, file_digest, pack, unpack
-from wsbuild.cache.http import CacheRejected, CacheUnavailable, HttpCache, TruncatedDownload
 from wsbuild.cache.key import CacheKey
 from wsbuild.cache.local import LocalCache
 from wsbuild.cache.record import Record, parse_record
 from wsbuild.cache.settings import CacheSettings, default_cache_dir
+
+if TYPE_CHECKING:
+    from wsbuild.cache.http import HttpCache
 
 Warn = Callable[[str], None]
 
@@ -55,6 +58,8 @@ class BuildCache:
                            settings.max_bytes)
         remote = None
         if settings.url:
+            from wsbuild.cache.http import HttpCache  # only with a server: http.client costs
+
             remote = HttpCache(settings.url, environ=environ, timeout=settings.timeout)
         return cls(local, remote, read_only=settings.read_only, warn=warn)
 
@@ -88,6 +93,8 @@ class BuildCache:
         remote = self.remote
         from_local = data is not None
         if data is None and remote is not None:
+            from wsbuild.cache.http import CacheUnavailable
+
             try:
                 data = remote.get_action(address)
             except CacheUnavailable as error:
@@ -134,6 +141,8 @@ class BuildCache:
         return Restored(source, record.digest, members)
 
     def _download(self, key: CacheKey, record: Record, remote: HttpCache) -> Path | None:
+        from wsbuild.cache.http import CacheUnavailable, TruncatedDownload
+
         temp = self.local.temp_file()
         try:
             with open(temp, "wb") as out:
@@ -178,6 +187,8 @@ class BuildCache:
         return None
 
     def _upload_loop(self) -> None:
+        from wsbuild.cache.http import CacheRejected, CacheUnavailable
+
         while (item := self._queue.get()) is not None:
             digest, blob, address, record = item
             remote = self.remote
