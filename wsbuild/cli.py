@@ -199,6 +199,15 @@ def _build_arguments(sub: argparse.ArgumentParser) -> None:
                        help="build the 'clean' target first")
     cmake.add_argument("--cmake-force-configure", action="store_true",
                        help="configure even when nothing changed")
+    cmake.add_argument("--compiler-cache", choices=("auto", "sccache", "ccache", "none"),
+                       default="auto",
+                       help="run C/C++ compilers through this cache (default: auto, i.e. ccache, "
+                            "else sccache, when installed); its directory and remote backends are "
+                            "the tool's own settings")
+    cmake.add_argument("--timings", action="store_true",
+                       help="end with each package's phase times (idle waiting for the CPU "
+                            "budget, configure, build, install) and the run's CPU time against "
+                            "the limit (CPU seconds / cores); always in log/latest_build/timings.txt")
     cache = sub.add_argument_group("build cache (local ~/.cache/wsbuild always; a remote "
                                    "bazel-remote or WebDAV server on request)")
     cache.add_argument("--cache", metavar="URL",

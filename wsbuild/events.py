@@ -46,6 +46,8 @@ class RunFinished:
     results: tuple[BuildResult, ...]
     seconds: float
     verb: str = "build"
+    #: lines the summary ends with (compiler cache counts, `--timings` table)
+    details: tuple[str, ...] = ()
 
 
 Event = JobStarted | StepStarted | JobFinished | Notice | CacheRestored | RunFinished

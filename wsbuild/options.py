@@ -20,7 +20,9 @@ def _split_args(values: list[str] | None) -> tuple[str, ...]:
     for value in values or []:
         if not value:
             continue
-        result.extend(shlex.split(value) if " " in value and not value.startswith("-D") else [value])
+        # a generator name has spaces of its own: `-G "Unix Makefiles"`, `-G"Unix Makefiles"`
+        whole = value.startswith(("-D", "-G")) or (result and result[-1] == "-G")
+        result.extend(shlex.split(value) if " " in value and not whole else [value])
     return tuple(result)
 
 
@@ -49,6 +51,8 @@ def build_request(args: argparse.Namespace) -> BuildRequest:
         ),
         skip_dependency_check=args.skip_dependency_check,
         force=getattr(args, "force", False),
+        compiler_cache=getattr(args, "compiler_cache", "auto"),
+        timings=getattr(args, "timings", False),
         cache=_cache_settings(args),
     )
 

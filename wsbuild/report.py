@@ -137,6 +137,7 @@ class Reporter:
         warned = [r.package for r in event.results if r.warnings]
         if warned:
             lines.append(f"  {_plural(len(warned), 'package')} had warnings: {' '.join(warned)}")
+        lines += [f"  {line}" for line in event.details]
         for line in lines:
             self._write(line)
 

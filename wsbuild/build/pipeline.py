@@ -24,13 +24,23 @@ from dataclasses import asdict, dataclass, replace
 from pathlib import Path
 
 from wsbuild.build.cached import RunCache
+from wsbuild.build.compiler_cache import CacheCounts, CompilerCache, open_compiler_cache
 from wsbuild.build.logs import new_run_log
 from wsbuild.build.process import env_delta, format_command, run_command
 from wsbuild.build.request import BuildRequest
 from wsbuild.build.schedule import RunInterrupted, run_jobs
+from wsbuild.build.timings import (
+    CpuTimes,
+    RunTimings,
+    TimingRecorder,
+    cpu_times,
+    package_weights,
+    record_durations,
+    write_timings,
+)
 from wsbuild.build_types import BuildContext, StepFailed, get_build_type
-from wsbuild.errors import BuildFailed, DependencyError, Interrupted, WorkspaceError
-from wsbuild.events import CacheRestored, Emit, Notice, RunFinished, StepStarted
+from wsbuild.errors import BuildFailed, DependencyError, Interrupted, WorkspaceError, WsbuildError
+from wsbuild.events import CacheRestored, Emit, Event, Notice, RunFinished, StepStarted
 from wsbuild.underlay.environment import PreparedUnderlay
 from wsbuild.workspace.graph import Graph
 from wsbuild.workspace.model import BuildResult, DepCategory, Outcome, Package
@@ -112,13 +122,23 @@ def check_dependencies(plan: Plan, request: BuildRequest, environ: Mapping[str, 
 
 
 class _Jobserver:
-    """A GNU make jobserver shared by every package, so N workers never run N×N compilers."""
+    """A GNU make jobserver shared by every package, so N workers never run N×N compilers.
+
+    The tokens live in a named FIFO: GNU make 4.3 gets it as inherited descriptors
+    (`makeflags`), Ninja ≥ 1.13 opens it by name (`fifo`, the only form its client takes)."""
 
     def __init__(self, jobs: int) -> None:
-        self.read_fd, self.write_fd = os.pipe()
+        import tempfile
+
+        self._dir = Path(tempfile.mkdtemp(prefix="wsbuild-jobserver-"))
+        self.fifo = self._dir / "fifo"
+        os.mkfifo(self.fifo, 0o600)
+        # read-write: opening does not wait for a writer, and reads block like a pipe's
+        self.read_fd = os.open(self.fifo, os.O_RDWR)
+        self.write_fd = os.open(self.fifo, os.O_WRONLY)
         os.set_inheritable(self.read_fd, True)
         os.set_inheritable(self.write_fd, True)
-        # each running make holds one implicit slot; the pipe holds the rest of the budget
+        # each running make holds one implicit slot; the FIFO holds the rest of the budget
         os.write(self.write_fd, b"+" * max(0, jobs - 1))
 
     @property
@@ -132,6 +152,9 @@ class _Jobserver:
     def close(self) -> None:
         os.close(self.read_fd)
         os.close(self.write_fd)
+        import shutil
+
+        shutil.rmtree(self._dir, ignore_errors=True)
 
 
 def run_build(plan: Plan, request: BuildRequest, emit: Emit) -> list[BuildResult]:
@@ -145,6 +168,7 @@ def run_build(plan: Plan, request: BuildRequest, emit: Emit) -> list[BuildResult
     merged = options.merge_install
     check_layout(ws, merged)
     started = time.monotonic()
+    cpu_before = cpu_times()
     with workspace_lock(ws.build_base, wait=request.run.wait_for_lock,
                         on_wait=lambda text: emit(Notice(text))):
         _mark_workspace(ws, merged)
@@ -161,6 +185,10 @@ def run_build(plan: Plan, request: BuildRequest, emit: Emit) -> list[BuildResult
         check_dependencies(plan, request, base_env, extra_prefixes, emit)
         run_log = new_run_log(ws.log_base, "build")
         order = plan.graph.topological_order()
+        compilers = open_compiler_cache(request.compiler_cache, base_env, run_log / "sccache.log")
+        if compilers is not None:
+            request = replace(request, build=replace(request.build,
+                                                     compiler_launcher=compilers.launcher))
         jobserver = _Jobserver(options.jobs)
         selected = set(plan.selected)
 
@@ -168,37 +196,80 @@ def run_build(plan: Plan, request: BuildRequest, emit: Emit) -> list[BuildResult
         cache = RunCache(request.cache, ws, emit, symlink_install=options.symlink_install,
                          log=run_log / "cache.log")
 
+        dependencies = {n: plan.graph.direct(n) & selected for n in plan.selected}
+        weights = package_weights(plan.packages, plan.selected, ws.build_base)
+        recorder = TimingRecorder(dependencies)
+
+        def emit_timed(event: Event) -> None:
+            recorder(event)
+            emit(event)
+
         def build_one(name: str) -> BuildResult:
             return _build_package(plan, request, name, base_env, order, run_log, jobserver,
-                                  keys, emit, cache)
+                                  keys, emit_timed, cache, compilers)
 
-        dependencies = {n: plan.graph.direct(n) & selected for n in plan.selected}
         try:
             results = run_jobs(plan.selected, dependencies, build_one,
                                workers=request.run.workers,
-                               continue_on_error=request.run.continue_on_error, emit=emit)
+                               continue_on_error=request.run.continue_on_error,
+                               emit=emit_timed, weights=weights)
             cache.close()
+            counts = _stop_compiler_cache(compilers)
         except RunInterrupted as interrupt:
             cache.close(wait=False)
             results = interrupt.results
+            counts = _stop_compiler_cache(compilers)
             _finish_install(ws, merged, underlay)
-            emit(RunFinished(tuple(results), time.monotonic() - started))
+            details = _run_details(request, ws, run_log, results, recorder, counts,
+                                   time.monotonic() - started, cpu_before)
+            emit(RunFinished(tuple(results), time.monotonic() - started, details=details))
             raise Interrupted("build interrupted") from None
         finally:
             from wsbuild.build_types.pybuild.setup_py import shutdown_helpers
 
             shutdown_helpers()
             jobserver.close()
+            if compilers is not None:
+                compilers.close()
             # a previous install parked by an unfinished direct_install goes back, never away
             recover_all(ws.install_base)
         _finish_install(ws, merged, underlay)
         merge_compile_commands(ws)
-    emit(RunFinished(tuple(results), time.monotonic() - started))
+        details = _run_details(request, ws, run_log, results, recorder, counts,
+                               time.monotonic() - started, cpu_before)
+    emit(RunFinished(tuple(results), time.monotonic() - started, details=details))
     failed = [r.package for r in results if r.outcome is Outcome.FAILED]
     if failed:
         raise BuildFailed(f"{len(failed)} package(s) failed: {', '.join(failed)}",
                           hint=f"logs in {run_log}")
     return results
+
+
+def _stop_compiler_cache(compilers: CompilerCache | None) -> CacheCounts | None:
+    """The run's compiler cache counts; then its server stops (its CPU time joins the run's)."""
+    if compilers is None:
+        return None
+    counts = compilers.counts()
+    compilers.close()
+    return counts
+
+
+def _run_details(request: BuildRequest, ws: Workspace, run_log: Path,
+                 results: Sequence[BuildResult], recorder: TimingRecorder,
+                 counts: CacheCounts | None, wall: float,
+                 cpu_before: CpuTimes) -> tuple[str, ...]:
+    """After the run: the compiler cache's counts, timings into the log (and the summary with
+    --timings), durations recorded for the scheduler's next run."""
+    lines: list[str] = []
+    if counts is not None and counts.hits + counts.misses + counts.uncacheable:
+        lines.append(counts.summary())
+    timings = RunTimings(wall, cpu_times() - cpu_before, request.build.jobs,
+                         tuple(recorder.rows()))
+    write_timings(run_log, timings)
+    record_durations(ws.build_base, results)
+    if request.timings:
+        lines += [*timings.table(), timings.summary_line()]
+    return tuple(lines)
 
 
 def _mark_workspace(ws: Workspace, merged: bool) -> None:
@@ -257,6 +328,7 @@ def build_settings(plan: Plan, request: BuildRequest, name: str,
 
     options = asdict(request.build)
     options.pop("jobs")  # the CPU budget does not change what gets built
+    options.pop("compiler_launcher", None)  # nor does a compiler cache
     build_type = plan.packages[name].build_type
     if build_type not in ("cmake", "ament_cmake"):
         # CMake options do not reach Python packages
@@ -301,7 +373,8 @@ BUILDING_MARKER = Path(".wsbuild") / "building"
 
 def _build_package(plan: Plan, request: BuildRequest, name: str, base_env: Mapping[str, str],
                    order: list[str], run_log: Path, jobserver: _Jobserver,
-                   keys: dict[str, str], emit: Emit, cache: RunCache) -> BuildResult:
+                   keys: dict[str, str], emit: Emit, cache: RunCache,
+                   compilers: CompilerCache | None = None) -> BuildResult:
     from wsbuild.build.fingerprint import (
         BuildState,
         installed_files,
@@ -379,6 +452,8 @@ def _build_package(plan: Plan, request: BuildRequest, name: str, base_env: Mappi
     dependencies = [(package_prefix(ws, dep, merged), dep) for dep in order if dep in closure]
     environ = environment_for(dependencies, base_env)
     environ["MAKEFLAGS"] = jobserver.makeflags
+    if compilers is not None:
+        environ.update(compilers.environ)
     warnings: list[str] = []
 
     def run(command: Sequence[str], *, cwd: Path, env: Mapping[str, str] | None = None) -> None:
@@ -408,8 +483,14 @@ def _build_package(plan: Plan, request: BuildRequest, name: str, base_env: Mappi
         run=run,
         warn=warnings.append,
         dependency_prefixes=tuple(prefix for prefix, _ in dependencies),
+        jobserver_fifo=jobserver.fifo,
     )
     try:
+        if compilers is not None:
+            try:
+                compilers.start()
+            except WsbuildError as exc:
+                raise StepFailed(f"{exc}") from None
         build_type = get_build_type(package.build_type)
         for step in build_type.steps(ctx):
             emit(StepStarted(name, step.label))

@@ -29,6 +29,10 @@ class BuildRequest:
     skip_dependency_check: bool = False
     force: bool = False
     repair_underlay: bool = True
+    #: --compiler-cache: auto, sccache, ccache or none (build/compiler_cache.py)
+    compiler_cache: str = "auto"
+    #: --timings: print per-package phase times and CPU time against the limit
+    timings: bool = False
     #: the build cache; None: off (what --no-cache and WSBUILD_CACHE=off ask for)
     cache: CacheSettings | None = None
 

@@ -1,4 +1,14 @@
-"""Dependency-aware worker pool: run jobs in parallel, honour the failure policy, emit events."""
+"""Dependency-aware worker pool: run jobs in parallel, honour the failure policy, emit events.
+
+Order rule (critical path first): a package is *ready* when every dependency inside the run
+finished. When several are ready and a worker is free, the one with the longest *remaining
+work* starts first: its own weight plus the heaviest chain of packages that (transitively)
+depend on it. Weights are each package's duration in the last recorded build (kept in
+`build/.wsbuild/durations.json`, see `timings.py`), or an estimate from its number of interface
+and source files when none is recorded. Ties (and runs without weights) go to the earlier
+package in the given order, which is topological with ties broken by name: the result is
+deterministic. `critical_path()` returns the chain that bounds the run from below.
+"""
 
 from __future__ import annotations
 
@@ -7,7 +17,7 @@ import queue
 import signal
 import threading
 import time
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import replace
 
 from wsbuild.build.process import REGISTRY, ProcessRegistry
@@ -26,8 +36,10 @@ def run_jobs(
     continue_on_error: bool,
     emit: Emit,
     registry: ProcessRegistry = REGISTRY,
+    weights: Mapping[str, float] | None = None,
 ) -> list[BuildResult]:
-    """Run `job` for every name in `order` once its `dependencies` (within `order`) finished.
+    """Run `job` for every name in `order` once its `dependencies` (within `order`) finished;
+    among ready jobs the one with the most `remaining_work` under `weights` starts first.
 
     Without `continue_on_error`, no job starts after a failure; jobs already running finish and
     the rest are reported as skipped. With it, only the dependents of a failed job are skipped.
@@ -66,8 +78,10 @@ def run_jobs(
     for name in names:
         for dep in waiting[name]:
             users[dep].append(name)
-    # a heap of positions in `order`: among ready jobs, the earliest in order starts first
-    ready = [position[name] for name in names if not waiting[name]]
+    # a heap of (-remaining work, position in `order`): critical path first, then order
+    remaining = remaining_work(waiting, weights or {})
+    priority = {name: (-remaining[name], position[name]) for name in names}
+    ready = [priority[name] for name in names if not waiting[name]]
     heapq.heapify(ready)
 
     def settle(result: BuildResult) -> None:
@@ -93,7 +107,7 @@ def run_jobs(
                                            message="not started after an earlier failure"))
             else:
                 while ready and len(running) < workers:
-                    name = names[heapq.heappop(ready)]
+                    name = names[heapq.heappop(ready)[1]]
                     if name in results:  # skipped meanwhile
                         continue
                     running[name] = time.monotonic()
@@ -112,7 +126,7 @@ def run_jobs(
                 for user in users[result.package]:
                     waiting[user].discard(result.package)
                     if not waiting[user] and user not in results:
-                        heapq.heappush(ready, position[user])
+                        heapq.heappush(ready, priority[user])
             else:
                 failed_any = True
                 skip_dependents(result.package)
@@ -147,3 +161,56 @@ class RunInterrupted(KeyboardInterrupt):
     def __init__(self, results: list[BuildResult]) -> None:
         super().__init__()
         self.results = results
+
+
+def remaining_work(dependencies: Mapping[str, Iterable[str]],
+                   weights: Mapping[str, float]) -> dict[str, float]:
+    """For every name in `dependencies`: its weight plus the heaviest chain of names that depend
+    on it, directly or not (dependencies outside the mapping are ignored; a missing weight is 0)."""
+    names = list(dependencies)
+    members = set(names)
+    users: dict[str, list[str]] = {name: [] for name in names}
+    pending = {name: 0 for name in names}
+    for name in names:
+        for dep in set(dependencies[name]) & members:
+            users[dep].append(name)
+            pending[name] += 1
+    # Kahn's order, then sum up from the last dependents backwards
+    order = [name for name in names if not pending[name]]
+    for name in order:
+        for user in users[name]:
+            pending[user] -= 1
+            if not pending[user]:
+                order.append(user)
+    if len(order) != len(names):
+        raise ValueError("dependency cycle among " + ", ".join(sorted(members - set(order))))
+    result: dict[str, float] = {}
+    for name in reversed(order):
+        result[name] = max(0.0, float(weights.get(name, 0.0))) + max(
+            (result[user] for user in users[name]), default=0.0)
+    return result
+
+
+def critical_path(dependencies: Mapping[str, Iterable[str]],
+                  weights: Mapping[str, float]) -> list[str]:
+    """The heaviest chain of packages, dependencies first: the lower bound of a run's wall time
+    with unlimited CPUs. Ties go to the name first in `dependencies`' order."""
+    remaining = remaining_work(dependencies, weights)
+    if not remaining:
+        return []
+    position = {name: index for index, name in enumerate(dependencies)}
+    members = set(dependencies)
+    users: dict[str, list[str]] = {name: [] for name in dependencies}
+    for name, deps in dependencies.items():
+        for dep in set(deps) & members:
+            users[dep].append(name)
+
+    def best(candidates: Iterable[str]) -> str | None:
+        return min(candidates, key=lambda n: (-remaining[n], position[n]), default=None)
+
+    path: list[str] = []
+    current = best(n for n in dependencies if not set(dependencies[n]) & members)
+    while current is not None:
+        path.append(current)
+        current = best(users[current])
+    return path

@@ -41,6 +41,8 @@ class BuildOptions:
     #: CMake arguments the underlay needs (e.g. the wheel venv's Python and libpython flags);
     #: they come before the user's --cmake-args, so the user's win
     underlay_cmake_args: tuple[str, ...] = ()
+    #: compiler cache (sccache/ccache executable) CMake runs compilers through; "" for none
+    compiler_launcher: str = ""
 
 
 class StepFailed(Exception):
@@ -77,6 +79,9 @@ class BuildContext:
     warn: Callable[[str], None]
     #: install prefixes of the package's build dependencies inside the workspace
     dependency_prefixes: tuple[Path, ...] = ()
+    #: the run's jobserver as a named FIFO, for clients that speak only that form (Ninja);
+    #: `environ["MAKEFLAGS"]` holds the file-descriptor form GNU make 4.3 understands
+    jobserver_fifo: Path | None = None
     extra: dict[str, object] = field(default_factory=dict)
 
     @property

@@ -1,10 +1,24 @@
-"""The `cmake` build type: configure when needed, build, install. ament_cmake builds on it."""
+"""The `cmake` build type: configure when needed, build, install. ament_cmake builds on it.
+
+Generator: Ninja when a `ninja` executable is found (on the build environment's PATH or next
+to wsbuild's interpreter, where `pip install ninja` puts it), unless `--cmake-args` name a
+generator (`-G`) or `CMAKE_GENERATOR` is set; otherwise CMake's default (Unix Makefiles).
+A build directory configured with another generator is configured again from scratch.
+Both share the run's CPU budget: make through the jobserver's file descriptors, Ninja ≥ 1.13
+through its named FIFO; an older Ninja gets a fixed `-j` of the budget.
+The compiler cache chosen for the run (`compiler_launcher`) becomes
+`CMAKE_<LANG>_COMPILER_LAUNCHER` for C and C++, unless `--cmake-args` set one.
+"""
 
 from __future__ import annotations
 
 import json
 import os
+import re
 import shutil
+import subprocess
+import sys
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -15,6 +29,79 @@ from wsbuild.prefix.stage import direct_install
 CONFIGURE_RECORD = Path(".wsbuild") / "cmake_configure.json"
 #: ctx.extra key: files (relative to the prefix) an install wrote into the prefix directly
 INSTALLED_IN_PLACE = "cmake.installed_in_place"
+NINJA = "Ninja"
+#: CMake's default generator on this platform, when nobody chooses one
+DEFAULT_GENERATOR = "Unix Makefiles"
+#: the first Ninja release that is a GNU make jobserver client
+NINJA_JOBSERVER = (1, 13)
+LAUNCHED_LANGUAGES = ("C", "CXX")
+
+
+@dataclass(frozen=True, slots=True)
+class NinjaTool:
+    path: Path
+    version: tuple[int, ...]
+
+    @property
+    def jobserver(self) -> bool:
+        return self.version >= NINJA_JOBSERVER
+
+
+_ninja_found: dict[tuple[str, ...], NinjaTool | None] = {}
+
+
+def _ninja_version(path: Path) -> tuple[int, ...] | None:
+    try:
+        done = subprocess.run([str(path), "--version"], capture_output=True, text=True,
+                              timeout=30, check=False)
+    except (OSError, subprocess.TimeoutExpired):
+        return None
+    match = re.match(r"(\d+(?:\.\d+)*)", done.stdout.strip())
+    if done.returncode != 0 or not match:
+        return None
+    return tuple(int(part) for part in match.group(1).split("."))
+
+
+def find_ninja(environ: Mapping[str, str]) -> NinjaTool | None:
+    """The `ninja` to build with: the first jobserver client (≥ 1.13) among those on PATH and
+    next to wsbuild's interpreter, else the first one found; None when there is none."""
+    candidates: list[Path] = []
+    for directory in [*environ.get("PATH", "").split(os.pathsep), str(Path(sys.executable).parent)]:
+        if directory:
+            path = Path(directory) / "ninja"
+            if path not in candidates and path.is_file() and os.access(path, os.X_OK):
+                candidates.append(path)
+    key = tuple(str(c) for c in candidates)
+    if key not in _ninja_found:
+        tools = [NinjaTool(c, v) for c in candidates if (v := _ninja_version(c)) is not None]
+        _ninja_found[key] = next((t for t in tools if t.jobserver), tools[0] if tools else None)
+    return _ninja_found[key]
+
+
+def user_generator(cmake_args: Sequence[str], environ: Mapping[str, str]) -> str | None:
+    """The generator the user chose: `-G X` / `-GX` in --cmake-args (the last wins), else
+    CMake's own `CMAKE_GENERATOR` variable."""
+    chosen = None
+    for index, arg in enumerate(cmake_args):
+        if arg == "-G" and index + 1 < len(cmake_args):
+            chosen = cmake_args[index + 1]
+        elif arg.startswith("-G") and len(arg) > 2:
+            chosen = arg[2:]
+    return chosen or environ.get("CMAKE_GENERATOR") or None
+
+
+def cached_generator(build_dir: Path) -> str | None:
+    """The generator a build directory was configured with (from its CMakeCache.txt)."""
+    try:
+        text = (build_dir / "CMakeCache.txt").read_text(errors="replace")
+    except OSError:
+        return None
+    match = re.search(r"^CMAKE_GENERATOR:INTERNAL=(.*)$", text, re.MULTILINE)
+    return match.group(1).strip() if match else None
+
+
+def _defines(cmake_args: Sequence[str], name: str) -> bool:
+    return any(a.startswith((f"-D{name}=", f"-D{name}:")) for a in cmake_args)
 
 
 def _manifest_files(ctx: BuildContext) -> list[str]:
@@ -45,13 +132,65 @@ class CMakeBuildType:
         args = [
             # wsbuild passes Python hints every project may ignore: don't warn about them
             "--no-warn-unused-cli",
+            *self.generator_args(ctx),
             f"-DCMAKE_INSTALL_PREFIX={ctx.install_prefix}",
             "-DCMAKE_EXPORT_COMPILE_COMMANDS=ON",
             f"-DPYTHON_EXECUTABLE={python}",
         ]
         if not any(a.startswith("-DPython3_EXECUTABLE=") for a in ctx.options.underlay_cmake_args):
             args.append(f"-DPython3_EXECUTABLE={python}")
+        args += self.launcher_args(ctx)
         return [*args, *ctx.options.underlay_cmake_args, *ctx.options.cmake_args]
+
+    def generator(self, ctx: BuildContext) -> str:
+        """The generator this configure uses (the user's, else Ninja when found, else CMake's
+        default)."""
+        chosen = user_generator(ctx.options.cmake_args, ctx.environ)
+        if chosen:
+            return chosen
+        return NINJA if find_ninja(ctx.environ) is not None else DEFAULT_GENERATOR
+
+    def generator_args(self, ctx: BuildContext) -> list[str]:
+        args = []
+        user = user_generator(ctx.options.cmake_args, ctx.environ)
+        ninja = find_ninja(ctx.environ)
+        if user is None and ninja is not None:
+            args += ["-G", NINJA]
+        if ninja is not None and (user or NINJA) == NINJA \
+                and not _defines(ctx.options.cmake_args, "CMAKE_MAKE_PROGRAM"):
+            # the ninja whose version decided how it shares the CPU budget
+            args.append(f"-DCMAKE_MAKE_PROGRAM={ninja.path}")
+        return args
+
+    def launcher_args(self, ctx: BuildContext) -> list[str]:
+        """The compiler cache as C/C++ compiler launcher; without one, a launcher an earlier
+        configure left in the cache is removed (the user's own --cmake-args always win)."""
+        args = []
+        for language in LAUNCHED_LANGUAGES:
+            name = f"CMAKE_{language}_COMPILER_LAUNCHER"
+            if _defines(ctx.options.cmake_args, name):
+                continue
+            if ctx.options.compiler_launcher:
+                args.append(f"-D{name}={ctx.options.compiler_launcher}")
+            else:
+                args.append(f"-U{name}")
+        return args
+
+    def build_environ(self, ctx: BuildContext) -> dict[str, str] | None:
+        """Ninja ≥ 1.13 joins the jobserver through its FIFO (it does not take the descriptor
+        form make uses); None: the package environment as it is."""
+        if self.generator(ctx) != NINJA or ctx.jobserver_fifo is None:
+            return None
+        ninja = find_ninja(ctx.environ)
+        if ninja is None or not ninja.jobserver:
+            return None
+        return dict(ctx.environ, MAKEFLAGS=f"-j --jobserver-auth=fifo:{ctx.jobserver_fifo}")
+
+    def parallel_args(self, ctx: BuildContext) -> list[str]:
+        """A Ninja that cannot join the jobserver gets a fixed share of the CPU budget."""
+        if self.generator(ctx) != NINJA or self.build_environ(ctx) is not None:
+            return []
+        return ["--parallel", str(max(1, ctx.options.jobs))]
 
     def needs_configure(self, ctx: BuildContext) -> bool:
         cache = ctx.build_dir / "CMakeCache.txt"
@@ -72,23 +211,30 @@ class CMakeBuildType:
 
     def configure(self, ctx: BuildContext) -> None:
         cache = ctx.build_dir / "CMakeCache.txt"
-        if ctx.options.cmake_clean_cache and cache.exists():
+        previous = cached_generator(ctx.build_dir)
+        wanted = self.generator(ctx)
+        if previous is not None and previous != wanted and not ctx.options.cmake_clean_cache:
+            ctx.warn(f"{ctx.build_dir} was configured with the '{previous}' generator, this "
+                     f"build uses '{wanted}': configuring it from scratch")
+        if cache.exists() and (ctx.options.cmake_clean_cache
+                               or (previous is not None and previous != wanted)):
             cache.unlink()
             shutil.rmtree(ctx.build_dir / "CMakeFiles", ignore_errors=True)
         record = ctx.build_dir / CONFIGURE_RECORD
         if record.exists():
             record.unlink()  # a failed configure must be retried next time
-        ctx.run(["cmake", str(ctx.source_dir), *self.configure_args(ctx)], cwd=ctx.build_dir)
+        ctx.run(["cmake", str(ctx.source_dir), *self.configure_args(ctx)], cwd=ctx.build_dir,
+                env=self.build_environ(ctx))
         record.parent.mkdir(parents=True, exist_ok=True)
         record.write_text(json.dumps(self._record(ctx), indent=1) + "\n")
 
     def build(self, ctx: BuildContext) -> None:
-        command = ["cmake", "--build", str(ctx.build_dir)]
+        command = ["cmake", "--build", str(ctx.build_dir), *self.parallel_args(ctx)]
         if ctx.options.cmake_target:
             command += ["--target", ctx.options.cmake_target]
         if ctx.options.cmake_clean_first:
             command.append("--clean-first")
-        ctx.run(command, cwd=ctx.build_dir)
+        ctx.run(command, cwd=ctx.build_dir, env=self.build_environ(ctx))
 
     def installs_in_place(self, ctx: BuildContext) -> bool:
         """Whether `cmake --install` ignores DESTDIR (ament's symlink install); plain CMake

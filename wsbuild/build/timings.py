@@ -1,0 +1,241 @@
+"""Where a build's time goes: per-package phase times, CPU time against the limit, and the
+recorded durations the scheduler weighs packages by.
+
+- `TimingRecorder` listens to the run's events and notes, per package, when it became ready
+  (its last dependency finished), when it started, when each labelled step started and when it
+  finished. "idle" is ready → started: the package waited for a worker (the CPU budget).
+- `cpu_times()` is the CPU used by wsbuild and every child process it waited for (compilers
+  run by make, Ninja, ccache, or by the sccache server wsbuild runs as its own child).
+  limit = that CPU time ÷ cores: how long the run would take with every core busy throughout.
+- Every run writes `timings.json` and `timings.txt` into its log directory; `--timings` prints
+  the table too. Packages built in the run record their durations in
+  `build/.wsbuild/durations.json`, the scheduler's weights next time (`package_weights`).
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import resource
+import threading
+import time
+from collections.abc import Iterable, Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from wsbuild.events import Event, JobFinished, JobStarted, StepStarted
+from wsbuild.workspace.model import BuildResult, Outcome, Package
+
+#: under the build base: each package's duration the last time it was built
+DURATIONS_FILE = Path(".wsbuild") / "durations.json"
+TIMINGS_JSON = "timings.json"
+TIMINGS_TEXT = "timings.txt"
+
+#: estimate (seconds on one core, only relative sizes matter) when no duration is recorded
+_ESTIMATE_PER_FILE = {
+    ".msg": 4.0, ".srv": 12.0, ".action": 30.0,
+    ".c": 1.5, ".cc": 1.5, ".cpp": 1.5, ".cxx": 1.5,
+    ".py": 0.02,
+}
+_ESTIMATE_BASE = {"ament_cmake": 2.0, "cmake": 1.5}
+_ESTIMATE_BASE_OTHER = 0.3
+#: directories an estimate never looks into
+_SKIP_DIRS = {"build", "install", "log", "test", "tests", "__pycache__"}
+
+
+def read_durations(build_base: Path) -> dict[str, float]:
+    """Recorded durations (seconds) by package; empty when none or unreadable."""
+    try:
+        data = json.loads((build_base / DURATIONS_FILE).read_text())
+    except (OSError, ValueError):
+        return {}
+    if not isinstance(data, dict):
+        return {}
+    return {str(k): float(v) for k, v in data.items() if isinstance(v, (int, float)) and v >= 0}
+
+
+def record_durations(build_base: Path, results: Iterable[BuildResult]) -> None:
+    """Keep the durations of packages built in this run (others keep their earlier record)."""
+    built = {r.package: round(r.seconds, 3) for r in results if r.outcome is Outcome.FINISHED}
+    if not built:
+        return
+    durations = read_durations(build_base)
+    durations.update(built)
+    path = build_base / DURATIONS_FILE
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_name(path.name + ".tmp")
+    tmp.write_text(json.dumps(dict(sorted(durations.items())), indent=1) + "\n")
+    os.replace(tmp, path)
+
+
+def estimate_seconds(package: Package) -> float:
+    """A guess at a package's build time from its interface and source files."""
+    total = _ESTIMATE_BASE.get(package.build_type, _ESTIMATE_BASE_OTHER)
+    for _root, dirs, files in os.walk(package.path):
+        dirs[:] = [d for d in dirs if not d.startswith(".") and d not in _SKIP_DIRS]
+        for name in files:
+            total += _ESTIMATE_PER_FILE.get(os.path.splitext(name)[1], 0.0)
+    return total
+
+
+def package_weights(packages: Mapping[str, Package], names: Iterable[str],
+                    build_base: Path) -> dict[str, float]:
+    """The scheduler's weight of each package: its last recorded duration, else an estimate."""
+    recorded = read_durations(build_base)
+    return {name: recorded[name] if name in recorded else estimate_seconds(packages[name])
+            for name in names}
+
+
+@dataclass(frozen=True, slots=True)
+class CpuTimes:
+    """user + system seconds."""
+
+    children: float
+    own: float
+
+    @property
+    def total(self) -> float:
+        return self.children + self.own
+
+    def __sub__(self, other: CpuTimes) -> CpuTimes:
+        return CpuTimes(self.children - other.children, self.own - other.own)
+
+
+def cpu_times() -> CpuTimes:
+    children = resource.getrusage(resource.RUSAGE_CHILDREN)
+    own = resource.getrusage(resource.RUSAGE_SELF)
+    return CpuTimes(children.ru_utime + children.ru_stime, own.ru_utime + own.ru_stime)
+
+
+@dataclass(frozen=True, slots=True)
+class PackageTiming:
+    """One package's times, in seconds since the start of the run."""
+
+    package: str
+    outcome: str
+    ready: float
+    started: float
+    finished: float
+    #: (label, start, end) of each labelled step; "check" is the up-to-date check before them
+    phases: tuple[tuple[str, float, float], ...] = ()
+
+    @property
+    def idle(self) -> float:
+        return max(0.0, self.started - self.ready)
+
+    def phase_seconds(self) -> dict[str, float]:
+        totals: dict[str, float] = {}
+        for label, start, end in self.phases:
+            totals[label] = totals.get(label, 0.0) + (end - start)
+        return totals
+
+
+@dataclass(slots=True)
+class _Open:
+    started: float
+    steps: list[tuple[str, float]] = field(default_factory=list)
+
+
+class TimingRecorder:
+    """Notes the times of the run's events (pass it every event; it is thread-safe)."""
+
+    def __init__(self, dependencies: Mapping[str, Iterable[str]]) -> None:
+        self.start = time.monotonic()
+        self._dependencies = {name: set(deps) for name, deps in dependencies.items()}
+        self._open: dict[str, _Open] = {}
+        self._done: dict[str, tuple[float, str]] = {}
+        self._rows: dict[str, PackageTiming] = {}
+        self._lock = threading.Lock()
+
+    def __call__(self, event: Event) -> None:
+        now = time.monotonic() - self.start
+        with self._lock:
+            if isinstance(event, JobStarted):
+                self._open[event.package] = _Open(now)
+            elif isinstance(event, StepStarted) and event.package in self._open:
+                self._open[event.package].steps.append((event.label, now))
+            elif isinstance(event, JobFinished):
+                self._finish(event.result, now)
+
+    def _finish(self, result: BuildResult, now: float) -> None:
+        name = result.package
+        self._done[name] = (now, result.outcome.value)
+        opened = self._open.pop(name, None)
+        if opened is None:  # skipped: never started
+            return
+        ready = max((self._done[d][0] for d in self._dependencies.get(name, ())
+                     if d in self._done), default=0.0)
+        marks = [("check", opened.started), *opened.steps, ("", now)]
+        phases = tuple((label, start, marks[i + 1][1])
+                       for i, (label, start) in enumerate(marks[:-1]))
+        self._rows[name] = PackageTiming(name, result.outcome.value, min(ready, opened.started),
+                                         opened.started, now, phases)
+
+    def rows(self) -> list[PackageTiming]:
+        """Started packages, in the order they started."""
+        with self._lock:
+            return sorted(self._rows.values(), key=lambda r: (r.started, r.package))
+
+
+@dataclass(frozen=True, slots=True)
+class RunTimings:
+    wall: float
+    cpu: CpuTimes
+    cores: int
+    packages: tuple[PackageTiming, ...]
+
+    @property
+    def limit(self) -> float:
+        """The wall time if every core were busy for the whole run: CPU seconds ÷ cores."""
+        return self.cpu.total / max(1, self.cores)
+
+    def as_json(self) -> dict[str, object]:
+        return {
+            "wall_seconds": round(self.wall, 3),
+            "cpu_seconds": {"children": round(self.cpu.children, 3),
+                            "wsbuild": round(self.cpu.own, 3),
+                            "total": round(self.cpu.total, 3)},
+            "cores": self.cores,
+            "limit_seconds": round(self.limit, 3),
+            "packages": [
+                {"package": p.package, "outcome": p.outcome, "ready": round(p.ready, 3),
+                 "started": round(p.started, 3), "finished": round(p.finished, 3),
+                 "idle": round(p.idle, 3),
+                 "phases": [[label, round(start, 3), round(end, 3)]
+                            for label, start, end in p.phases]}
+                for p in self.packages
+            ],
+        }
+
+    def summary_line(self) -> str:
+        ratio = f" ({self.wall / self.limit:.2f}× the limit)" if self.limit > 0 else ""
+        return (f"CPU {self.cpu.total:.1f} s (wsbuild {self.cpu.own:.1f} s) on {self.cores} "
+                f"cores: limit {self.limit:.1f} s, wall {self.wall:.1f} s{ratio}")
+
+    def table(self) -> list[str]:
+        """Per built package: idle (waiting for the CPU budget), then its phases, in seconds."""
+        rows = [p for p in self.packages if p.outcome != Outcome.UP_TO_DATE.value]
+        labels: list[str] = []
+        for p in rows:
+            for label, _, _ in p.phases:
+                if label not in labels:
+                    labels.append(label)
+        width = max([len("package"), *(len(p.package) for p in rows)])
+        head = f"{'package':<{width}}  {'idle':>7}" + "".join(f"  {lab:>9}" for lab in labels) \
+            + f"  {'total':>8}"
+        lines = [head]
+        for p in rows:
+            seconds = p.phase_seconds()
+            cells = "".join(f"  {seconds[lab]:>9.2f}" if lab in seconds else f"  {'-':>9}"
+                            for lab in labels)
+            lines.append(f"{p.package:<{width}}  {p.idle:>7.2f}{cells}  "
+                         f"{p.finished - p.started:>8.2f}")
+        return lines
+
+
+def write_timings(run_log: Path, timings: RunTimings) -> None:
+    """`timings.json` (machine-readable) and `timings.txt` (the table) in the run's log."""
+    run_log.mkdir(parents=True, exist_ok=True)
+    (run_log / TIMINGS_JSON).write_text(json.dumps(timings.as_json(), indent=1) + "\n")
+    (run_log / TIMINGS_TEXT).write_text("\n".join([*timings.table(), "",
+                                                   timings.summary_line()]) + "\n")
