@@ -83,10 +83,14 @@ class RunCache:
 
         started = time.perf_counter()
         cache = self._open()
+        found = cache.find(key)
+        if found is None:
+            self._account("lookup", started)
+            return None
         install_base = self.workspace.install_base
         stage = staging.new_stage(install_base, key.package)
         try:
-            restored = cache.restore(key, stage)
+            restored = cache.restore(key, stage, found)
             if restored is None:
                 staging.discard_stage(stage)
                 self._account("lookup", started)
@@ -105,10 +109,13 @@ class RunCache:
         return result
 
     def store(self, key: CacheKey, prefix: Path, merged_record: Path | None) -> str | None:
-        """Store the package just installed at `prefix`; None when stored, else why not."""
+        """Store the package just installed at `prefix`; None when stored (or queued), else why
+        not. An isolated prefix is packed on the cache's thread while the build goes on: only
+        a rebuild of the same package would change it, and that cannot happen in this run. A
+        merged prefix is shared, so it is packed at once."""
         started = time.perf_counter()
         files = merged_record.read_text().splitlines() if merged_record is not None else None
-        why_not = self._open().store(key, prefix, files)
+        why_not = self._open().store(key, prefix, files, background=merged_record is None)
         self._account("store", started)
         return why_not
 
@@ -125,7 +132,9 @@ class RunCache:
             text = (f"build cache: {n['lookup']} missed ({s['lookup']:.3f} s), "
                     f"{n['restore']} restored ({s['restore']:.3f} s), "
                     f"{n['store']} stored ({s['store']:.3f} s), "
-                    f"closing (uploads, eviction) {closing:.3f} s\n")
+                    f"closing (uploads, eviction) {closing:.3f} s; "
+                    f"on the cache's thread meanwhile: {self._cache.background_seconds:.3f} s\n")
+            text += "".join(f"build cache: {note}\n" for note in self._cache.notes)
             try:
                 with open(self._log, "a") as handle:
                     handle.write(text)

@@ -12,6 +12,7 @@ import os
 import queue
 import shutil
 import threading
+import time
 from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass
 from pathlib import Path
@@ -27,6 +28,12 @@ if TYPE_CHECKING:
     from wsbuild.cache.http import HttpCache
 
 Warn = Callable[[str], None]
+
+
+@dataclass(frozen=True, slots=True)
+class Found:
+    record: Record
+    from_local: bool
 
 
 @dataclass(frozen=True, slots=True)
@@ -46,8 +53,12 @@ class BuildCache:
         self._lock = threading.Lock()
         self._uploads_on = remote is not None and not read_only
         self._stored = False
-        self._queue: queue.Queue[tuple[str, Path, str, bytes] | None] = queue.Queue()
-        self._uploader: threading.Thread | None = None
+        self._queue: queue.Queue[tuple[object, ...] | None] = queue.Queue()
+        self._worker: threading.Thread | None = None
+        #: what background stores could not do (for the run's log)
+        self.notes: list[str] = []
+        #: time the cache's thread spent packing and uploading
+        self.background_seconds = 0.0
 
     @classmethod
     def open(cls, settings: CacheSettings, *, environ: Mapping[str, str] | None = None,
@@ -85,9 +96,9 @@ class BuildCache:
         self._warn(f"cache entry for {key.package} refused ({reason}); building it")
 
     # -- restoring -----------------------------------------------------------------------
-    def restore(self, key: CacheKey, dest: Path) -> Restored | None:
-        """Unpack `key`'s entry into the empty directory `dest`; None on a miss or a refused
-        entry (then `dest` may hold debris: the caller discards it)."""
+    def find(self, key: CacheKey) -> Found | None:
+        """The record of `key`'s entry, locally or on the server; None on a miss (cheap: no
+        archive is touched, nothing is written)."""
         address = key.address
         data = self.local.get_action(address)
         remote = self.remote
@@ -107,6 +118,18 @@ class BuildCache:
             self._refuse(key, "not a wsbuild record for this package", local=from_local,
                          digest=None)
             return None
+        return Found(record, from_local)
+
+    def restore(self, key: CacheKey, dest: Path, found: Found | None = None) -> Restored | None:
+        """Unpack `key`'s entry (`found` by find(), else looked up now) into the empty
+        directory `dest`; None on a miss or a refused entry (then `dest` may hold debris: the
+        caller discards it)."""
+        found = found or self.find(key)
+        if found is None:
+            return None
+        record, from_local = found.record, found.from_local
+        address = key.address
+        remote = self.remote
         blob = self.local.blob_path(record.digest)
         blob_is_local = blob is not None
         if blob is None:
@@ -161,56 +184,89 @@ class BuildCache:
         return temp
 
     # -- storing -------------------------------------------------------------------------
-    def store(self, key: CacheKey, root: Path, files: Iterable[str] | None = None) -> str | None:
-        """Pack `root` (or `files` below it) as `key`'s entry; None when stored, else why not."""
+    def store(self, key: CacheKey, root: Path, files: Iterable[str] | None = None, *,
+              background: bool = False) -> str | None:
+        """Pack `root` (or `files` below it) as `key`'s entry; None when stored (or queued:
+        `background` packs on the cache's own thread, while the build goes on), else why not.
+        Problems of background stores end up in `notes`."""
         if self.read_only:
             return "the cache is read-only for this run"
+        if background:
+            self._submit(("store", key, root, None if files is None else list(files)))
+            return None
+        why_not, upload = self._store_now(key, root, files)
+        if upload is not None:
+            self._submit(("upload", *upload))
+        return why_not
+
+    def _store_now(self, key: CacheKey, root: Path, files: Iterable[str] | None
+                   ) -> tuple[str | None, tuple[str, Path, str, bytes] | None]:
+        """Pack and store locally; (why not stored, what to upload)."""
         temp = self.local.temp_file()
         try:
             with open(temp, "wb") as out:
                 digest, size = pack(root, out, files)
         except (RefusedEntry, OSError) as error:
             temp.unlink(missing_ok=True)
-            return f"not cached: {error}"
+            return f"not cached: {error}", None
         blob = self.local.put_blob(digest, temp)
         record = Record(key.package, digest, size).encode()
         self.local.put_action(key.address, record)
         with self._lock:
             self._stored = True
             upload = self._uploads_on
-            if upload and self._uploader is None:
-                self._uploader = threading.Thread(target=self._upload_loop,
-                                                  name="wsbuild-cache-upload", daemon=True)
-                self._uploader.start()
-        if upload:
-            self._queue.put((digest, blob, key.address, record))
-        return None
+        return None, (digest, blob, key.address, record) if upload else None
 
-    def _upload_loop(self) -> None:
+    def _submit(self, item: tuple[object, ...]) -> None:
+        with self._lock:
+            if self._worker is None:
+                self._worker = threading.Thread(target=self._work, name="wsbuild-cache",
+                                                daemon=True)
+                self._worker.start()
+        self._queue.put(item)
+
+    def _work(self) -> None:
+        """The cache's thread: background packing and uploads, in order."""
+        while (item := self._queue.get()) is not None:
+            started = time.perf_counter()
+            self._work_on(item)
+            self.background_seconds += time.perf_counter() - started
+
+    def _work_on(self, item: tuple[object, ...]) -> None:
+        if item[0] == "store":
+            _, key, root, files = item
+            why_not, upload = self._store_now(key, root, files)  # type: ignore[arg-type]
+            if why_not:
+                self.notes.append(f"{key.package}: {why_not}")  # type: ignore[attr-defined]
+            if upload is not None:
+                self._upload(*upload)
+        else:
+            _, digest, blob, address, record = item
+            self._upload(digest, blob, address, record)  # type: ignore[arg-type]
+
+    def _upload(self, digest: str, blob: Path, address: str, record: bytes) -> None:
         from wsbuild.cache.http import CacheRejected, CacheUnavailable
 
-        while (item := self._queue.get()) is not None:
-            digest, blob, address, record = item
-            remote = self.remote
-            if remote is None or not self._uploads_on:
-                continue
-            try:
-                if not remote.has_blob(digest):
-                    remote.put_blob(digest, blob)
-                remote.put_action(address, record)
-            except CacheRejected as error:
-                self._uploads_off(str(error))
-            except CacheUnavailable as error:
-                self._remote_off(str(error))
-            except OSError:
-                continue  # evicted locally meanwhile by another run: nothing to upload
+        remote = self.remote
+        if remote is None or not self._uploads_on:
+            return
+        try:
+            if not remote.has_blob(digest):
+                remote.put_blob(digest, blob)
+            remote.put_action(address, record)
+        except CacheRejected as error:
+            self._uploads_off(str(error))
+        except CacheUnavailable as error:
+            self._remote_off(str(error))
+        except OSError:
+            pass  # evicted locally meanwhile by another run: nothing to upload
 
     def close(self, *, wait: bool = True) -> None:
         """Finish uploads (unless `wait` is False, e.g. after Ctrl-C) and evict old entries."""
-        if self._uploader is not None:
+        if self._worker is not None:
             self._queue.put(None)
             if wait:
-                self._uploader.join()
+                self._worker.join()
         if self.remote is not None:
             self.remote.close()
         if self._stored and wait:
