@@ -2,8 +2,8 @@
 
 GET/PUT/HEAD on <url>/cas/<sha256 of the blob> and <url>/ac/<sha256 of the cache key>.
 Credentials come from WSBUILD_CACHE_TOKEN (a bearer token), the URL's user:password, or
-~/.netrc, and never appear in a message. Connections are kept alive per thread; every
-socket operation has a short timeout.
+~/.netrc, and never appear in a message. Connections are kept alive and shared by the
+threads; every socket operation has a short timeout.
 """
 
 from __future__ import annotations
@@ -70,18 +70,31 @@ class HttpCache:
         self.timeout = timeout
         self._auth = _authorization(parsed, os.environ if environ is None else environ,
                                     netrc_file)
+        #: the connection of this thread's request in flight
         self._local = threading.local()
+        #: kept-alive connections between requests, shared by all threads
+        self._idle: list[http.client.HTTPConnection] = []
+        self._idle_lock = threading.Lock()
 
     # -- connections ---------------------------------------------------------------------
     def _connection(self) -> tuple[http.client.HTTPConnection, bool]:
-        """This thread's connection, and whether it was used before (and may have gone stale)."""
-        conn = getattr(self._local, "conn", None)
-        if conn is not None:
-            return conn, True
-        cls = http.client.HTTPSConnection if self.https else http.client.HTTPConnection
-        conn = cls(self.host, self.port, timeout=self.timeout)
+        """A connection for this thread's next request, and whether it was used before (and
+        may have gone stale)."""
+        with self._idle_lock:
+            conn = self._idle.pop() if self._idle else None
+        reused = conn is not None
+        if conn is None:
+            cls = http.client.HTTPSConnection if self.https else http.client.HTTPConnection
+            conn = cls(self.host, self.port, timeout=self.timeout)
         self._local.conn = conn
-        return conn, False
+        return conn, reused
+
+    def _release_connection(self) -> None:
+        conn = getattr(self._local, "conn", None)
+        self._local.conn = None
+        if conn is not None:
+            with self._idle_lock:
+                self._idle.append(conn)
 
     def _drop_connection(self) -> None:
         conn = getattr(self._local, "conn", None)
@@ -91,6 +104,10 @@ class HttpCache:
 
     def close(self) -> None:
         self._drop_connection()
+        with self._idle_lock:
+            idle, self._idle = self._idle, []
+        for conn in idle:
+            conn.close()
 
     def _send(self, method: str, path: str, body: bytes | BinaryIO | None,
               headers: dict[str, str]) -> http.client.HTTPResponse:
@@ -115,12 +132,16 @@ class HttpCache:
         raise AssertionError("unreachable")
 
     def _finish(self, response: http.client.HTTPResponse) -> None:
+        """Read the rest of the response; its connection goes back to the idle ones."""
         try:
             response.read()
         except (OSError, http.client.HTTPException):
             self._drop_connection()
+            return
         if response.will_close:
             self._drop_connection()
+        else:
+            self._release_connection()
 
     def _failed(self, method: str, path: str, response: http.client.HTTPResponse) -> Exception:
         self._finish(response)

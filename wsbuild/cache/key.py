@@ -22,6 +22,7 @@ import shutil
 import subprocess
 import sys
 import sysconfig
+import threading
 from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
@@ -29,6 +30,7 @@ from pathlib import Path
 #: bumped whenever the entry layout changes; old entries then simply miss
 ENTRY_FORMAT = 1
 _HEX64 = re.compile(r"[0-9a-f]{64}")
+_FIRST_CALL = threading.Lock()
 
 
 def is_digest(text: str) -> bool:
@@ -54,6 +56,12 @@ def cache_key(*, package: str, build_key: str, install_prefix: Path, build_type:
     """The key under which `package`'s install is stored. `environ` is the build environment
     (its compilers and underlay count); prefixes below `workspace_install` are not underlay;
     `memo` remembers compiler versions between runs (see toolchain_id)."""
+    with _FIRST_CALL:  # the first call measures the machine; the others wait and reuse it
+        platform = platform_id()
+        toolchain = toolchain_id(environ.get("CC", ""), environ.get("CXX", ""),
+                                 environ.get("PATH", os.defpath), memo)
+        underlay = underlay_id(environ.get("AMENT_PREFIX_PATH", ""),
+                               str(workspace_install) if workspace_install else "")
     parts = {
         "format": ENTRY_FORMAT,
         "package": package,
@@ -61,11 +69,9 @@ def cache_key(*, package: str, build_key: str, install_prefix: Path, build_type:
         "build_key": build_key,
         "install_prefix": str(install_prefix),
         "wsbuild": version,
-        "platform": platform_id(),
-        "toolchain": toolchain_id(environ.get("CC", ""), environ.get("CXX", ""),
-                                  environ.get("PATH", os.defpath), memo),
-        "underlay": underlay_id(environ.get("AMENT_PREFIX_PATH", ""),
-                                str(workspace_install) if workspace_install else ""),
+        "platform": platform,
+        "toolchain": toolchain,
+        "underlay": underlay,
     }
     return CacheKey(package, json.dumps(parts, sort_keys=True, separators=(",", ":")))
 

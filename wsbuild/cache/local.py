@@ -46,10 +46,14 @@ class LocalCache:
         self.cas = root / "cas"
         self.ac = root / "ac"
         self.tmp = root / "tmp"
+        self._ensured = False
 
     def ensure(self) -> None:
+        if self._ensured:
+            return
         for directory in (self.cas, self.ac, self.tmp):
             directory.mkdir(parents=True, exist_ok=True)
+        self._ensured = True
 
     # -- reading -------------------------------------------------------------------------
     def get_action(self, address: str) -> bytes | None:
