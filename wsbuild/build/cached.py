@@ -34,6 +34,7 @@ class RunCache:
         self._log = log
         self._seconds = {"lookup": 0.0, "restore": 0.0, "store": 0.0}
         self._counts = {"lookup": 0, "restore": 0, "store": 0}
+        self._misses: list[str] = []
 
     def _account(self, what: str, started: float) -> None:
         with self._lock:
@@ -86,6 +87,9 @@ class RunCache:
         found = cache.find(key)
         if found is None:
             self._account("lookup", started)
+            with self._lock:  # for "why was this not restored?": the key's parts, in the log
+                self._misses.append(f"{key.package}: not in the cache under {key.address} "
+                                    f"= sha256 of {key.text}")
             return None
         install_base = self.workspace.install_base
         stage = staging.new_stage(install_base, key.package)
@@ -135,6 +139,7 @@ class RunCache:
                     f"closing (uploads, eviction) {closing:.3f} s; "
                     f"on the cache's thread meanwhile: {self._cache.background_seconds:.3f} s\n")
             text += "".join(f"build cache: {note}\n" for note in self._cache.notes)
+            text += "".join(f"build cache: {miss}\n" for miss in sorted(self._misses))
             try:
                 with open(self._log, "a") as handle:
                     handle.write(text)

@@ -2,8 +2,9 @@
 
 Packing is deterministic (sorted members, no owners) and refuses trees a cache must not carry
 (special files, setuid bits, links leaving the prefix). Unpacking trusts nothing: every member
-is checked before it is written, then extracted through the standard library's `data` filter,
-which resolves links on disk, so nothing is ever written outside the destination.
+is checked before it is written (once a link exists, also by the standard library's `data`
+filter, which resolves it on disk) and created without following or replacing anything, so
+nothing is ever written outside the destination.
 """
 
 from __future__ import annotations
@@ -11,6 +12,7 @@ from __future__ import annotations
 import hashlib
 import os
 import posixpath
+import shutil
 import stat
 import tarfile
 from collections.abc import Iterable
@@ -149,37 +151,71 @@ def unpack(source: BinaryIO, dest: Path) -> int:
     the caller's to discard — nothing outside `dest` is written."""
     if not hasattr(tarfile, "data_filter"):
         raise RefusedEntry("this Python has no tarfile extraction filters (3.10.12+ needed)")
+    os.makedirs(dest, exist_ok=True)
+    base = os.path.realpath(dest)
     count = 0
     links_seen = False
-
-    def checked(member: tarfile.TarInfo, path: str) -> tarfile.TarInfo:
-        nonlocal count, links_seen
-        count += 1
-        check_member(member)
-        links_seen = links_seen or member.issym() or member.islnk()
-        if links_seen:
-            # once a link exists on disk, a path may run through it: the standard library's
-            # filter resolves every member against the disk (costly, so only from here on)
-            try:
-                tarfile.data_filter(member, path)
-            except tarfile.FilterError as error:
-                raise RefusedEntry(str(error)) from None
-        # without links on disk (the stage starts empty) the name checks above are complete
-        return member.replace(mode=_safe_mode(member), uid=None, gid=None, uname=None,
-                              gname=None, deep=False)
-
+    made: set[str] = {""}
+    directories: list[tuple[str, int, int]] = []
     try:
         reader = zstandard.ZstdDecompressor().stream_reader(source, closefd=False)
         with tarfile.open(fileobj=reader, mode="r|") as tar:  # type: ignore[call-overload]
-            tar.errorlevel = 2
-            tar.extractall(dest, filter=checked)
+            for member in tar:
+                count += 1
+                check_member(member)
+                links_seen = links_seen or member.issym() or member.islnk()
+                if links_seen:
+                    # once a link exists on disk a path may run through it: the standard
+                    # library's filter resolves the member against the disk (costly, so only
+                    # from here on; before, the name checks above are complete)
+                    try:
+                        tarfile.data_filter(member, base)
+                    except tarfile.FilterError as error:
+                        raise RefusedEntry(str(error)) from None
+                _write_member(tar, member, base, made, directories)
     except RefusedEntry:
         raise
     except (tarfile.TarError, zstandard.ZstdError, OSError, EOFError, ValueError) as error:
         raise RefusedEntry(f"unreadable archive: {error}") from None
     if count == 0:
         raise RefusedEntry("empty archive")
+    # directories last (deepest first): a read-only one was still writable while it filled
+    for path, mode, mtime in sorted(directories, reverse=True):
+        os.chmod(path, mode)
+        os.utime(path, (mtime, mtime))
     return count
+
+
+_CREATE = os.O_WRONLY | os.O_CREAT | os.O_EXCL | os.O_NOFOLLOW | os.O_CLOEXEC
+
+
+def _write_member(tar: tarfile.TarFile, member: tarfile.TarInfo, base: str, made: set[str],
+                  directories: list[tuple[str, int, int]]) -> None:
+    """Create one checked member below `base`: never following or replacing anything that is
+    already there (O_EXCL, O_NOFOLLOW), with the packed mode minus group/other write."""
+    name = member.name.rstrip("/")
+    parent = os.path.dirname(name)
+    if parent not in made:
+        os.makedirs(os.path.join(base, parent), exist_ok=True)
+        made.add(parent)
+    path = os.path.join(base, name)
+    mode = _safe_mode(member)
+    if member.isdir():
+        os.mkdir(path, 0o700)
+        made.add(name)
+        directories.append((path, mode, int(member.mtime)))
+    elif member.issym():
+        os.symlink(member.linkname, path)
+    elif member.islnk():
+        os.link(os.path.join(base, member.linkname), path, follow_symlinks=False)
+    else:
+        data = tar.extractfile(member)
+        assert data is not None
+        fd = os.open(path, _CREATE, 0o600)
+        with open(fd, "wb") as out:
+            shutil.copyfileobj(data, out, 1 << 20)
+            os.fchmod(fd, mode)
+            os.utime(fd, (member.mtime, member.mtime))
 
 
 def file_digest(path: Path) -> tuple[str, int]:
