@@ -171,3 +171,70 @@ def test_install_trees_are_identical_whatever_generator_or_cache(tmp_path: Path)
         assert "compiler cache" in result.stdout
         assert _launchers(ws, "mylib"), args
         assert _tree(ws / "install") == reference, f"install/ differs with {args}"
+
+
+HASHED = """cmake_minimum_required(VERSION 3.14)
+project(hashed NONE)
+add_custom_command(OUTPUT order.txt
+  COMMAND python3 ${CMAKE_CURRENT_SOURCE_DIR}/gen.py order.txt)
+add_custom_target(order ALL DEPENDS order.txt)
+install(FILES ${CMAKE_CURRENT_BINARY_DIR}/order.txt DESTINATION share/hashed)
+"""
+#: like rosidl's generators: output in the iteration order of a set of strings
+GEN_PY = """import sys
+with open(sys.argv[1], 'w') as out:
+    out.write(repr(list({'alpha', 'beta', 'gamma', 'delta', 'epsilon'})) + '\\n')
+"""
+
+
+def test_code_generated_in_python_is_the_same_every_build(tmp_path: Path) -> None:
+    """Generators that iterate over sets (rosidl's #include lists) write the same files in every
+    build, so the compiler cache hits: Python's hash seed is fixed unless the user set one."""
+    ws = tmp_path / "ws"
+    write_cmake(ws / "src", "hashed", HASHED, files={"gen.py": GEN_PY})
+
+    def order(**extra: str) -> str:
+        for base in ("build", "install"):
+            shutil.rmtree(ws / base, ignore_errors=True)
+        build(ws, "--no-cache", env=dict(_env(tmp_path), **extra))
+        return (ws / "install" / "hashed" / "share" / "hashed" / "order.txt").read_text()
+
+    assert len({order() for _ in range(3)}) == 1
+    seeded = {order(PYTHONHASHSEED=seed) for seed in ("1", "2", "3", "4", "5", "6")}
+    assert len(seeded) > 1, "a seed the user chose is kept"
+
+
+MSGS_CMAKE = """cmake_minimum_required(VERSION 3.14)
+project(tiny_msgs)
+find_package(ament_cmake REQUIRED)
+find_package(rosidl_default_generators REQUIRED)
+find_package(std_msgs REQUIRED)
+find_package(builtin_interfaces REQUIRED)
+rosidl_generate_interfaces(${PROJECT_NAME} "msg/Point.msg" "msg/Track.msg"
+  DEPENDENCIES std_msgs builtin_interfaces)
+ament_package()
+"""
+
+
+@requires_ros
+@pytest.mark.slow
+def test_rosidl_package_rebuilt_from_scratch_hits_the_cache_everywhere(tmp_path: Path) -> None:
+    ws = tmp_path / "ws"
+    write_cmake(ws / "src", "tiny_msgs", MSGS_CMAKE, build_type="ament_cmake",
+                buildtool=["ament_cmake", "rosidl_default_generators"],
+                depend=["std_msgs", "builtin_interfaces"],
+                files={"msg/Point.msg": "float64 x\nfloat64 y\n",
+                       "msg/Track.msg": "std_msgs/Header header\nbuiltin_interfaces/Duration age\n"
+                                        "Point[] points\nPoint last\n"})
+    (ws / "src" / "tiny_msgs" / "package.xml").write_text(
+        (ws / "src" / "tiny_msgs" / "package.xml").read_text().replace(
+            "</package>", "  <member_of_group>rosidl_interface_packages</member_of_group>\n"
+                          "</package>"))
+    env = _env(tmp_path)
+    first = build(ws, "--no-cache", env=env)
+    hits, misses = _counts(first.stdout, "ccache")
+    assert misses > 10 and hits == 0
+    shutil.rmtree(ws / "build")
+    shutil.rmtree(ws / "install")
+    again = build(ws, "--no-cache", env=env)
+    assert _counts(again.stdout, "ccache") == (misses, 0)

@@ -12,7 +12,9 @@ sccache: wsbuild runs the sccache server itself, as its own child, on a private 
 (`SCCACHE_SERVER_UDS`) with the environment wsbuild was started with. So the server never
 inherits a package's jobserver, the counts are exactly this run's, the compilers' CPU time is
 counted in the run's total, and no daemon is left behind. ccache has no server: every
-compile appends its counters to a per-run stats log (`CCACHE_STATSLOG`).
+compile appends its counters to a per-run stats log (`CCACHE_STATSLOG`); wsbuild turns on its
+depend mode (`CCACHE_DEPEND=1`, unless `CCACHE_DEPEND` or `CCACHE_NODEPEND` is set), which
+makes a cache miss about as cheap as a plain compile.
 """
 
 from __future__ import annotations
@@ -159,6 +161,10 @@ def open_compiler_cache(choice: str, environ: Mapping[str, str],
                           log_file=log_file)
     if tool == "ccache":
         cache.environ["CCACHE_STATSLOG"] = str(private / "stats.log")
+        if "CCACHE_DEPEND" not in environ and "CCACHE_NODEPEND" not in environ:
+            # depend mode: a miss costs a compile, not a preprocessor run plus a compile
+            # (CMake passes -MD with both generators); CCACHE_NODEPEND=1 turns it off
+            cache.environ["CCACHE_DEPEND"] = "1"
     else:
         # a socket path must stay short (108 bytes): a private temporary directory, not build/
         cache.environ["SCCACHE_SERVER_UDS"] = str(private / "server.sock")

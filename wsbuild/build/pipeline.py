@@ -234,7 +234,8 @@ def run_build(plan: Plan, request: BuildRequest, emit: Emit) -> list[BuildResult
             # a previous install parked by an unfinished direct_install goes back, never away
             recover_all(ws.install_base)
         _finish_install(ws, merged, underlay)
-        merge_compile_commands(ws)
+        if any(r.outcome is Outcome.FINISHED for r in results):  # a no-op reads no file
+            merge_compile_commands(ws)
         details = _run_details(request, ws, run_log, results, recorder, counts,
                                time.monotonic() - started, cpu_before)
     emit(RunFinished(tuple(results), time.monotonic() - started, details=details))

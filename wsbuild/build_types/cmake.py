@@ -176,19 +176,27 @@ class CMakeBuildType:
                 args.append(f"-U{name}")
         return args
 
-    def build_environ(self, ctx: BuildContext) -> dict[str, str] | None:
-        """Ninja ≥ 1.13 joins the jobserver through its FIFO (it does not take the descriptor
-        form make uses); None: the package environment as it is."""
+    def build_environ(self, ctx: BuildContext) -> dict[str, str]:
+        """The package environment for configure and build, plus: Ninja ≥ 1.13 joins the
+        jobserver through its FIFO (it does not take the descriptor form make uses); and
+        Python's string hashing is fixed unless the user chose a seed, so code generators that
+        iterate over sets (rosidl's #include lists) write the same files every time: compiler
+        cache hits, reproducible builds."""
+        env = dict(ctx.environ)
+        env.setdefault("PYTHONHASHSEED", "0")
+        if self._ninja_joins_jobserver(ctx):
+            env["MAKEFLAGS"] = f"-j --jobserver-auth=fifo:{ctx.jobserver_fifo}"
+        return env
+
+    def _ninja_joins_jobserver(self, ctx: BuildContext) -> bool:
         if self.generator(ctx) != NINJA or ctx.jobserver_fifo is None:
-            return None
+            return False
         ninja = find_ninja(ctx.environ)
-        if ninja is None or not ninja.jobserver:
-            return None
-        return dict(ctx.environ, MAKEFLAGS=f"-j --jobserver-auth=fifo:{ctx.jobserver_fifo}")
+        return ninja is not None and ninja.jobserver
 
     def parallel_args(self, ctx: BuildContext) -> list[str]:
         """A Ninja that cannot join the jobserver gets a fixed share of the CPU budget."""
-        if self.generator(ctx) != NINJA or self.build_environ(ctx) is not None:
+        if self.generator(ctx) != NINJA or self._ninja_joins_jobserver(ctx):
             return []
         return ["--parallel", str(max(1, ctx.options.jobs))]
 
