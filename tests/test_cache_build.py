@@ -166,6 +166,22 @@ def test_fresh_clone_restores_every_package_byte_for_byte(tmp_path: Path, templa
     assert tree(ws / "install") == built
 
 
+def test_switching_back_restores_instead_of_rebuilding(tmp_path: Path, template: Path) -> None:
+    env = env_for(tmp_path / "xdg")
+    ws = tmp_path / "ws"
+    fresh_clone(ws, template)
+    run_build(ws, env=env)
+    module = ws / "src" / "cached_util" / "cached_util" / "util.py"
+    module.write_text("VALUE = 8\n")  # another branch
+    other = run_build(ws, env=env)
+    assert finished(other) == ["cached_talker", "cached_util"]
+    module.write_text("VALUE = 7\n")  # and back
+    back = run_build(ws, env=env)
+    assert restored(back) == ["cached_talker", "cached_util"] and finished(back) == []
+    installed = sorted((ws / "install" / "cached_util").rglob("util.py"))
+    assert installed and installed[0].read_text() == "VALUE = 7\n"
+
+
 def test_a_checkout_at_another_path_misses(tmp_path: Path, template: Path) -> None:
     """Installed files embed the absolute prefix (CMake configs, setup scripts, shebangs):
     an entry made for one path would be wrong at another, so the path is in the key."""

@@ -242,3 +242,22 @@ def test_a_server_refusing_uploads_warns_once_and_keeps_building(tmp_path: Path,
     cache.close()
     assert len(warnings) == 1 and "refuses uploads" in warnings[0] and "405" in warnings[0]
     assert cache.restore(key_for("c"), tmp_path / "sc") is not None  # stored locally anyway
+
+
+def test_concurrent_writers_of_one_entry_leave_one_good_entry(tmp_path: Path,
+                                                              nginx: NginxServer) -> None:
+    sources = [install_tree(tmp_path / f"src{i}", f"payload {i}" * 1000) for i in range(4)]
+    writers = [client(tmp_path, nginx.url, f"machine{i}")[0] for i in range(4)]
+    threads = [threading.Thread(target=w.store, args=(key_for("pkg"), s))
+               for w, s in zip(writers, sources)]
+    for thread in threads:
+        thread.start()
+    for thread in threads:
+        thread.join()
+    for writer in writers:
+        writer.close()
+    reader, warnings = client(tmp_path, nginx.url, "reader")
+    stage = tmp_path / "stage"
+    assert reader.restore(key_for("pkg"), stage) is not None and warnings == []
+    assert (stage / "share" / "pkg" / "file.txt").read_text() in [
+        (s / "share" / "pkg" / "file.txt").read_text() for s in sources]
