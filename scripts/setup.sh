@@ -11,6 +11,8 @@ need=()
 for tool in cmake make g++ zsh dash git nginx ccache; do
   command -v "$tool" >/dev/null 2>&1 || [ -x "/usr/sbin/$tool" ] || need+=("$tool")
 done
+# the program ament_cppcheck (a wheel of the `ros` extra) runs when `wsbuild test` lints C/C++
+command -v cppcheck >/dev/null 2>&1 || need+=(cppcheck)
 if [ ${#need[@]} -gt 0 ]; then
   pkgs=()
   for tool in "${need[@]}"; do

@@ -180,3 +180,47 @@ def _make_colcon_venv(venv: Path) -> None:
         own_site = next((venv / "lib").glob("python3*/site-packages"))
         (own_site / "zz_ros_underlay.pth").write_text(
             f"import site; site.addsitedir({str(ros_site)!r})\n")
+
+
+# ----------------------------------------------------------------------- no unexpected skips
+
+#: the only reasons a test may skip for (a prefix of the reason): what the machine cannot offer
+#: and scripts/setup.sh cannot install. Any other skip fails the run, so that a test that quietly
+#: stopped running (a tool missing, a fixed path) is noticed.
+ALLOWED_SKIPS = (
+    "not on this OS",
+    "this machine lets tests mount nothing",  # test_build_environment_failures.py: no root, no userns
+)
+
+_unexpected_skips: list[str] = []
+
+
+def _skip_reason(report: pytest.TestReport) -> str:
+    longrepr = report.longrepr
+    if isinstance(longrepr, tuple) and len(longrepr) == 3:
+        return str(longrepr[2]).removeprefix("Skipped: ")
+    return str(longrepr)
+
+
+def pytest_runtest_logreport(report: pytest.TestReport) -> None:
+    """Note each skip whose reason is not allowed (xdist replays workers' reports here)."""
+    if report.skipped and not hasattr(report, "wasxfail"):
+        reason = _skip_reason(report)
+        if not reason.startswith(ALLOWED_SKIPS):
+            _unexpected_skips.append(f"{report.nodeid}: {reason}")
+
+
+def pytest_sessionfinish(session: pytest.Session, exitstatus: int) -> None:
+    if hasattr(session.config, "workerinput"):
+        return  # an xdist worker: the controller counts and decides
+    if _unexpected_skips and exitstatus == 0:
+        session.exitstatus = pytest.ExitCode.TESTS_FAILED
+
+
+def pytest_terminal_summary(terminalreporter: pytest.TerminalReporter) -> None:
+    if hasattr(terminalreporter.config, "workerinput"):
+        return
+    for line in _unexpected_skips:
+        terminalreporter.write_line(f"UNEXPECTED SKIP {line}")
+    terminalreporter.write_line(
+        f"{len(_unexpected_skips)} unexpected skips (allowed: {'; '.join(ALLOWED_SKIPS)})")

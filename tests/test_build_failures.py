@@ -175,7 +175,7 @@ def test_continue_on_error_builds_everything_not_depending_on_the_failure(tmp_pa
 
 # ------------------------------------------------------------------- checks before building
 
-def test_unresolved_dependencies_are_reported_together_before_anything_builds(
+def test_strict_unresolved_dependencies_are_reported_together_before_anything_builds(
         tmp_path: Path) -> None:
     ws = tmp_path / "ws"
     src = ws / "src"
@@ -189,19 +189,20 @@ def test_unresolved_dependencies_are_reported_together_before_anything_builds(
     write_cmake(src, "needy_too", DATA_CMAKE.format(name="needy_too"),
                 files={"data.txt": "x\n"}, depend=["no_such_pkg"])
 
-    result = wsbuild("build", cwd=ws)
+    result = wsbuild("build", "--strict-dependencies", cwd=ws)
 
     assert result.returncode == 2, output(result)
     errors = [line for line in result.stderr.splitlines() if line.startswith("wsbuild: error:")]
     assert len(errors) == 1, output(result)
     assert "no_such_pkg (needed by needy, needy_too)" in errors[0]
     assert "python3-no-such-module (needed by needy)" in errors[0]
-    assert "--skip-dependency-check" in errors[0]
+    assert "--strict-dependencies" in errors[0]
     assert "Starting" not in result.stdout
     assert not (ws / "install" / "needy").exists()
     assert not (ws / "build" / "needy").exists()
 
-    result = wsbuild("build", "--skip-dependency-check", cwd=ws)
+    # without --strict-dependencies: a warning (tests/test_dependency_check.py), and the build
+    result = wsbuild("build", cwd=ws)
     assert result.returncode == 0, output(result)
     assert (ws / "install" / "needy" / "share" / "needy" / "data.txt").is_file()
 

@@ -61,13 +61,22 @@ def overlay(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, Path]:
     return under, over
 
 
-def test_overlay_without_its_underlay_reports_the_missing_packages(
+def test_overlay_without_its_underlay_warns_and_strict_refuses(
         overlay: tuple[Path, Path]) -> None:
+    """Forgetting to source the underlay: --dry-run lists what is missing (touching nothing),
+    --strict-dependencies refuses; neither rewrites the overlay's install."""
     _, over = overlay
-    result = wsbuild("build", "--packages-select", "top_py", "top_cmake", cwd=over)
+    setup = (over / "install" / "setup.bash").read_text()
+    planned = wsbuild("build", "--packages-select", "top_py", "top_cmake", "--dry-run", cwd=over)
+    assert planned.returncode == 0, output(planned)
+    text = planned.stdout + planned.stderr
+    assert "base_py" in text and "base_cmake" in text
+    result = wsbuild("build", "--packages-select", "top_py", "top_cmake",
+                     "--strict-dependencies", cwd=over)
     assert result.returncode == 2, output(result)
     assert "base_py (needed by top_py)" in result.stderr
     assert "base_cmake (needed by top_cmake)" in result.stderr
+    assert (over / "install" / "setup.bash").read_text() == setup
 
 
 def test_overlay_builds_against_the_underlay_packages(overlay: tuple[Path, Path]) -> None:

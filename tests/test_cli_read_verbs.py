@@ -104,7 +104,7 @@ def test_info_shows_resolution(make_workspace, wsbuild) -> None:  # type: ignore
     lines = {line.split()[0]: line for line in out.splitlines()[5:] if line.strip()}
     assert "workspace" in lines["lib"]
     assert "unresolved" in lines["no_such_ros_pkg"]
-    assert "python module" in lines["python3-yaml"]
+    assert "python distribution (PyYAML" in lines["python3-yaml"]
     assert "system" in lines["libfoo-dev"]
 
 

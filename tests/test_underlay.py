@@ -15,7 +15,7 @@ from wsbuild.errors import UnderlayError
 from wsbuild.underlay import detect, repair
 from wsbuild.underlay.detect import BOOTSTRAP_GUARD_VAR, find_venv_underlay, is_wheel_underlay, ros_distro
 from wsbuild.underlay.environment import build_environment, cmake_arguments, library_dirs
-from wsbuild.underlay.lint import find_cmake_package, write_lint_auto_shim
+from wsbuild.underlay.lint import find_cmake_package, prepare_lint, write_lint_auto_shim
 from wsbuild.underlay.repair import MARKER_RELPATH, missing_packages, repair_underlay, scan_underlay
 
 PY = f"{sys.version_info.major}.{sys.version_info.minor}"
@@ -374,15 +374,15 @@ def test_real_underlay_builds_rosidl_package(tmp_path: Path) -> None:
     env = dict(os.environ)
     env.update(build_environment(prefix, os.environ))
     env.update(ROS_AUTOMATIC_DISCOVERY_RANGE="LOCALHOST", ROS_DOMAIN_ID="57")
-    prefixes = [str(prefix)]
-    if find_cmake_package("ament_lint_auto", [prefix]) is None:
-        prefixes.append(str(write_lint_auto_shim(tmp_path / "shim")))
+    # the linters without a wheel (ament_lint_auto, ament_lint_common, ...) stood in for
+    lint = prepare_lint([prefix], env["PATH"], tmp_path / "shim")
     build, install = tmp_path / "build", tmp_path / "install"
     configure = [
         "cmake", "-S", str(src), "-B", str(build),
         f"-DCMAKE_INSTALL_PREFIX={install}",
-        f"-DCMAKE_PREFIX_PATH={';'.join(prefixes)}",
+        f"-DCMAKE_PREFIX_PATH={prefix}",
         *cmake_arguments(prefix),
+        *lint.cmake_args,
     ]  # fmt: skip
     for command in (configure, ["cmake", "--build", str(build), "-j2"], ["cmake", "--install", str(build)]):
         done = subprocess.run(command, env=env, capture_output=True, text=True, timeout=600, check=False)

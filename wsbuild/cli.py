@@ -71,6 +71,7 @@ def build_parser(*, pkg_arguments: bool = True) -> argparse.ArgumentParser:
 
     sub = verb("info", "wsbuild.verbs.listing:run_info", INFO_DOC, selection=False)
     sub.add_argument("package_names", nargs="+", metavar="PKG", help="package names")
+    sub.add_argument("--json", action="store_true", help="machine-readable output")
 
     sub = verb("build", "wsbuild.verbs.build:run_build_verb", BUILD_DOC)
     _build_arguments(sub)
@@ -183,10 +184,20 @@ def _build_arguments(sub: argparse.ArgumentParser) -> None:
     _scheduling_arguments(how, "built")
     how.add_argument("--continue-on-error", action="store_true",
                      help="after a failure keep building what does not depend on it")
+    how.add_argument("--strict-dependencies", action="store_true",
+                     help="refuse to start (exit 2) when build dependencies do not resolve "
+                          "(default: list them as a warning and build)")
     how.add_argument("--skip-dependency-check", action="store_true",
-                     help="start even when build dependencies do not resolve")
+                     help="do not look for the build dependencies at all (no warning)")
     how.add_argument("--force", action="store_true",
                      help="rebuild packages even when they are up to date")
+    how.add_argument("--allow-overriding", nargs="+", default=[], metavar="PKG",
+                     help="no warning for these packages when an underlay already provides "
+                          "them to other packages")
+    how.add_argument("--dry-run", action="store_true",
+                     help="only print the plan: start order, why each package would build or "
+                          "is up to date, unresolved dependencies, critical path; touches nothing")
+    how.add_argument("--json", action="store_true", help="with --dry-run: machine-readable")
     cmake = sub.add_argument_group("CMake packages")
     cmake.add_argument("--cmake-args", action="append", metavar="ARG",
                        help="arguments for every CMake configure, e.g. "
@@ -340,7 +351,9 @@ BUILD_DOC = """Build the packages of the workspace into install/.
 
 Packages build in dependency order and in parallel; each installs into a stage that
 replaces its previous install only when the build succeeds. Before anything starts,
-every build dependency must resolve (workspace, underlay, or importable Python module).
+the build dependencies are looked up (workspace, an underlay's ament index, CMake configs,
+Python distributions, PATH, pkg-config); those not found are listed as a warning, and the
+build goes on (--strict-dependencies refuses instead).
 
 Afterwards `source install/setup.bash` (or .sh/.zsh) makes the workspace available.
 
@@ -405,8 +418,9 @@ run edges dashed and test edges dotted.
 
 INFO_DOC = """Show everything wsbuild knows about packages.
 
-For each package: path, build type, version, and every dependency by kind with where it
-resolves (workspace, underlay, Python module, system key, or unresolved).
+For each package: path, build type, version, and every dependency by kind with the source
+that resolves it (workspace, ament index, cmake config, python distribution, executable,
+pkg-config, python module, system key not checked) and where, or "unresolved".
 """
 
 
@@ -449,13 +463,27 @@ def main(argv: Sequence[str] | None = None) -> int:
         # `wsbuild list | head`: the reader went away; not an error
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
         return 0
-    except Exception:
-        import traceback
+    except OSError as exc:
+        from wsbuild.errors import environment_failure
 
-        traceback.print_exc()
-        print("wsbuild: internal error: this is a bug in wsbuild; please report it with the "
-              "traceback above", file=sys.stderr)
-        return 3
+        # a full disk or a read-only directory is the machine's failure, not a bug
+        message = environment_failure(exc, doing=f"running wsbuild {args.verb}")
+        if message is None:
+            return _internal_error()
+        print(f"wsbuild: error: {message}", file=sys.stderr)
+        return 1
+    except Exception:
+        return _internal_error()
+
+
+def _internal_error() -> int:
+    """An unexpected exception: its traceback, and the word that it is a bug (exit 3)."""
+    import traceback
+
+    traceback.print_exc()
+    print("wsbuild: internal error: this is a bug in wsbuild; please report it with the "
+          "traceback above", file=sys.stderr)
+    return 3
 
 
 def selection_options(args: argparse.Namespace) -> SelectionOptions:

@@ -50,10 +50,12 @@ def build_request(args: argparse.Namespace) -> BuildRequest:
             wait_for_lock=not args.no_wait,
         ),
         skip_dependency_check=args.skip_dependency_check,
+        strict_dependencies=getattr(args, "strict_dependencies", False),
         force=getattr(args, "force", False),
         compiler_cache=getattr(args, "compiler_cache", "auto"),
         timings=getattr(args, "timings", False),
         cache=_cache_settings(args),
+        allow_overriding=tuple(getattr(args, "allow_overriding", None) or ()),
     )
 
 

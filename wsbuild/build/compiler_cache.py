@@ -102,6 +102,8 @@ class CompilerCache:
     environ: dict[str, str] = field(default_factory=dict)
     _server: subprocess.Popen[bytes] | None = None
     _started: bool = False
+    #: why the server did not start: every package that would compile fails with it
+    _failure: WsbuildError | None = None
     _lock: threading.Lock = field(default_factory=threading.Lock)
 
     @property
@@ -109,13 +111,18 @@ class CompilerCache:
         return str(self.executable)
 
     def start(self) -> None:
-        """Start the sccache server once (thread-safe); ccache needs nothing."""
+        """Start the sccache server once (thread-safe); ccache needs nothing. Raises
+        WsbuildError, for this and every later caller, when the server does not start."""
         with self._lock:
-            if self._started:
-                return
-            self._started = True
-            if self.tool == "sccache":
-                _start_sccache_server(self, Path(self.environ["SCCACHE_SERVER_UDS"]))
+            if not self._started:
+                self._started = True
+                if self.tool == "sccache":
+                    try:
+                        _start_sccache_server(self, Path(self.environ["SCCACHE_SERVER_UDS"]))
+                    except WsbuildError as exc:
+                        self._failure = exc
+            if self._failure is not None:
+                raise self._failure
 
     def counts(self) -> CacheCounts | None:
         """This run's hits and misses so far; None when nothing was built or the tool does

@@ -108,6 +108,8 @@ class BuildState:
     files: dict[str, FileRecord] = field(default_factory=dict)
     #: installed files relative to the install base, with their size (-1: a symlink)
     installed: list[tuple[str, int]] = field(default_factory=list)
+    #: what `settings` is the digest of, so a rebuild can name the option that changed
+    inputs: dict[str, object] = field(default_factory=dict)
 
     @staticmethod
     def make_key(source: str, settings: str, dependencies: Mapping[str, str]) -> str:
@@ -124,6 +126,7 @@ def read_state(build_dir: Path) -> BuildState | None:
             dependencies=dict(data["dependencies"]),
             files={k: FileRecord(*v) for k, v in data["files"].items()},
             installed=[(p, s) for p, s in data["installed"]],
+            inputs=dict(data.get("inputs") or {}),
         )
     except (OSError, ValueError, KeyError, TypeError):
         return None
@@ -139,6 +142,7 @@ def write_state(build_dir: Path, state: BuildState) -> None:
         "dependencies": state.dependencies,
         "files": {k: [v.size, v.mtime_ns, v.digest] for k, v in sorted(state.files.items())},
         "installed": state.installed,
+        "inputs": state.inputs,
     }
     tmp = path.with_suffix(".tmp")
     tmp.write_text(json.dumps(data, separators=(",", ":")))
@@ -189,21 +193,77 @@ def damaged_install(install_base: Path, installed: Iterable[tuple[str, int]]) ->
     return None
 
 
-def why_rebuild(old: BuildState | None, snapshot: SourceSnapshot, settings: str,
-                dependencies: Mapping[str, str], install_base: Path) -> str | None:
-    """None when up to date, else the reason a user should read."""
+@dataclass(frozen=True, slots=True)
+class Reason:
+    """Why a package is rebuilt: `kind` for tools, `text` for people, `details` the files,
+    options or dependencies that changed."""
+
+    kind: str  # "new", "options", "source", "dependency", "install" (also "forced", "unfinished")
+    text: str
+    details: tuple[str, ...] = ()
+
+
+def settings_changes(old: Mapping[str, object], new: Mapping[str, object]) -> list[str]:
+    """`name: old → new` for each build input that differs (options by their own name)."""
+    def flat(inputs: Mapping[str, object]) -> dict[str, object]:
+        result: dict[str, object] = {}
+        for key, value in inputs.items():
+            if isinstance(value, Mapping):
+                result.update({str(k): v for k, v in value.items()})
+            else:
+                result[key] = value
+        return result
+
+    # as state.json keeps them (tuples become lists), so only real differences show
+    before, after = flat(json.loads(json.dumps(old))), flat(json.loads(json.dumps(new)))
+    changes = []
+    for name in sorted(set(before) | set(after)):
+        if before.get(name) != after.get(name):
+            changes.append(f"{name}: {_shown(before.get(name))} → {_shown(after.get(name))}")
+    return changes
+
+
+def _shown(value: object) -> str:
+    if value is None:
+        return "(none)"
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, (list, tuple)):
+        return "[" + ", ".join(str(v) for v in value) + "]"
+    return str(value)
+
+
+def rebuild_reason(old: BuildState | None, snapshot: SourceSnapshot, settings: str,
+                   dependencies: Mapping[str, str], install_base: Path,
+                   inputs: Mapping[str, object] | None = None) -> Reason | None:
+    """None when up to date, else why not. `inputs` (what `settings` digests) lets the
+    reason name the options that changed, when the last build recorded its own."""
     if old is None:
-        return "no previous build"
+        return Reason("new", "no previous build")
     if old.settings != settings:
-        return "build options, interpreter, underlay or wsbuild version changed"
+        changed = tuple(settings_changes(old.inputs, inputs)) if old.inputs and inputs else ()
+        if changed:
+            return Reason("options", "build options changed: " + "; ".join(changed), changed)
+        return Reason("options", "build options, interpreter, underlay or wsbuild version "
+                      "changed")
     if old.source != snapshot.digest:
         shown = ", ".join(snapshot.changed[:3]) + (" …" if len(snapshot.changed) > 3 else "")
-        return f"source changed: {shown}" if shown else "source changed"
+        return Reason("source", f"source changed: {shown}" if shown else "source changed",
+                      tuple(snapshot.changed))
     changed_deps = sorted(n for n in set(old.dependencies) | set(dependencies)
                           if old.dependencies.get(n) != dependencies.get(n))
     if changed_deps:
-        return "dependency rebuilt: " + ", ".join(changed_deps)
+        return Reason("dependency", "dependency rebuilt: " + ", ".join(changed_deps),
+                      tuple(changed_deps))
     damaged = damaged_install(install_base, old.installed)
     if damaged is not None:
-        return f"install damaged: {damaged} missing or changed"
+        return Reason("install", f"install damaged: {damaged} missing or changed", (damaged,))
     return None
+
+
+def why_rebuild(old: BuildState | None, snapshot: SourceSnapshot, settings: str,
+                dependencies: Mapping[str, str], install_base: Path,
+                inputs: Mapping[str, object] | None = None) -> str | None:
+    """None when up to date, else the reason a user should read."""
+    reason = rebuild_reason(old, snapshot, settings, dependencies, install_base, inputs)
+    return reason.text if reason is not None else None

@@ -6,6 +6,7 @@
 4. underlay/environment.py    a ROS virtualenv underlay is detected (detect.py), repaired if
                               needed (repair.py), its environment computed, lint stand-in written
 5. workspace/resolve.py       build dependencies are resolved before anything starts
+   build/overrides.py         selected packages an underlay already provides to others: a warning
 6. build/schedule.py          packages build in parallel in dependency order, each through its
                               build type's labelled steps (build_types/), into a stage (prefix/stage.py)
 7. prefix/                    on success the stage replaces the package's prefix; environment hooks
@@ -17,14 +18,16 @@ from __future__ import annotations
 
 import json
 import os
+import signal
 import sys
 import time
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import asdict, dataclass, replace
 from pathlib import Path
 
 from wsbuild.build.cached import RunCache
 from wsbuild.build.compiler_cache import CacheCounts, CompilerCache, open_compiler_cache
+from wsbuild.build.fingerprint import BuildState, Reason, SourceSnapshot
 from wsbuild.build.logs import new_run_log
 from wsbuild.build.process import env_delta, format_command, run_command
 from wsbuild.build.request import BuildRequest
@@ -43,7 +46,13 @@ from wsbuild.errors import BuildFailed, DependencyError, Interrupted, WorkspaceE
 from wsbuild.events import CacheRestored, Emit, Event, Notice, RunFinished, StepStarted
 from wsbuild.underlay.environment import PreparedUnderlay
 from wsbuild.workspace.graph import Graph
-from wsbuild.workspace.model import BuildResult, DepCategory, Outcome, Package
+from wsbuild.workspace.model import (
+    BuildResult,
+    DepCategory,
+    Outcome,
+    Package,
+    ResolvedDependency,
+)
 from wsbuild.workspace.root import BUILD_MARKER, Workspace
 
 
@@ -83,8 +92,11 @@ def is_installed(workspace: Workspace, name: str, merged: bool) -> bool:
 
 
 def check_dependencies(plan: Plan, request: BuildRequest, environ: Mapping[str, str],
-                       extra_prefixes: list[Path], emit: Emit) -> None:
-    """Stop before building when build dependencies are missing: all of them, listed at once."""
+                       extra_prefixes: list[Path], emit: Emit) -> dict[str, list[str]]:
+    """Before building: workspace dependencies must be built or selected (else refuse); build
+    dependencies that nothing provides are listed once, as a warning block, and the build goes
+    on (`--strict-dependencies` refuses instead). Returns package -> its unresolved build
+    dependencies, for its failure report."""
     merged = request.build.merge_install
     selected = set(plan.selected)
     not_built: dict[str, list[str]] = {}
@@ -101,24 +113,115 @@ def check_dependencies(plan: Plan, request: BuildRequest, environ: Mapping[str, 
             hint=f"build them too, e.g. wsbuild build --packages-up-to {first_user}",
         )
     if request.skip_dependency_check:
-        return
+        return {}
     from wsbuild.workspace.resolve import Resolver, unresolved_build_dependencies
 
     resolver = Resolver.from_environment(environ, extra_prefixes)
-    missing, unchecked = unresolved_build_dependencies(
+    missing = unresolved_build_dependencies(
         (plan.packages[n] for n in plan.selected), plan.packages, resolver
     )
-    for key, users in sorted(unchecked.items()):
-        emit(Notice(f"cannot check system dependency '{key}' (needed by {', '.join(users)})",
-                    warning=True))
-    if missing:
-        items = "; ".join(f"{dep} (needed by {', '.join(users)})"
-                          for dep, users in sorted(missing.items()))
+    if not missing:
+        return {}
+    if request.strict_dependencies:
+        users: dict[str, list[str]] = {}
+        for name, deps in missing.items():
+            for dep in deps:
+                users.setdefault(dep.name, []).append(name)
+        items = "; ".join(f"{dep} (needed by {', '.join(names)})"
+                          for dep, names in sorted(users.items()))
         raise DependencyError(
             f"unresolved build dependencies: {items}",
             hint="install them into the underlay (e.g. pip install ros-jazzy-<name> or apt), "
-            "source the underlay that has them, or pass --skip-dependency-check",
+            "source the underlay that has them, or build without --strict-dependencies",
         )
+    emit(Notice(unresolved_warning(missing), warning=True))
+    return {name: [dep.name for dep in deps] for name, deps in missing.items()}
+
+
+def warn_overrides(plan: Plan, request: BuildRequest, environ: Mapping[str, str],
+                   emit: Emit) -> None:
+    """One warning for the run naming the selected packages an underlay already provides to
+    other underlay packages (build/overrides.py), but those --allow-overriding names."""
+    from wsbuild.build.overrides import override_warning, overrides_to_warn
+
+    overrides = overrides_to_warn(plan.selected, plan.packages, request.allow_overriding,
+                                  environ, plan.workspace.install_base)
+    if overrides:
+        emit(Notice(override_warning(overrides), warning=True))
+
+
+def unresolved_warning(missing: Mapping[str, Sequence[ResolvedDependency]]) -> str:
+    """The warning block: each package, each of its unresolved dependencies, the likely fix."""
+    from wsbuild.underlay.wheels import install_hint
+
+    lines = [("build dependencies not found in the workspace, an underlay's ament index, "
+              "CMAKE_PREFIX_PATH, the Python distributions, PATH or pkg-config (building "
+              "anyway; --strict-dependencies refuses):")]
+    for name, deps in missing.items():
+        lines.append(f"  {name}:")
+        lines += [f"    {dep.name}: {install_hint(dep.name)}" for dep in deps]
+    return "\n".join(lines)
+
+
+def with_unresolved(result: BuildResult, unresolved: Sequence[str]) -> BuildResult:
+    """A failed package's report ends with the build dependencies it declared that were not
+    found: the likely cause, next to the error."""
+    if result.outcome is not Outcome.FAILED or not unresolved:
+        return result
+    lines = [f"  declares build dependency {dep}, which was not found" for dep in unresolved]
+    return replace(result, message="\n".join([result.message, *lines]))
+
+
+def _reporting_unresolved(build_one: Callable[[str], BuildResult],
+                          unresolved: Mapping[str, Sequence[str]]) -> Callable[[str], BuildResult]:
+    """A package's job as the scheduler runs it: a failure of the machine (full disk, read-only
+    install base) is that package's failure in one line, not a bug; a failure's report ends
+    with the package's unresolved build dependencies."""
+
+    from wsbuild.errors import environment_failure
+
+    def build(name: str) -> BuildResult:
+        started = time.monotonic()
+        try:
+            result = build_one(name)
+        except OSError as exc:
+            program = exc.filename if isinstance(exc, FileNotFoundError) \
+                and isinstance(exc.filename, str) and "/" not in exc.filename else None
+            message = environment_failure(exc, doing=f"building {name}", program=program)
+            if message is None:
+                raise
+            result = BuildResult(name, Outcome.FAILED, time.monotonic() - started,
+                                 message=message)
+        return with_unresolved(result, unresolved.get(name, ()))
+
+    return build
+
+
+def exit_text(program: str, returncode: int, tail: Sequence[str]) -> str:
+    """What a failed command's exit status means, in the words a user needs."""
+    if returncode == 127 and tail and tail[0].startswith(f"cannot run {program}"):
+        return (f"'{program}' is not installed or not on PATH: install it, or put the "
+                "directory holding it on PATH, and build again")
+    if returncode < 0:
+        try:
+            name = signal.Signals(-returncode).name
+        except ValueError:
+            name = f"signal {-returncode}"
+        cause = " (out of memory, or stopped from outside)" if name == "SIGKILL" else ""
+        return f"'{program}' was killed by {name}{cause}"
+    return f"'{program}' exited with code {returncode}"
+
+
+def _name_lint_stand_ins(ws: Workspace, results: Sequence[BuildResult], emit: Emit) -> None:
+    """One line naming the linters stood in for (not installed) in the packages built now."""
+    from wsbuild.underlay.lint import stand_ins_used
+
+    built = [ws.build_base / r.package for r in results if r.outcome is Outcome.FINISHED]
+    used = stand_ins_used(built)
+    if used:
+        names = ", ".join(f"{linter} ({len(users)} package{'s' if len(users) > 1 else ''})"
+                          for linter, users in used.items())
+        emit(Notice(f"linters not installed, stood in for (their tests not registered): {names}"))
 
 
 class _Jobserver:
@@ -182,7 +285,8 @@ def run_build(plan: Plan, request: BuildRequest, emit: Emit) -> list[BuildResult
         request = replace(request, build=replace(
             options, underlay_cmake_args=underlay.cmake_args))
         extra_prefixes = [underlay.venv] if underlay.venv else []
-        check_dependencies(plan, request, base_env, extra_prefixes, emit)
+        unresolved = check_dependencies(plan, request, base_env, extra_prefixes, emit)
+        warn_overrides(plan, request, base_env, emit)
         run_log = new_run_log(ws.log_base, "build")
         order = plan.graph.topological_order()
         compilers = open_compiler_cache(request.compiler_cache, base_env, run_log / "sccache.log")
@@ -207,6 +311,8 @@ def run_build(plan: Plan, request: BuildRequest, emit: Emit) -> list[BuildResult
         def build_one(name: str) -> BuildResult:
             return _build_package(plan, request, name, base_env, order, run_log, jobserver,
                                   keys, emit_timed, cache, compilers)
+
+        build_one = _reporting_unresolved(build_one, unresolved)
 
         try:
             results = run_jobs(plan.selected, dependencies, build_one,
@@ -236,6 +342,7 @@ def run_build(plan: Plan, request: BuildRequest, emit: Emit) -> list[BuildResult
         _finish_install(ws, merged, underlay)
         if any(r.outcome is Outcome.FINISHED for r in results):  # a no-op reads no file
             merge_compile_commands(ws)
+        _name_lint_stand_ins(ws, results, emit)
         details = _run_details(request, ws, run_log, results, recorder, counts,
                                time.monotonic() - started, cpu_before)
     emit(RunFinished(tuple(results), time.monotonic() - started, details=details))
@@ -324,8 +431,15 @@ def venv_prepends(venv: Path) -> tuple[tuple[str, str], ...]:
 def build_settings(plan: Plan, request: BuildRequest, name: str,
                    base_env: Mapping[str, str]) -> str:
     """Digest of everything besides sources and dependencies that shapes a package's build."""
-    from wsbuild import __version__
     from wsbuild.build.fingerprint import digest_of
+
+    return digest_of(build_inputs(plan, request, name, base_env))
+
+
+def build_inputs(plan: Plan, request: BuildRequest, name: str,
+                 base_env: Mapping[str, str]) -> dict[str, object]:
+    """What `build_settings` digests (recorded with the build, to name what changed)."""
+    from wsbuild import __version__
 
     options = asdict(request.build)
     options.pop("jobs")  # the CPU budget does not change what gets built
@@ -342,7 +456,7 @@ def build_settings(plan: Plan, request: BuildRequest, name: str,
         return [p for p in base_env.get(var, "").split(os.pathsep)
                 if p and not p.startswith(own)]
 
-    return digest_of({
+    return {
         "wsbuild": __version__,
         "build_type": build_type,
         "options": options,
@@ -351,7 +465,7 @@ def build_settings(plan: Plan, request: BuildRequest, name: str,
         "ament_prefix_path": underlay("AMENT_PREFIX_PATH"),
         "cmake_prefix_path": underlay("CMAKE_PREFIX_PATH"),
         "install_prefix": str(package_prefix(plan.workspace, name, request.build.merge_install)),
-    })
+    }
 
 
 def _dependency_keys(plan: Plan, closure: set[str], keys: Mapping[str, str]) -> dict[str, str]:
@@ -372,16 +486,32 @@ def _dependency_keys(plan: Plan, closure: set[str], keys: Mapping[str, str]) -> 
 BUILDING_MARKER = Path(".wsbuild") / "building"
 
 
+def rebuild_reason(plan: Plan, request: BuildRequest, name: str, old: BuildState | None,
+                   snapshot: SourceSnapshot, settings: str, dep_keys: Mapping[str, str],
+                   inputs: Mapping[str, object]) -> Reason | None:
+    """Why `name` must be built (None: up to date); reads, never writes (also --dry-run's)."""
+    from wsbuild.build.fingerprint import Reason
+    from wsbuild.build.fingerprint import rebuild_reason as compare
+
+    options = request.build
+    if (plan.workspace.build_base / name / BUILDING_MARKER).exists():
+        return Reason("unfinished", "the previous build did not finish")
+    if request.force or options.cmake_force_configure or options.cmake_clean_cache \
+            or options.cmake_clean_first:
+        return Reason("forced", "forced")
+    return compare(old, snapshot, settings, dep_keys, plan.workspace.install_base, inputs)
+
+
 def _build_package(plan: Plan, request: BuildRequest, name: str, base_env: Mapping[str, str],
                    order: list[str], run_log: Path, jobserver: _Jobserver,
                    keys: dict[str, str], emit: Emit, cache: RunCache,
                    compilers: CompilerCache | None = None) -> BuildResult:
     from wsbuild.build.fingerprint import (
         BuildState,
+        digest_of,
         installed_files,
         read_state,
         snapshot_sources,
-        why_rebuild,
         write_state,
     )
     from wsbuild.build_types.pybuild.paths import site_packages_relpath
@@ -403,16 +533,12 @@ def _build_package(plan: Plan, request: BuildRequest, name: str, base_env: Mappi
     # 1. up to date?
     old = read_state(build_dir)
     snapshot = snapshot_sources(package.path, old.files if old else {})
-    settings = build_settings(plan, request, name, base_env)
+    inputs = build_inputs(plan, request, name, base_env)
+    settings = digest_of(inputs)
     closure = plan.graph.build_closure(name)
     dep_keys = _dependency_keys(plan, closure, keys)
-    if (build_dir / BUILDING_MARKER).exists():
-        reason: str | None = "the previous build did not finish"
-    elif request.force or options.cmake_force_configure or options.cmake_clean_cache \
-            or options.cmake_clean_first:
-        reason = "forced"
-    else:
-        reason = why_rebuild(old, snapshot, settings, dep_keys, ws.install_base)
+    why = rebuild_reason(plan, request, name, old, snapshot, settings, dep_keys, inputs)
+    reason = why.text if why is not None else None
     if reason is None and old is not None:
         # one line in a shared file: a no-op build of many packages creates no directories
         with open(run_log / "up_to_date.log", "a") as handle:
@@ -434,7 +560,8 @@ def _build_package(plan: Plan, request: BuildRequest, name: str, base_env: Mappi
             entry, installed = restored
             write_state(build_dir, BuildState(key=build_key, source=snapshot.digest,
                                               settings=settings, dependencies=dep_keys,
-                                              files=snapshot.files, installed=installed))
+                                              files=snapshot.files, installed=installed,
+                                              inputs=inputs))
             (build_dir / BUILDING_MARKER).unlink(missing_ok=True)
             keys[name] = build_key
             with open(log_dir / "command.log", "a") as handle:
@@ -470,7 +597,7 @@ def _build_package(plan: Plan, request: BuildRequest, name: str, base_env: Mappi
         warnings.extend(line for line in stderr if line.strip())
         if completed.returncode != 0:
             raise StepFailed(
-                f"'{command[0]}' exited with code {completed.returncode}",
+                exit_text(command[0], completed.returncode, completed.tail),
                 command=command, cwd=cwd, env_delta=delta, returncode=completed.returncode,
             )
 
@@ -530,7 +657,7 @@ def _build_package(plan: Plan, request: BuildRequest, name: str, base_env: Mappi
     key = BuildState.make_key(snapshot.digest, settings, dep_keys)
     write_state(build_dir, BuildState(key=key, source=snapshot.digest, settings=settings,
                                       dependencies=dep_keys, files=snapshot.files,
-                                      installed=installed))
+                                      installed=installed, inputs=inputs))
     (build_dir / BUILDING_MARKER).unlink()
     keys[name] = key
     if cache_key is not None:

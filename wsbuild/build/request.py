@@ -27,6 +27,8 @@ class BuildRequest:
     build: BuildOptions
     run: RunOptions
     skip_dependency_check: bool = False
+    #: --strict-dependencies: unresolved build dependencies refuse the build (exit 2)
+    strict_dependencies: bool = False
     force: bool = False
     repair_underlay: bool = True
     #: --compiler-cache: auto, sccache, ccache or none (build/compiler_cache.py)
@@ -35,6 +37,8 @@ class BuildRequest:
     timings: bool = False
     #: the build cache; None: off (what --no-cache and WSBUILD_CACHE=off ask for)
     cache: CacheSettings | None = None
+    #: --allow-overriding: packages built although an underlay provides them to others
+    allow_overriding: tuple[str, ...] = ()
 
 
 def cpu_count() -> int:

@@ -31,7 +31,7 @@ from wsbuild.underlay.detect import (
     site_packages_dirs,
     venv_python,
 )
-from wsbuild.underlay.lint import find_cmake_package, write_lint_auto_shim
+from wsbuild.underlay.lint import prepare_lint
 from wsbuild.underlay.repair import repair_underlay, scan_underlay
 
 # ------------------------------------------------------------------- public: environment
@@ -60,6 +60,14 @@ def library_dirs(prefix: Path) -> list[Path]:
     return dirs
 
 
+def executable_dirs(prefix: Path) -> list[Path]:
+    """`PATH` entries of the underlay: `<prefix>/bin`, then the `opt/<vendor>/bin` directories
+    of vendor packages (uncrustify_vendor: ament_uncrustify runs the `uncrustify` found on
+    PATH), which a sourced ROS install adds through their environment hooks."""
+    prefix = Path(os.path.abspath(prefix))
+    return [prefix / "bin", *sorted(p for p in (prefix / "opt").glob("*/bin") if p.is_dir())]
+
+
 def cmake_prefixes(prefix: Path) -> list[Path]:
     """`CMAKE_PREFIX_PATH` entries of the underlay: the venv, and the `pybind11` PyPI package's
     own prefix (the pybind11_vendor wheel depends on it instead of vendoring pybind11, and
@@ -81,7 +89,8 @@ def _prepend(value: str | None, entries: Iterable[str]) -> str:
 def build_environment(prefix: Path, environ: Mapping[str, str]) -> dict[str, str]:
     """The variables to set (their complete new values) for builds and for ROS processes.
 
-    Equivalent of sourcing the underlay's setup script: prepends the venv to `PATH`,
+    Equivalent of sourcing the underlay's setup script: prepends the venv to `PATH`
+    (`executable_dirs`),
     `AMENT_PREFIX_PATH` (rosidl finds its typesupports through the ament index:
     without it `No 'rosidl_typesupport_c' found`), `CMAKE_PREFIX_PATH` (`cmake_prefixes`) and
     `LD_LIBRARY_PATH` (`library_dirs`), sets `VIRTUAL_ENV`, the bootstrap guard (so
@@ -93,7 +102,7 @@ def build_environment(prefix: Path, environ: Mapping[str, str]) -> dict[str, str
     text = str(prefix)
     changes: dict[str, str] = {
         "VIRTUAL_ENV": text,
-        "PATH": _prepend(environ.get("PATH"), [str(prefix / "bin")]),
+        "PATH": _prepend(environ.get("PATH"), [str(p) for p in executable_dirs(prefix)]),
         "AMENT_PREFIX_PATH": _prepend(environ.get("AMENT_PREFIX_PATH"), [text]),
         "CMAKE_PREFIX_PATH": _prepend(
             environ.get("CMAKE_PREFIX_PATH"), [str(p) for p in cmake_prefixes(prefix)]
@@ -142,6 +151,8 @@ class PreparedUnderlay:
     cmake_args: tuple[str, ...]
     #: variables `install/setup.*` must set for the venv underlay (complete values at build time)
     venv_changes: tuple[tuple[str, str], ...] = ()
+    #: CMake packages of ament linters (and ament_lint_auto/common) replaced by stand-ins
+    lint_stand_ins: tuple[str, ...] = ()
 
 
 def prepare_underlay(
@@ -151,11 +162,13 @@ def prepare_underlay(
     repair: bool,
     shim_dir: Path,
     notice: Callable[[str], None],
+    dry_run: bool = False,
 ) -> PreparedUnderlay:
     """Detect the ROS underlay, repair a wheel venv if needed, and compute the build environment.
 
-    Also makes `find_package(ament_lint_auto)` work when no real ament_lint_auto is installed
-    (no wheel exists): a stand-in that registers no linters is appended to CMAKE_PREFIX_PATH.
+    Also makes the ament linters that are not installed (ament_lint_auto, ament_lint_common and
+    the linters without a wheel) stand-ins that register no test (underlay/lint.py).
+    `dry_run` computes the same without repairing or writing anything (`build --dry-run`).
     """
     env = dict(environ)
     venv = find_venv_underlay(environ, executable)
@@ -166,7 +179,10 @@ def prepare_underlay(
         fatal = [p for p in problems if not p.repairable]
         if fatal:
             raise UnderlayError(fatal[0].text, path=fatal[0].path, hint=fatal[0].fix)
-        if problems:
+        if problems and dry_run:
+            notice(f"the build would first repair {len(problems)} broken line(s) of the ROS "
+                   f"underlay in {venv}")
+        elif problems:
             if not repair:
                 raise UnderlayError(
                     f"the ROS underlay has {len(problems)} broken line(s) from the wheels' "
@@ -183,9 +199,11 @@ def prepare_underlay(
     prefixes = [Path(p) for p in env.get("CMAKE_PREFIX_PATH", "").split(os.pathsep) if p]
     prefixes += [Path(p) for p in env.get("AMENT_PREFIX_PATH", "").split(os.pathsep) if p]
     has_ament = any(is_ament_prefix(p) for p in prefixes)
-    if has_ament and find_cmake_package("ament_lint_auto", prefixes) is None:
-        shim = write_lint_auto_shim(shim_dir)
-        current = env.get("CMAKE_PREFIX_PATH", "")
-        env["CMAKE_PREFIX_PATH"] = os.pathsep.join(p for p in (current, str(shim)) if p)
+    stand_ins: tuple[str, ...] = ()
+    if has_ament:
+        lint = prepare_lint(prefixes, env.get("PATH", ""), shim_dir, write=not dry_run)
+        cmake_args += lint.cmake_args
+        stand_ins = lint.stand_ins
     return PreparedUnderlay(environ=env, venv=venv, cmake_args=cmake_args,
-                            venv_changes=tuple(sorted(changes.items())))
+                            venv_changes=tuple(sorted(changes.items())),
+                            lint_stand_ins=stand_ins)

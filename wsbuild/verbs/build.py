@@ -5,6 +5,8 @@ from __future__ import annotations
 import argparse
 
 from wsbuild.build.pipeline import Plan, run_build
+from wsbuild.build.request import BuildRequest
+from wsbuild.errors import WsbuildError
 from wsbuild.options import build_request
 from wsbuild.report import Reporter
 from wsbuild.verbs.load import load
@@ -13,8 +15,12 @@ from wsbuild.verbs.load import load
 def run_build_verb(args: argparse.Namespace) -> int:
     """Build the selected packages."""
     request = build_request(args)
+    if getattr(args, "json", False) and not args.dry_run:
+        raise WsbuildError("--json goes with --dry-run", hint="wsbuild build --dry-run --json")
     loaded = load(args)
     plan = Plan(loaded.workspace, loaded.packages, loaded.graph, loaded.selected)
+    if getattr(args, "dry_run", False):
+        return _dry_run(plan, request, json_output=args.json)
     reporter = Reporter()
     reporter.start_ticker()
     try:
@@ -22,3 +28,18 @@ def run_build_verb(args: argparse.Namespace) -> int:
     finally:
         reporter.stop()
     return 0
+
+
+def _dry_run(plan: Plan, request: BuildRequest, *, json_output: bool) -> int:
+    """Print what the build would do; exit 2 when it would refuse to start."""
+    import json
+    import os
+
+    from wsbuild.build.dry_run import plan_build, plan_json, plan_lines
+
+    build_plan = plan_build(plan, request, os.environ)
+    if json_output:
+        print(json.dumps(plan_json(build_plan), indent=2))
+    else:
+        print("\n".join(plan_lines(build_plan)))
+    return 2 if build_plan.refusal else 0

@@ -138,6 +138,7 @@ def run_info(args: argparse.Namespace) -> int:
     loaded = load(args, select=False)
     resolver = _resolver()
     blocks = []
+    records: list[dict[str, object]] = []
     for name in args.package_names:
         if name not in loaded.packages:
             import difflib
@@ -149,6 +150,12 @@ def run_info(args: argparse.Namespace) -> int:
                 else "run 'wsbuild list -n' to see the package names",
             )
         package = loaded.packages[name]
+        rows = _dependency_rows(package, loaded.packages, resolver)
+        if getattr(args, "json", False):
+            records.append({"name": name, "path": str(package.path),
+                            "build_type": package.build_type, "version": package.version,
+                            "dependencies": rows})
+            continue
         lines = [
             f"{name}",
             f"  path:       {package.path}",
@@ -159,7 +166,6 @@ def run_info(args: argparse.Namespace) -> int:
             lines.append(f"  description: {package.description}")
         if package.member_of_groups:
             lines.append(f"  groups:     {', '.join(package.member_of_groups)}")
-        rows = _dependency_rows(package, loaded.packages, resolver)
         if rows:
             lines.append("  dependencies:")
             width = max(len(str(r["name"])) for r in rows)
@@ -170,5 +176,8 @@ def run_info(args: argparse.Namespace) -> int:
         else:
             lines.append("  dependencies: none")
         blocks.append("\n".join(lines))
+    if getattr(args, "json", False):
+        print(json.dumps(records, indent=2))
+        return 0
     print("\n\n".join(blocks))
     return 0

@@ -91,11 +91,15 @@ class Package:
 
 
 class Resolution(Enum):
-    """Where a dependency was found."""
+    """Where a dependency was found: the source that resolved it (workspace/resolve.py)."""
 
     WORKSPACE = "workspace"
-    UNDERLAY = "underlay"
-    PYTHON = "python module"
+    AMENT_INDEX = "ament index"
+    CMAKE = "cmake config"
+    PYTHON = "python distribution"
+    PYTHON_MODULE = "python module"
+    EXECUTABLE = "executable"
+    PKG_CONFIG = "pkg-config"
     SYSTEM = "system (not checked)"
     UNRESOLVED = "unresolved"
 

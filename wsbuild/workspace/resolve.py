@@ -1,10 +1,32 @@
-"""Classify dependencies that are not workspace packages: underlay, Python module, system, or missing."""
+"""Resolve the dependencies that are not workspace packages, and say which source provides each.
+
+A dependency is resolved by the first of these that has it:
+
+1. a workspace package;
+2. the ament index of a prefix on `AMENT_PREFIX_PATH` (or the venv underlay);
+3. a CMake package config (`<name>Config.cmake` / `<name>-config.cmake`) in `CMAKE_PREFIX_PATH`;
+4. a Python distribution installed for the build interpreter (names compared normalised;
+   rosdep's `python3-` prefix dropped: `python3-numpy` → `numpy`, `xacro` → `xacro`);
+5. an executable on `PATH`;
+6. a `pkg-config` module;
+7. for `python3-*` keys, an importable module of that name (`python3-yaml` → `yaml`).
+
+Names that are rosdep keys of system packages (a `-` in the name, which REP 144 forbids for
+ROS packages, or a well-known key) and that none of the above finds are "system (not
+checked)"; everything else is unresolved. The build only warns about unresolved ones
+(build/pipeline.py): a dependency declared for the run time or for another platform must not
+stop a build that would succeed.
+"""
 
 from __future__ import annotations
 
+import importlib.metadata
 import importlib.util
 import os
+import re
 import shutil
+import subprocess
+import sys
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -34,6 +56,17 @@ _PYTHON_MODULES = {
     "python3-setuptools": "setuptools",
     "python3-transforms3d": "transforms3d",
 }
+#: rosdep keys whose PyPI distribution is not the key minus "python3-"
+_PYTHON_DISTRIBUTIONS = {
+    "python3-yaml": "pyyaml",
+    "python3-opencv": "opencv-python",
+    "python3-pil": "pillow",
+    "python3-serial": "pyserial",
+    "python3-dateutil": "python-dateutil",
+    "python3-catkin-pkg-modules": "catkin-pkg",
+    "python3-lark-parser": "lark",
+    "python3-pkg-resources": "setuptools",
+}
 #: common rosdep keys for system libraries and tools that carry no ament index entry
 SYSTEM_KEYS = frozenset({
     "boost", "bullet", "cmake", "curl", "eigen", "git", "gtest", "gmock", "libcurl",
@@ -42,6 +75,13 @@ SYSTEM_KEYS = frozenset({
     "pybind11-dev", "libboost-dev", "yaml-cpp", "yaml_cpp", "spdlog", "fmt", "sqlite3",
     "libsqlite3-dev", "lttng-ust", "liblttng-ust-dev", "acl", "libacl1-dev",
 })
+#: what a pkg-config module name may look like (it is passed as one argument, never to a shell)
+_PKG_CONFIG_NAME = re.compile(r"^[A-Za-z0-9][A-Za-z0-9_.+-]*$")
+
+
+def normalize_distribution(name: str) -> str:
+    """A Python distribution name as PEP 503 compares it."""
+    return re.sub(r"[-_.]+", "-", name).lower()
 
 
 @dataclass(slots=True)
@@ -50,16 +90,31 @@ class Resolver:
 
     ament_prefixes: Sequence[Path]
     cmake_prefixes: Sequence[Path]
+    #: PATH of the build, for executables and pkg-config
+    path: str = ""
+    #: PKG_CONFIG_PATH of the build
+    pkg_config_path: str = ""
+    #: where the build interpreter's distributions live (site-packages and PYTHONPATH entries)
+    python_paths: Sequence[str] = ()
     _ament_index: dict[str, Path] | None = field(default=None, repr=False)
+    _distributions: dict[str, str] | None = field(default=None, repr=False)
     _cache: dict[str, tuple[Resolution, str]] = field(default_factory=dict, repr=False)
 
     @classmethod
     def from_environment(cls, environ: Mapping[str, str],
                          extra_prefixes: Iterable[Path] = ()) -> Resolver:
+        """The build's view: its environment, plus `extra_prefixes` (the venv underlay)."""
         extra = list(extra_prefixes)
+        python_paths = _split_str(environ.get("PYTHONPATH", ""))
+        for prefix in extra:
+            python_paths += sorted(str(p) for p in (prefix / "lib").glob("python3*/site-packages"))
+        python_paths += [p for p in sys.path if p]
         return cls(
             ament_prefixes=_split(environ.get("AMENT_PREFIX_PATH", "")) + extra,
             cmake_prefixes=_split(environ.get("CMAKE_PREFIX_PATH", "")) + extra,
+            path=environ.get("PATH", ""),
+            pkg_config_path=environ.get("PKG_CONFIG_PATH", ""),
+            python_paths=tuple(dict.fromkeys(python_paths)),
         )
 
     def resolve(self, name: str) -> tuple[Resolution, str]:
@@ -71,27 +126,28 @@ class Resolver:
     def _lookup(self, name: str) -> tuple[Resolution, str]:
         index = self._index()
         if name in index:
-            return Resolution.UNDERLAY, str(index[name])
-        for prefix in self.cmake_prefixes:
-            for candidate in (
-                prefix / "share" / name / "cmake",
-                prefix / "lib" / "cmake" / name,
-                prefix / "share" / name / "package.xml",
-            ):
-                if candidate.exists():
-                    return Resolution.UNDERLAY, str(prefix)
+            return Resolution.AMENT_INDEX, str(index[name])
+        config = self._cmake_config(name)
+        if config is not None:
+            return Resolution.CMAKE, str(config)
+        distribution = self._distribution(name)
+        if distribution is not None:
+            return Resolution.PYTHON, distribution
+        executable = shutil.which(name, path=self.path) if self.path else None
+        if executable is not None:
+            return Resolution.EXECUTABLE, executable
+        module = self._pkg_config(name)
+        if module is not None:
+            return Resolution.PKG_CONFIG, module
         if name.startswith("python3-"):
-            module = _PYTHON_MODULES.get(name, name[len("python3-"):].replace("-", "_"))
+            module_name = _PYTHON_MODULES.get(name, name[len("python3-"):].replace("-", "_"))
             try:
-                spec = importlib.util.find_spec(module)
+                spec = importlib.util.find_spec(module_name)
             except (ImportError, ValueError):
                 spec = None
             if spec is not None:
-                return Resolution.PYTHON, str(spec.origin or module)
-            return Resolution.UNRESOLVED, f"no importable module '{module}'"
-        tool = shutil.which(name) if name in SYSTEM_KEYS else None
-        if tool is not None:
-            return Resolution.SYSTEM, tool  # a build tool found on PATH: checked
+                return Resolution.PYTHON_MODULE, str(spec.origin or module_name)
+            return Resolution.UNRESOLVED, f"no Python distribution or module '{module_name}'"
         if name in SYSTEM_KEYS or "-" in name:
             # REP 144 names have no '-': this is a rosdep key for a system package
             return Resolution.SYSTEM, ""
@@ -101,6 +157,61 @@ class Resolver:
         if self._ament_index is None:
             self._ament_index = ament_index(self.ament_prefixes)
         return self._ament_index
+
+    def _cmake_config(self, name: str) -> Path | None:
+        for prefix in self.cmake_prefixes:
+            for folder in (
+                prefix / "share" / name / "cmake",
+                prefix / "share" / name,
+                prefix / "lib" / "cmake" / name,
+                prefix / "lib" / name / "cmake",
+                prefix / "lib" / "cmake" / name.lower(),
+            ):
+                for config in (f"{name}Config.cmake", f"{name.lower()}-config.cmake"):
+                    if (folder / config).is_file():
+                        return folder / config
+        return None
+
+    def _distribution(self, name: str) -> str | None:
+        if self._distributions is None:
+            self._distributions = python_distributions(self.python_paths)
+        candidates = [name]
+        if name.startswith("python3-"):
+            candidates = [_PYTHON_DISTRIBUTIONS.get(name, name[len("python3-"):])]
+        for candidate in candidates:
+            found = self._distributions.get(normalize_distribution(candidate))
+            if found is not None:
+                return found
+        return None
+
+    def _pkg_config(self, name: str) -> str | None:
+        if not _PKG_CONFIG_NAME.match(name):
+            return None
+        tool = shutil.which("pkg-config", path=self.path) if self.path else None
+        if tool is None:
+            return None
+        env = dict(os.environ, PATH=self.path, PKG_CONFIG_PATH=self.pkg_config_path)
+        try:
+            done = subprocess.run([tool, "--modversion", name], env=env, capture_output=True,
+                                  text=True, timeout=10, check=False)
+        except (OSError, subprocess.TimeoutExpired):
+            return None
+        if done.returncode != 0:
+            return None
+        return f"{name} {done.stdout.strip()}".strip()
+
+
+def python_distributions(paths: Iterable[str]) -> dict[str, str]:
+    """Normalised name -> "Name version" of every distribution installed in `paths`."""
+    found: dict[str, str] = {}
+    for dist in importlib.metadata.distributions(path=list(paths)):
+        try:
+            name = dist.metadata["Name"]
+        except (KeyError, OSError):
+            continue
+        if name:
+            found.setdefault(normalize_distribution(name), f"{name} {dist.version}")
+    return found
 
 
 def ament_index(prefixes: Iterable[Path]) -> dict[str, Path]:
@@ -118,6 +229,10 @@ def ament_index(prefixes: Iterable[Path]) -> dict[str, Path]:
 
 def _split(value: str) -> list[Path]:
     return [Path(p) for p in value.split(os.pathsep) if p]
+
+
+def _split_str(value: str) -> list[str]:
+    return [p for p in value.split(os.pathsep) if p]
 
 
 def resolve_dependencies(
@@ -144,22 +259,21 @@ def resolve_dependencies(
     return result
 
 
+#: the kinds a build needs (colcon's build category); run-time and test ones are not checked
 BUILD_KINDS = frozenset({DepKind.BUILD, DepKind.BUILDTOOL})
 
 
 def unresolved_build_dependencies(
     packages: Iterable[Package], workspace: Mapping[str, Package], resolver: Resolver
-) -> tuple[dict[str, list[str]], dict[str, list[str]]]:
-    """(missing, unchecked): dependency name -> packages needing it, for build/buildtool deps."""
-    missing: dict[str, list[str]] = {}
-    unchecked: dict[str, list[str]] = {}
+) -> dict[str, list[ResolvedDependency]]:
+    """package -> its build/buildtool dependencies that no source provides (packages with
+    none left out), in the order of `packages`."""
+    missing: dict[str, list[ResolvedDependency]] = {}
     for package in packages:
-        for dep in resolve_dependencies(package, workspace, resolver):
-            if not BUILD_KINDS.intersection(dep.kinds):
-                continue
-            if dep.resolution is Resolution.UNRESOLVED:
-                missing.setdefault(dep.name, []).append(package.name)
-            elif (dep.resolution is Resolution.SYSTEM and package.manifest is not None
-                  and not dep.location):
-                unchecked.setdefault(dep.name, []).append(package.name)
-    return missing, unchecked
+        unresolved = [
+            dep for dep in resolve_dependencies(package, workspace, resolver)
+            if BUILD_KINDS.intersection(dep.kinds) and dep.resolution is Resolution.UNRESOLVED
+        ]
+        if unresolved:
+            missing[package.name] = unresolved
+    return missing

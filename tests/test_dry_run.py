@@ -1,0 +1,136 @@
+"""`wsbuild build --dry-run`: the start order, why each package would build (the file, option or
+dependency that changed) or is up to date, unresolved dependencies, the critical path; and
+build/, install/, log/ stay exactly as they were."""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+import stat
+from collections.abc import Callable
+from pathlib import Path
+
+import pytest
+
+from conftest import run_wsbuild
+
+SPEC = {"pa": ("ament_python", []), "pb": ("ament_python", ["pa"]), "pc": ("cmake", [])}
+
+
+def snapshot(ws: Path) -> dict[str, tuple[object, ...]]:
+    """Every entry of build/, install/ and log/ with its type, size, mtime and content."""
+    found: dict[str, tuple[object, ...]] = {}
+    for base in ("build", "install", "log"):
+        root = ws / base
+        if not os.path.lexists(root):
+            continue
+        for dirpath, dirnames, filenames in os.walk(root):
+            for name in [".", *dirnames, *filenames]:
+                path = os.path.normpath(os.path.join(dirpath, name))
+                info = os.lstat(path)
+                if stat.S_ISLNK(info.st_mode):
+                    content: object = os.readlink(path)
+                elif stat.S_ISREG(info.st_mode):
+                    content = hashlib.sha256(Path(path).read_bytes()).hexdigest()
+                else:
+                    content = None
+                found[os.path.relpath(path, ws)] = (info.st_mode, info.st_size,
+                                                    info.st_mtime_ns, content)
+    return found
+
+
+@pytest.fixture
+def built(make_workspace: Callable[..., Path]) -> Path:
+    ws = make_workspace(SPEC)
+    result = run_wsbuild("build", cwd=ws)
+    assert result.returncode == 0, result.stdout + result.stderr
+    return ws
+
+
+def _plan(ws: Path, *args: str) -> dict:  # type: ignore[type-arg]
+    result = run_wsbuild("build", "--dry-run", "--json", *args, cwd=ws)
+    assert result.returncode == 0, result.stdout + result.stderr
+    return json.loads(result.stdout)
+
+
+def test_an_edit_shows_the_file_and_the_dependents_it_drags_along(built: Path) -> None:
+    (built / "src" / "pa" / "pa" / "main.py").write_text("def main():\n    print('edited')\n")
+    before = snapshot(built)
+    result = run_wsbuild("build", "--dry-run", cwd=built)
+    assert result.returncode == 0, result.stderr
+    lines = result.stdout.splitlines()
+    assert lines[0] == "dry run: 3 packages, 2 would build, 1 up to date (nothing was touched)"
+    rows = [line.split(None, 2) for line in lines[1:4]]
+    assert [row[1] for row in rows] == ["pa", "pc", "pb"]  # critical path first, then by name
+    assert rows[0][2] == "build: source changed: pa/main.py"
+    assert rows[1][2] == "up to date"
+    assert rows[2][2] == "build: dependency rebuilt: pa"
+    assert lines[4].startswith("critical path (about ") and lines[4].endswith(": pa → pb")
+    assert snapshot(built) == before  # not one byte, not one mtime
+    # and the build does what the dry run said
+    real = run_wsbuild("build", cwd=built)
+    assert real.returncode == 0, real.stderr
+    started = [line.split()[-1] for line in real.stdout.splitlines()
+               if line.startswith("Starting >>>")]
+    assert started == ["pa", "pb"]
+
+
+def test_json_names_the_option_that_changed(built: Path) -> None:
+    before = snapshot(built)
+    plan = _plan(built, "--symlink-install", "--cmake-args", "-DFOO=1", "--")
+    reasons = {p["name"]: p["reason"] for p in plan["packages"]}
+    assert reasons["pa"]["kind"] == "options"
+    assert reasons["pa"]["details"] == ["symlink_install: false → true"]
+    assert reasons["pc"]["details"] == ["cmake_args: [] → [-DFOO=1]",
+                                        "symlink_install: false → true"]
+    assert plan["critical_path"]["packages"] == ["pa", "pb"]
+    assert snapshot(built) == before
+
+
+def test_up_to_date_workspace(built: Path) -> None:
+    plan = _plan(built)
+    assert [(p["name"], p["up_to_date"], p["reason"]) for p in plan["packages"]] == [
+        ("pa", True, None), ("pc", True, None), ("pb", True, None)]
+    assert plan["refusal"] is None and plan["unresolved"] == {}
+
+
+def test_a_damaged_install_and_a_forced_build_are_reasons_too(built: Path) -> None:
+    (built / "install" / "pc" / "share" / "pc" / "package.xml").unlink()
+    plan = _plan(built)
+    reasons = {p["name"]: p["reason"] for p in plan["packages"]}
+    assert reasons["pc"]["kind"] == "install"
+    assert reasons["pc"]["details"] == ["pc/share/pc/package.xml"]
+    forced = _plan(built, "--force", "--packages-select", "pa")
+    assert [(p["name"], p["reason"]["kind"]) for p in forced["packages"]] == [("pa", "forced")]
+
+
+def test_a_workspace_never_built_gets_no_directories(make_workspace: Callable[..., Path]) -> None:
+    ws = make_workspace(SPEC)
+    plan = _plan(ws)
+    assert {p["reason"]["text"] for p in plan["packages"]} == {"no previous build"}
+    assert sorted(os.listdir(ws)) == ["src"]
+
+
+def test_unresolved_dependencies_and_what_the_build_would_refuse(
+        make_workspace: Callable[..., Path]) -> None:
+    ws = make_workspace({"pa": ("ament_python", []),
+                         "pd": ("ament_python", ["pa"], {"build_depend": ["no_such_thing_xyz"]})})
+    plan = _plan(ws)
+    assert plan["unresolved"] == {"pd": ["no_such_thing_xyz"]}
+    strict = run_wsbuild("build", "--dry-run", "--strict-dependencies", cwd=ws)
+    assert strict.returncode == 2
+    assert "  pd: no_such_thing_xyz" in strict.stdout
+    assert strict.stdout.rstrip().endswith(
+        "the build would refuse to start: unresolved build dependencies (--strict-dependencies)")
+    alone = run_wsbuild("build", "--dry-run", "--packages-select", "pd", cwd=ws)
+    assert alone.returncode == 2
+    assert ("the build would refuse to start: workspace packages not built yet: "
+            "pa (needed by pd)") in alone.stdout
+    assert sorted(os.listdir(ws)) == ["src"]
+
+
+def test_json_needs_dry_run(built: Path) -> None:
+    result = run_wsbuild("build", "--json", cwd=built)
+    assert result.returncode == 2
+    assert "--json goes with --dry-run" in result.stderr
