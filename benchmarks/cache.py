@@ -32,7 +32,7 @@ from benchmarks.generate import GeneratedWorkspace, WorkspaceSpec, generate_work
 from benchmarks.measure import CommandFailed, Measurement, run_timed
 from benchmarks.tools import (
     DEFAULT_COLCON_VENV, DEFAULT_PROJECT_VENV, REPO, Log, SetupError, Tools, ensure_colcon_venv,
-    machine_details, make_tools,
+    machine_details, make_tools, write_section,
 )
 
 sys.path.insert(0, str(REPO / "tests"))
@@ -231,14 +231,8 @@ def render(results: Sequence[Result], details: dict[str, str], command: str,
 
 
 def write_docs(section: str) -> None:
-    """Replace the build-cache section of docs/benchmarks.md (append it the first time)."""
-    text = DOCS.read_text(encoding="utf-8") if DOCS.is_file() else ""
-    if BEGIN in text and END in text:
-        before, rest = text.split(BEGIN, 1)
-        text = before + section.rstrip("\n") + rest.split(END, 1)[1]
-    else:
-        text = text.rstrip("\n") + "\n\n" + section
-    DOCS.write_text(text, encoding="utf-8")
+    """Replace this benchmark's section of docs/benchmarks.md (append it the first time)."""
+    write_section(DOCS, BEGIN, END, section)
 
 
 def main(argv: Sequence[str] | None = None) -> int:

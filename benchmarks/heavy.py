@@ -57,6 +57,7 @@ from benchmarks.tools import (
     ensure_colcon_venv,
     machine_details,
     make_tools,
+    write_section,
 )
 
 DOCS = REPO / "docs" / "benchmarks.md"
@@ -273,15 +274,8 @@ def render(bench: HeavyBench, colcon: ToolRuns, wsbuild: ToolRuns, details: dict
 
 
 def write_docs(section: str) -> None:
-    """Replace the compile-heavy section of docs/benchmarks.md (append it the first time)."""
-    text = DOCS.read_text(encoding="utf-8") if DOCS.is_file() else ""
-    if BEGIN in text and END in text:
-        before, rest = text.split(BEGIN, 1)
-        after = rest.split(END, 1)[1]
-        text = before + section.rstrip("\n") + after
-    else:
-        text = text.rstrip("\n") + "\n\n" + section
-    DOCS.write_text(text, encoding="utf-8")
+    """Replace this benchmark's section of docs/benchmarks.md (append it the first time)."""
+    write_section(DOCS, BEGIN, END, section)
 
 
 def _median_run(logs: list[Path], measurement: Measurement | None) -> Path | None:

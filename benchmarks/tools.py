@@ -198,3 +198,15 @@ def machine_details(tools: Tools) -> dict[str, str]:
         "colcon": versions,
         "platform": sysconfig.get_platform(),
     }
+
+
+def write_section(path: Path, begin: str, end: str, section: str) -> None:
+    """Replace the part of `path` between the markers `begin` and `end` with `section` (which
+    carries both markers); append it the first time. The rest of the file is kept."""
+    text = path.read_text(encoding="utf-8") if path.is_file() else ""
+    if begin in text and end in text:
+        before, rest = text.split(begin, 1)
+        text = before + section.rstrip("\n") + rest.split(end, 1)[1]
+    else:
+        text = text.rstrip("\n") + "\n\n" + section
+    path.write_text(text, encoding="utf-8")

@@ -57,3 +57,15 @@ def test_python_package_is_what_ros2_pkg_create_makes(tmp_path: Path) -> None:
     assert "('share/' + package_name, ['package.xml'])" in setup_py
     assert f"'node = {leaf}.node:main'" in setup_py
     assert ws.module_of(leaf).is_file()
+
+
+def test_each_benchmark_replaces_only_its_own_section_of_the_report(tmp_path: Path) -> None:
+    from benchmarks.tools import write_section
+
+    docs = tmp_path / "benchmarks.md"
+    docs.write_text("# report\n\nnotes kept\n")
+    write_section(docs, "<!-- a -->", "<!-- /a -->", "<!-- a -->\nfirst\n<!-- /a -->\n")
+    write_section(docs, "<!-- b -->", "<!-- /b -->", "<!-- b -->\nother\n<!-- /b -->\n")
+    write_section(docs, "<!-- a -->", "<!-- /a -->", "<!-- a -->\nsecond\n<!-- /a -->\n")
+    assert docs.read_text() == ("# report\n\nnotes kept\n\n<!-- a -->\nsecond\n<!-- /a -->\n\n"
+                                "<!-- b -->\nother\n<!-- /b -->\n")

@@ -8,31 +8,79 @@ from __future__ import annotations
 
 import argparse
 import os
+import shutil
 import sys
 from collections.abc import Sequence
 from pathlib import Path
 
 from wsbuild import __version__
 from wsbuild.errors import WsbuildError
-from wsbuild.workspace.selection import SelectionOptions, add_selection_arguments
+from wsbuild.workspace.selection import MORE_SELECTION, SelectionOptions, add_selection_arguments
 
 
 class _Formatter(argparse.RawDescriptionHelpFormatter):
-    pass
+    """One screen per verb: each option's help on its own line, at most 100 columns, and the
+    rarely used options (marked `secondary`) only in --help-all."""
+
+    show_all = False
+
+    def __init__(self, prog: str, indent_increment: int = 2, max_help_position: int = 36,
+                 width: int | None = None) -> None:
+        if width is None:
+            width = min(shutil.get_terminal_size().columns, 100) - 2
+        super().__init__(prog, indent_increment, max_help_position, width)
+
+    def add_arguments(self, actions):  # type: ignore[no-untyped-def]
+        if not self.show_all:
+            actions = [a for a in actions if not getattr(a, "secondary", False)]
+        super().add_arguments(actions)
+
+
+class _FullFormatter(_Formatter):
+    show_all = True
+
+
+class _HelpAll(argparse.Action):
+    """--help-all: the help with every option."""
+
+    def __init__(self, option_strings: Sequence[str], dest: str = argparse.SUPPRESS,
+                 default: str = argparse.SUPPRESS, help: str | None = None) -> None:
+        super().__init__(option_strings, dest=dest, default=default, nargs=0, help=help)
+
+    def __call__(self, parser, namespace, values, option_string=None):  # type: ignore[no-untyped-def]
+        parser.formatter_class = _FullFormatter
+        parser.print_help()
+        parser.exit()
+
+
+def secondary(action: argparse.Action) -> argparse.Action:
+    """Mark an option as rarely used: listed by --help-all, not by --help."""
+    action.secondary = True  # type: ignore[attr-defined]
+    return action
+
+
+def _help_arguments(parser: argparse.ArgumentParser) -> None:
+    """-h/--help and --help-all, named in the usage line rather than listed (one screen)."""
+    parser.add_argument("-h", "--help", action="help", help=argparse.SUPPRESS)
+    parser.add_argument("--help-all", action=_HelpAll, help=argparse.SUPPRESS)
 
 
 def _workspace_arguments(parser: argparse.ArgumentParser, *, selection: bool = True) -> None:
-    group = parser.add_argument_group("workspace")
-    group.add_argument("-C", "--workspace", metavar="DIR", dest="workspace_dir",
-                       help="the workspace root (default: found by walking up from the "
-                            "current directory to the one holding src/)")
-    group.add_argument("--base-paths", nargs="+", metavar="PATH",
-                       help="directories to crawl for packages (default: <workspace>/src if it "
-                            "exists, else the workspace)")
-    group.add_argument("--paths", nargs="+", metavar="PATH",
-                       help="package directories, shell wildcards allowed (no crawling)")
+    _help_arguments(parser)
     if selection:
-        add_selection_arguments(parser)
+        group = parser.add_argument_group("workspace and packages (selection as in colcon)",
+                                          MORE_SELECTION)
+    else:
+        group = parser.add_argument_group("workspace")
+    group.add_argument("-C", "--workspace", metavar="DIR", dest="workspace_dir",
+                       help="the workspace root (default: the directory above holding src/)")
+    group.add_argument("--base-paths", nargs="+", metavar="PATH",
+                       help="where to look for packages (default: <workspace>/src)")
+    secondary(group.add_argument("--paths", nargs="+", metavar="PATH",
+                                 help="package directories, shell wildcards allowed (no "
+                                      "crawling)"))
+    if selection:
+        add_selection_arguments(group, secondary=secondary)
 
 
 def build_parser(*, pkg_arguments: bool = True) -> argparse.ArgumentParser:
@@ -47,10 +95,12 @@ def build_parser(*, pkg_arguments: bool = True) -> argparse.ArgumentParser:
     verbs = parser.add_subparsers(dest="verb", metavar="VERB")
     verbs.required = True
 
-    def verb(name: str, func: str, doc: str, *, selection: bool = True) -> argparse.ArgumentParser:
+    def verb(name: str, func: str, doc: str, *, selection: bool = True,
+             operands: str = "") -> argparse.ArgumentParser:
         summary, _, details = doc.strip().partition("\n")
-        sub = verbs.add_parser(name, help=summary, description=doc.strip(),
-                               formatter_class=_Formatter)
+        sub = verbs.add_parser(name, help=summary, description=doc.strip(), add_help=False,
+                               formatter_class=_Formatter,
+                               usage=f"%(prog)s [options]{operands}   (every option: --help-all)")
         sub.set_defaults(func=func)
         _workspace_arguments(sub, selection=selection)
         return sub
@@ -69,7 +119,8 @@ def build_parser(*, pkg_arguments: bool = True) -> argparse.ArgumentParser:
     fmt.add_argument("--dot", action="store_true", help="Graphviz dot output")
     fmt.add_argument("--mermaid", action="store_true", help="Mermaid flowchart output")
 
-    sub = verb("info", "wsbuild.verbs.listing:run_info", INFO_DOC, selection=False)
+    sub = verb("info", "wsbuild.verbs.listing:run_info", INFO_DOC, selection=False,
+               operands=" PKG [PKG ...]")
     sub.add_argument("package_names", nargs="+", metavar="PKG", help="package names")
     sub.add_argument("--json", action="store_true", help="machine-readable output")
 
@@ -157,110 +208,92 @@ def _base_arguments(group: argparse._ArgumentGroup) -> None:
                        help="build directory, relative to the workspace (default: build)")
     group.add_argument("--install-base", default="install", metavar="DIR",
                        help="install prefix, relative to the workspace (default: install)")
-    group.add_argument("--log-base", default="log", metavar="DIR",
-                       help="log directory, relative to the workspace (default: log)")
+    secondary(group.add_argument("--log-base", default="log", metavar="DIR",
+                                 help="log directory, relative to the workspace (default: log)"))
 
 
 def _scheduling_arguments(group: argparse._ArgumentGroup, what: str) -> None:
     group.add_argument("--parallel-workers", type=int, metavar="N",
                        help=f"packages {what} at once (default: number of CPUs)")
-    group.add_argument("--executor", choices=("parallel", "sequential"), default="parallel",
-                       help="sequential is --parallel-workers 1")
-    group.add_argument("--no-wait", action="store_true",
-                       help="fail at once if another wsbuild runs in this workspace "
-                            "(default: wait for it)")
+    secondary(group.add_argument("--executor", choices=("parallel", "sequential"),
+                                 default="parallel", help="sequential is --parallel-workers 1"))
+    secondary(group.add_argument("--no-wait", action="store_true",
+                                 help="fail at once if another wsbuild runs in this workspace "
+                                      "(default: wait for it)"))
 
 
 def _build_arguments(sub: argparse.ArgumentParser) -> None:
     where = sub.add_argument_group("where things go")
     _base_arguments(where)
     where.add_argument("--merge-install", action="store_true",
-                       help="one install prefix for all packages instead of install/<pkg>")
+                       help="one install prefix for all packages, not install/<pkg>")
     where.add_argument("--symlink-install", action="store_true",
-                       help="symlink instead of copying where possible: edits to Python files, "
-                            "launch, config and URDF files take effect without rebuilding")
-    how = sub.add_argument_group("scheduling (all packages share one make jobserver "
-                                 "with as many jobs as CPUs)")
+                       help="symlink Python, launch, config files: edits need no rebuild")
+    how = sub.add_argument_group("how (all packages share one jobserver, as many jobs as CPUs)")
     _scheduling_arguments(how, "built")
     how.add_argument("--continue-on-error", action="store_true",
-                     help="after a failure keep building what does not depend on it")
+                     help="after a failure build what does not depend on it")
     how.add_argument("--strict-dependencies", action="store_true",
-                     help="refuse to start (exit 2) when build dependencies do not resolve "
-                          "(default: list them as a warning and build)")
-    how.add_argument("--skip-dependency-check", action="store_true",
-                     help="do not look for the build dependencies at all (no warning)")
-    how.add_argument("--force", action="store_true",
-                     help="rebuild packages even when they are up to date")
+                     help="unresolved build dependencies refuse the build (exit 2)")
+    secondary(how.add_argument("--skip-dependency-check", action="store_true",
+                               help="do not look for build dependencies (no warning)"))
+    how.add_argument("--force", action="store_true", help="rebuild even what is up to date")
     how.add_argument("--allow-overriding", nargs="+", default=[], metavar="PKG",
-                     help="no warning for these packages when an underlay already provides "
-                          "them to other packages")
+                     help="no override warning for these packages")
     how.add_argument("--dry-run", action="store_true",
-                     help="only print the plan: start order, why each package would build or "
-                          "is up to date, unresolved dependencies, critical path; touches nothing")
+                     help="print the plan (order, why each builds, critical path) only")
     how.add_argument("--json", action="store_true", help="with --dry-run: machine-readable")
     cmake = sub.add_argument_group("CMake packages")
     cmake.add_argument("--cmake-args", action="append", metavar="ARG",
-                       help="arguments for every CMake configure, e.g. "
-                            "--cmake-args -DCMAKE_BUILD_TYPE=Release (end the list with --)")
-    cmake.add_argument("--cmake-target", metavar="TARGET",
-                       help="build this target instead of the default one")
-    cmake.add_argument("--cmake-clean-cache", action="store_true",
-                       help="remove CMakeCache.txt before configuring")
-    cmake.add_argument("--cmake-clean-first", action="store_true",
-                       help="build the 'clean' target first")
+                       help="every configure, e.g. -DCMAKE_BUILD_TYPE=Release; end with --")
+    secondary(cmake.add_argument("--cmake-target", metavar="TARGET",
+                                 help="build this target instead of the default one"))
+    secondary(cmake.add_argument("--cmake-clean-cache", action="store_true",
+                                 help="remove CMakeCache.txt before configuring"))
+    secondary(cmake.add_argument("--cmake-clean-first", action="store_true",
+                                 help="build the 'clean' target first"))
     cmake.add_argument("--cmake-force-configure", action="store_true",
                        help="configure even when nothing changed")
     cmake.add_argument("--compiler-cache", choices=("auto", "sccache", "ccache", "none"),
-                       default="auto",
-                       help="run C/C++ compilers through this cache (default: auto, i.e. ccache, "
-                            "else sccache, when installed); its directory and remote backends are "
-                            "the tool's own settings")
+                       default="auto", metavar="TOOL",
+                       help="auto (ccache, else sccache), sccache, ccache or none")
     cmake.add_argument("--timings", action="store_true",
-                       help="end with each package's phase times (idle waiting for the CPU "
-                            "budget, configure, build, install) and the run's CPU time against "
-                            "the limit (CPU seconds / cores); always in log/latest_build/timings.txt")
-    cache = sub.add_argument_group("build cache (local ~/.cache/wsbuild always; a remote "
-                                   "bazel-remote or WebDAV server on request)")
+                       help="phase times, CPU time against the limit (always in log/)")
+    cache = sub.add_argument_group("build cache (always local: ~/.cache/wsbuild)")
     cache.add_argument("--cache", metavar="URL",
-                       help="also restore from and store into this HTTP cache server "
-                            "(default: $WSBUILD_CACHE)")
+                       help="also an HTTP cache server (default: $WSBUILD_CACHE)")
     cache.add_argument("--no-cache", action="store_true",
                        help="neither restore from nor store into any cache")
     cache.add_argument("--cache-read-only", action="store_true",
-                       help="restore from the caches, store nothing (untrusted builds, "
-                            "e.g. of pull requests)")
+                       help="restore, store nothing (untrusted builds, e.g. pull requests)")
 
 
 def _test_arguments(sub: argparse.ArgumentParser) -> None:
     where = sub.add_argument_group("where things are")
     _base_arguments(where)
     where.add_argument("--merge-install", action="store_true",
-                       help="the workspace was built with --merge-install "
-                            "(default: what install/ holds)")
-    where.add_argument("--test-result-base", metavar="DIR",
-                       help="write JUnit results to DIR/<pkg>/, relative to the workspace "
-                            "(default: <build-base>/<pkg>/test_results/<pkg>/)")
-    how = sub.add_argument_group("scheduling")
+                       help="built with --merge-install (default: what install/ holds)")
+    secondary(where.add_argument(
+        "--test-result-base", metavar="DIR",
+        help="write JUnit results to DIR/<pkg>/, relative to the workspace "
+             "(default: <build-base>/<pkg>/test_results/<pkg>/)"))
+    how = sub.add_argument_group("how")
     _scheduling_arguments(how, "tested")
     how.add_argument("--abort-on-error", action="store_true",
-                     help="start no more packages once one has failing or erroring tests")
-    tests = sub.add_argument_group("tests")
-    tests.add_argument("--pytest-args", action="append", metavar="ARG",
-                       help="arguments for pytest (python and ament_python packages), e.g. "
-                            "--pytest-args -k 'not slow' -x (end the list with --)")
-    tests.add_argument("--ctest-args", action="append", metavar="ARG",
-                       help="arguments for ctest (cmake and ament_cmake packages), e.g. "
-                            "--ctest-args -R gtest -j4 (end the list with --)")
-    retest = tests.add_mutually_exclusive_group()
-    retest.add_argument("--retest-until-fail", type=int, default=0, metavar="N",
-                        help="run a package's tests up to N more times while they pass "
-                             "(to catch flaky tests)")
+                     help="start no more packages once one has failing tests")
+    how.add_argument("--pytest-args", action="append", metavar="ARG",
+                     help="for pytest, e.g. -k 'not slow' -x; end with --")
+    how.add_argument("--ctest-args", action="append", metavar="ARG",
+                     help="for ctest, e.g. -R gtest -j4; end with --")
+    retest = how.add_mutually_exclusive_group()
+    secondary(retest.add_argument("--retest-until-fail", type=int, default=0, metavar="N",
+                                  help="run a package's tests up to N more times while they "
+                                       "pass (to catch flaky tests)"))
     retest.add_argument("--retest-until-pass", type=int, default=0, metavar="N",
-                        help="rerun a package's failing tests up to N times until they pass "
-                             "(such packages are reported as flaky)")
-    tests.add_argument("--return-code-on-test-failure", action="store_true",
-                       help="accepted for colcon compatibility: failing tests always make "
-                            "the exit code 1")
+                        help="rerun failing tests up to N times (then: flaky)")
+    secondary(how.add_argument("--return-code-on-test-failure", action="store_true",
+                               help="accepted for colcon compatibility: failing tests always "
+                                    "make the exit code 1"))
 
 
 def _test_result_arguments(sub: argparse.ArgumentParser) -> None:
@@ -349,16 +382,11 @@ examples:
 
 BUILD_DOC = """Build the packages of the workspace into install/.
 
-Packages build in dependency order and in parallel; each installs into a stage that
-replaces its previous install only when the build succeeds. Before anything starts,
-the build dependencies are looked up (workspace, an underlay's ament index, CMake configs,
-Python distributions, PATH, pkg-config); those not found are listed as a warning, and the
-build goes on (--strict-dependencies refuses instead).
-
-Afterwards `source install/setup.bash` (or .sh/.zsh) makes the workspace available.
+Packages build in dependency order and in parallel, each into a stage that replaces its
+install only on success; then `source install/setup.bash` (or .sh/.zsh). Build dependencies
+that nothing provides are listed as a warning first.
 
 examples:
-  wsbuild build
   wsbuild build --packages-up-to my_robot_bringup --symlink-install
   wsbuild build --packages-select my_driver --cmake-args -DCMAKE_BUILD_TYPE=Release
 
@@ -368,15 +396,11 @@ exit codes: 0 all built, 1 a package failed, 2 usage or workspace error, 130 Ctr
 
 TEST_DOC = """Run the tests of the packages against the built workspace.
 
-Packages are tested in dependency order and in parallel: pytest in the source directory of
-python and ament_python packages, CTest in the build directory of cmake and ament_cmake
-packages, each with its own install and its dependencies' on the environment, as colcon
-does. Results are JUnit XML files in build/<pkg>/test_results/<pkg>/ (or
-<test-result-base>/<pkg>/); the summary names every failing test and its log.
-Unlike colcon, a failing or erroring test makes the exit code 1 by default.
+In dependency order and in parallel, as colcon does: pytest in the source directory of
+Python packages, CTest in the build directory of CMake ones. JUnit results go to
+build/<pkg>/test_results/<pkg>/. Unlike colcon, a failing test makes the exit code 1.
 
 examples:
-  wsbuild test
   wsbuild test --packages-select my_driver --pytest-args -k 'not slow' --
   wsbuild test --ctest-args -R gtest -- --retest-until-pass 2
   wsbuild test-result --verbose

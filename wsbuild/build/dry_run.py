@@ -73,11 +73,11 @@ def plan_build(plan: Plan, request: BuildRequest, environ: Mapping[str, str]) ->
     from wsbuild.build.fingerprint import BuildState, digest_of, read_state, snapshot_sources
     from wsbuild.build.overrides import overrides_to_warn
     from wsbuild.build.pipeline import (
-        _dependency_keys,
         build_inputs,
         check_layout,
-        is_installed,
+        dependency_keys,
         rebuild_reason,
+        unbuilt_dependencies,
     )
     from wsbuild.build.schedule import critical_path
     from wsbuild.build.timings import package_weights
@@ -95,11 +95,7 @@ def plan_build(plan: Plan, request: BuildRequest, environ: Mapping[str, str]) ->
     request = replace(request, build=replace(options, underlay_cmake_args=underlay.cmake_args))
     selected = set(plan.selected)
 
-    not_built: dict[str, list[str]] = {}
-    for name in plan.selected:
-        for dep in sorted(plan.graph.build_closure(name)):
-            if dep not in selected and not is_installed(ws, dep, options.merge_install):
-                not_built.setdefault(dep, []).append(name)
+    not_built = unbuilt_dependencies(plan, options.merge_install)
     unresolved: dict[str, tuple[str, ...]] = {}
     if not request.skip_dependency_check:
         from wsbuild.workspace.resolve import Resolver, unresolved_build_dependencies
@@ -125,7 +121,7 @@ def plan_build(plan: Plan, request: BuildRequest, environ: Mapping[str, str]) ->
         snapshot = snapshot_sources(package.path, old.files if old else {})
         inputs = build_inputs(plan, request, name, base_env)
         settings = digest_of(inputs)
-        dep_keys = _dependency_keys(plan, plan.graph.build_closure(name), keys)
+        dep_keys = dependency_keys(plan, plan.graph.build_closure(name), keys)
         reason = rebuild_reason(plan, request, name, old, snapshot, settings, dep_keys, inputs)
         if reason is None and old is not None:
             keys[name] = old.key
@@ -136,7 +132,7 @@ def plan_build(plan: Plan, request: BuildRequest, environ: Mapping[str, str]) ->
     refusal = None
     if not_built:
         refusal = "workspace packages not built yet: " + "; ".join(
-            f"{dep} (needed by {', '.join(users)})" for dep, users in sorted(not_built.items()))
+            f"{dep} (needed by {', '.join(users)})" for dep, users in not_built.items())
     elif unresolved and request.strict_dependencies:
         refusal = "unresolved build dependencies (--strict-dependencies)"
     return BuildPlan(
@@ -144,7 +140,7 @@ def plan_build(plan: Plan, request: BuildRequest, environ: Mapping[str, str]) ->
         critical_path=tuple(path),
         critical_seconds=sum(weights.get(n, 0.0) for n in path),
         unresolved=unresolved,
-        not_built={dep: tuple(users) for dep, users in sorted(not_built.items())},
+        not_built={dep: tuple(users) for dep, users in not_built.items()},
         overrides=tuple(overrides),
         refusal=refusal,
         notices=tuple(notices),

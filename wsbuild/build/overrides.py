@@ -5,7 +5,6 @@ at run time (two versions of one package: API and ABI must match), as colcon war
 from __future__ import annotations
 
 import os
-import re
 from collections.abc import Collection, Iterable, Mapping
 from dataclasses import dataclass
 from pathlib import Path
@@ -13,9 +12,8 @@ from pathlib import Path
 from wsbuild.errors import SelectionError
 
 #: package.xml tags whose package a built package needs at its run time or in its interface
-_DEPEND_RE = re.compile(
-    r"<(?:depend|build_depend|build_export_depend|buildtool_export_depend|exec_depend|run_depend)"
-    r"(?:\s[^>]*)?>\s*([A-Za-z0-9_]+)\s*</")
+_DEPEND_TAGS = frozenset({"depend", "build_depend", "build_export_depend",
+                          "buildtool_export_depend", "exec_depend", "run_depend"})
 _AMENT_INDEX = Path("share", "ament_index", "resource_index", "packages")
 _COLCON_INDEX = Path("share", "colcon-core", "packages")
 
@@ -70,10 +68,14 @@ def _dependencies(name: str, prefix: Path) -> set[str]:
         return {d for d in text.strip().split(os.pathsep) if d}
     except OSError:
         pass
+    from lxml import etree
+
     try:
-        return set(_DEPEND_RE.findall((prefix / "share" / name / "package.xml").read_text()))
-    except (OSError, UnicodeDecodeError):
+        root = etree.parse(str(prefix / "share" / name / "package.xml")).getroot()
+    except (OSError, etree.XMLSyntaxError):
         return set()
+    return {element.text.strip() for element in root
+            if element.tag in _DEPEND_TAGS and element.text and element.text.strip()}
 
 
 def find_overrides(selected: Iterable[str], workspace: Iterable[str],

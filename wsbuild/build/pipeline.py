@@ -91,23 +91,29 @@ def is_installed(workspace: Workspace, name: str, merged: bool) -> bool:
     return (prefix / "share" / "colcon-core" / "packages" / name).exists()
 
 
-def check_dependencies(plan: Plan, request: BuildRequest, environ: Mapping[str, str],
-                       extra_prefixes: list[Path], emit: Emit) -> dict[str, list[str]]:
-    """Before building: workspace dependencies must be built or selected (else refuse); build
-    dependencies that nothing provides are listed once, as a warning block, and the build goes
-    on (`--strict-dependencies` refuses instead). Returns package -> its unresolved build
-    dependencies, for its failure report."""
-    merged = request.build.merge_install
+def unbuilt_dependencies(plan: Plan, merged: bool) -> dict[str, list[str]]:
+    """Workspace packages that selected ones need but that are neither selected nor installed:
+    dependency -> the selected packages needing it, sorted by name."""
     selected = set(plan.selected)
     not_built: dict[str, list[str]] = {}
     for name in plan.selected:
         for dep in sorted(plan.graph.build_closure(name)):
             if dep not in selected and not is_installed(plan.workspace, dep, merged):
                 not_built.setdefault(dep, []).append(name)
+    return dict(sorted(not_built.items()))
+
+
+def check_dependencies(plan: Plan, request: BuildRequest, environ: Mapping[str, str],
+                       extra_prefixes: list[Path], emit: Emit) -> dict[str, list[str]]:
+    """Before building: workspace dependencies must be built or selected (else refuse); build
+    dependencies that nothing provides are listed once, as a warning block, and the build goes
+    on (`--strict-dependencies` refuses instead). Returns package -> its unresolved build
+    dependencies, for its failure report."""
+    not_built = unbuilt_dependencies(plan, request.build.merge_install)
     if not_built:
         items = "; ".join(f"{dep} (needed by {', '.join(users)})"
-                          for dep, users in sorted(not_built.items()))
-        first_user = next(iter(sorted(not_built.items())))[1][0]
+                          for dep, users in not_built.items())
+        first_user = next(iter(not_built.values()))[0]
         raise DependencyError(
             f"workspace packages not built yet: {items}",
             hint=f"build them too, e.g. wsbuild build --packages-up-to {first_user}",
@@ -468,7 +474,7 @@ def build_inputs(plan: Plan, request: BuildRequest, name: str,
     }
 
 
-def _dependency_keys(plan: Plan, closure: set[str], keys: Mapping[str, str]) -> dict[str, str]:
+def dependency_keys(plan: Plan, closure: set[str], keys: Mapping[str, str]) -> dict[str, str]:
     """The build keys of the workspace packages a package builds against (its `closure`)."""
     from wsbuild.build.fingerprint import read_state
 
@@ -536,7 +542,7 @@ def _build_package(plan: Plan, request: BuildRequest, name: str, base_env: Mappi
     inputs = build_inputs(plan, request, name, base_env)
     settings = digest_of(inputs)
     closure = plan.graph.build_closure(name)
-    dep_keys = _dependency_keys(plan, closure, keys)
+    dep_keys = dependency_keys(plan, closure, keys)
     why = rebuild_reason(plan, request, name, old, snapshot, settings, dep_keys, inputs)
     reason = why.text if why is not None else None
     if reason is None and old is not None:

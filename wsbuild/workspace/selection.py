@@ -47,10 +47,29 @@ class SelectionOptions:
         return cls(**values)
 
 
-def add_selection_arguments(parser: argparse.ArgumentParser) -> None:
-    """The package selection options of colcon, shared by every verb that takes packages."""
-    group = parser.add_argument_group("package selection (as in colcon)")
-    add = group.add_argument
+#: the selection options `--help` shows; --help-all lists the others too
+COMMON_SELECTION = ("--packages-select", "--packages-skip", "--packages-up-to",
+                    "--packages-above")
+
+
+#: what --help says of the selection options it leaves out
+MORE_SELECTION = ("also --packages-{select,skip,up-to,ignore}-regex, -above-and-dependencies,\n"
+                  "-above-depth, -{select,skip}-by-dep, -skip-up-to, -ignore, -start, -end: "
+                  "--help-all")
+
+
+def add_selection_arguments(
+    group: argparse._ArgumentGroup,
+    secondary: Callable[[argparse.Action], object] = lambda action: action,
+) -> None:
+    """The package selection options of colcon, shared by every verb that takes packages;
+    `secondary` marks those that --help leaves out (cli.py)."""
+
+    def add(option: str, **kwargs: object) -> None:
+        action = group.add_argument(option, **kwargs)  # type: ignore[arg-type]
+        if option not in COMMON_SELECTION:
+            secondary(action)
+
     add("--packages-select", nargs="*", metavar="PKG", help="only these packages")
     add("--packages-skip", nargs="*", metavar="PKG", help="leave these packages out")
     add("--packages-select-regex", nargs="*", metavar="PATTERN",
@@ -62,7 +81,7 @@ def add_selection_arguments(parser: argparse.ArgumentParser) -> None:
     add("--packages-up-to-regex", nargs="*", metavar="PATTERN",
         help="matching packages and everything they depend on, recursively")
     add("--packages-above", nargs="*", metavar="PKG",
-        help="these packages and every package that depends on them, recursively")
+        help="these packages and all that depend on them, recursively")
     add("--packages-above-and-dependencies", nargs="*", metavar="PKG",
         help="like --packages-above, plus the dependencies of all of those")
     add("--packages-above-depth", nargs="+", metavar=("DEPTH", "PKG"),
