@@ -20,12 +20,10 @@ stop a build that would succeed.
 
 from __future__ import annotations
 
-import importlib.metadata
 import importlib.util
 import os
 import re
 import shutil
-import subprocess
 import sys
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
@@ -190,6 +188,8 @@ class Resolver:
         tool = shutil.which("pkg-config", path=self.path) if self.path else None
         if tool is None:
             return None
+        import subprocess
+
         env = dict(os.environ, PATH=self.path, PKG_CONFIG_PATH=self.pkg_config_path)
         try:
             done = subprocess.run([tool, "--modversion", name], env=env, capture_output=True,
@@ -203,6 +203,8 @@ class Resolver:
 
 def python_distributions(paths: Iterable[str]) -> dict[str, str]:
     """Normalised name -> "Name version" of every distribution installed in `paths`."""
+    import importlib.metadata  # ~25 ms: only when a dependency is not found before this source
+
     found: dict[str, str] = {}
     for dist in importlib.metadata.distributions(path=list(paths)):
         try:
