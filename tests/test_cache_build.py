@@ -20,9 +20,13 @@ import zstandard
 
 from nginx_server import NginxServer, nginx  # noqa: F401 (fixture)
 from wsbuild.cache.record import Record, parse_record
+from conftest import REPO
 from test_build_helpers import (
     REQUIRES_ROS, clean_env, output, sourced, write_ament_python, write_cmake, wsbuild,
 )
+
+sys.path.insert(0, str(REPO))
+from benchmarks.cache import cache_cost  # noqa: E402  (the benchmark reads cache.log too)
 
 pytestmark = [*REQUIRES_ROS, pytest.mark.slow]
 
@@ -135,6 +139,11 @@ def test_fresh_clone_restores_every_package_byte_for_byte(tmp_path: Path, templa
     assert finished(first) == sorted(PACKAGES) and warnings(first) == []
     built = tree(ws / "install")
     assert len(nginx.stored("ac")) == len(PACKAGES) == len(nginx.stored("cas"))
+    # what the cache cost this cold build is in its log, in the form benchmarks/cache.py reads
+    log = (ws / "log" / "latest_build" / "cache.log").read_text()
+    assert f"{len(PACKAGES)} missed" in log and f"{len(PACKAGES)} stored" in log, log
+    cost = cache_cost(ws)
+    assert cost.build_threads > 0 and cost.cache_thread_cpu > 0, log
 
     # another machine, same checkout path: everything comes from the server
     fresh_clone(ws, template)

@@ -137,7 +137,8 @@ class RunCache:
                     f"{n['restore']} restored ({s['restore']:.3f} s), "
                     f"{n['store']} stored ({s['store']:.3f} s), "
                     f"closing (uploads, eviction) {closing:.3f} s; "
-                    f"on the cache's thread meanwhile: {self._cache.background_seconds:.3f} s\n")
+                    f"on the cache's thread meanwhile: {self._cache.background_seconds:.3f} s, "
+                    f"of which CPU {self._cache.background_cpu_seconds:.3f} s\n")
             text += "".join(f"build cache: {note}\n" for note in self._cache.notes)
             text += "".join(f"build cache: {miss}\n" for miss in sorted(self._misses))
             try:

@@ -57,8 +57,10 @@ class BuildCache:
         self._worker: threading.Thread | None = None
         #: what background stores could not do (for the run's log)
         self.notes: list[str] = []
-        #: time the cache's thread spent packing and uploading
+        #: time the cache's thread spent packing and uploading, and the CPU time of that (the
+        #: rest is waiting for the disk and the server)
         self.background_seconds = 0.0
+        self.background_cpu_seconds = 0.0
 
     @classmethod
     def open(cls, settings: CacheSettings, *, environ: Mapping[str, str] | None = None,
@@ -228,9 +230,10 @@ class BuildCache:
     def _work(self) -> None:
         """The cache's thread: background packing and uploads, in order."""
         while (item := self._queue.get()) is not None:
-            started = time.perf_counter()
+            started, cpu_started = time.perf_counter(), time.thread_time()
             self._work_on(item)
             self.background_seconds += time.perf_counter() - started
+            self.background_cpu_seconds += time.thread_time() - cpu_started
 
     def _work_on(self, item: tuple[object, ...]) -> None:
         if item[0] == "store":
