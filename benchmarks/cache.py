@@ -29,7 +29,7 @@ if __package__ in (None, ""):
     sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
 from benchmarks.generate import GeneratedWorkspace, WorkspaceSpec, generate_workspace
-from benchmarks.measure import CommandFailed, Measurement, run_timed
+from benchmarks.measure import CommandFailed, Measurement, discard, empty_discarded, run_timed
 from benchmarks.tools import (
     DEFAULT_COLCON_VENV, DEFAULT_PROJECT_VENV, REPO, Log, SetupError, Tools, ensure_colcon_venv,
     machine_details, make_tools, write_section,
@@ -121,7 +121,7 @@ class CacheBench:
         return path
 
     def clone(self, template: Path, ws: Path) -> None:
-        shutil.rmtree(ws, ignore_errors=True)
+        discard(ws, self.work_dir)
         shutil.copytree(template / "src", ws / "src", symlinks=True)
 
     def wsbuild(self, ws: Path, *args: str, xdg: Path | None, cache: str) -> list[str]:
@@ -330,6 +330,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     except CommandFailed as exc:
         print(f"benchmark aborted: {exc}", file=sys.stderr)
         return 1
+    finally:
+        empty_discarded(work)
     command = "python benchmarks/cache.py " + " ".join(argv if argv is not None else sys.argv[1:])
     section = render(results, details, command.strip(), started)
     print(section)

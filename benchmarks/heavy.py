@@ -45,7 +45,9 @@ from benchmarks.compile_heavy import (
     generate_compile_heavy,
 )
 from benchmarks.generate import GeneratedWorkspace
-from benchmarks.measure import CommandFailed, Measurement, Sample, clean_outputs, run_timed
+from benchmarks.measure import (
+    CommandFailed, Measurement, Sample, clean_outputs, empty_discarded, run_timed,
+)
 from benchmarks.timeline import Timeline, colcon_timeline, wsbuild_timeline, write_svg
 from benchmarks.tools import (
     DEFAULT_COLCON_VENV,
@@ -341,6 +343,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     except CommandFailed as exc:
         print(f"benchmark aborted: {exc}", file=sys.stderr)
         return 1
+    finally:
+        empty_discarded(bench.work)
     command = "python benchmarks/heavy.py" + "".join(
         f" {a}" for a in (argv if argv is not None else sys.argv[1:]))
     section = render(bench, colcon, wsbuild, details, command, started, time.monotonic() - t0)

@@ -22,6 +22,7 @@ from benchmarks.measure import (
     CommandFailed,
     Measurement,
     clean_outputs,
+    empty_discarded,
     repeat,
     run_timed,
     source_command,
@@ -490,6 +491,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     except CommandFailed as exc:
         print(f"benchmark aborted: {exc}", file=sys.stderr)
         return 1
+    finally:
+        empty_discarded(bench.work_dir)
     elapsed = time.monotonic() - t0
     command = "python benchmarks/run.py" + (" " + shlex.join(argv if argv is not None
                                                            else sys.argv[1:])).rstrip()
