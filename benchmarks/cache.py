@@ -31,8 +31,8 @@ if __package__ in (None, ""):
 from benchmarks.generate import GeneratedWorkspace, WorkspaceSpec, generate_workspace
 from benchmarks.measure import CommandFailed, Measurement, discard, empty_discarded, run_timed
 from benchmarks.tools import (
-    DEFAULT_COLCON_VENV, DEFAULT_PROJECT_VENV, REPO, Log, SetupError, Tools, ensure_colcon_venv,
-    machine_details, make_tools, write_section,
+    DEFAULT_COLCON_VENV, DEFAULT_PROJECT_VENV, REPO, Log, Tools, machine_details, setup_tools,
+    write_section,
 )
 
 sys.path.insert(0, str(REPO / "tests"))
@@ -300,12 +300,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     docs.add_argument("--no-docs", dest="docs", action="store_false")
     args = parser.parse_args(argv)
     log = Log()
-    try:
-        ensure_colcon_venv(args.colcon_venv, args.project_venv, log)
-    except SetupError as exc:
-        print(f"benchmark setup failed: {exc}", file=sys.stderr)
+    tools = setup_tools(args.project_venv, args.colcon_venv, log)
+    if tools is None:
         return 2
-    tools = make_tools(args.project_venv.resolve(), args.colcon_venv.resolve())
     details = machine_details(tools)
     work = args.work_dir.resolve()
     work.mkdir(parents=True, exist_ok=True)

@@ -33,11 +33,9 @@ from benchmarks.tools import (
     DEFAULT_PROJECT_VENV,
     REPO,
     Log,
-    SetupError,
     Tools,
-    ensure_colcon_venv,
     machine_details,
-    make_tools,
+    setup_tools,
 )
 
 SCENARIOS = ("mixed", "py200", "list1000", "scaling")
@@ -474,12 +472,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     sizes = QUICK if args.quick else FULL
     started = datetime.datetime.now().astimezone().strftime("%Y-%m-%d %H:%M %Z")
     t0 = time.monotonic()
-    try:
-        ensure_colcon_venv(args.colcon_venv, args.project_venv, log)
-    except SetupError as exc:
-        print(f"benchmark setup failed: {exc}", file=sys.stderr)
+    tools = setup_tools(args.project_venv, args.colcon_venv, log)
+    if tools is None:
         return 2
-    tools = make_tools(args.project_venv.resolve(), args.colcon_venv.resolve())
     details = machine_details(tools)
     log("machine: " + "; ".join(f"{k}: {v}" for k, v in details.items()))
     args.work_dir.mkdir(parents=True, exist_ok=True)

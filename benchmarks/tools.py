@@ -118,6 +118,17 @@ def ensure_colcon_venv(colcon_venv: Path, project_venv: Path, log: Log) -> None:
         pth.write_text(text)
 
 
+def setup_tools(project_venv: Path, colcon_venv: Path, log: Log) -> Tools | None:
+    """Both tools, the colcon venv made first if missing; None (the reason printed) when that
+    fails. Every benchmark's main starts here."""
+    try:
+        ensure_colcon_venv(colcon_venv, project_venv, log)
+    except SetupError as exc:
+        print(f"benchmark setup failed: {exc}", file=sys.stderr)
+        return None
+    return make_tools(project_venv.resolve(), colcon_venv.resolve())
+
+
 def _setuptools_version(python: Path) -> str:
     done = _run([str(python), "-c", "import importlib.metadata as m; print(m.version('setuptools'))"],
                 env={**clean_environ(), "_ROS_WHEELS_BOOTSTRAP_COMPLETE": "1"})
