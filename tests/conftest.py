@@ -124,6 +124,20 @@ def run_wsbuild(*args: str, cwd: Path, env: Mapping[str, str] | None = None,
     )
 
 
+#: two ament_python packages (pb depends on pa) and a plain cmake one
+SMALL_SPEC: dict[str, Spec] = {"pa": ("ament_python", []), "pb": ("ament_python", ["pa"]),
+                               "pc": ("cmake", [])}
+
+
+@pytest.fixture
+def built(make_workspace: Callable[..., Path]) -> Path:
+    """SMALL_SPEC's workspace, built once with no options."""
+    ws = make_workspace(SMALL_SPEC)
+    result = run_wsbuild("build", cwd=ws)
+    assert result.returncode == 0, result.stdout + result.stderr
+    return ws
+
+
 @pytest.fixture
 def wsbuild() -> Callable[..., subprocess.CompletedProcess[str]]:
     return run_wsbuild

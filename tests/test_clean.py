@@ -14,9 +14,7 @@ from pathlib import Path
 
 import pytest
 
-from conftest import run_wsbuild
-
-SPEC = {"pa": ("ament_python", []), "pb": ("ament_python", ["pa"]), "pc": ("cmake", [])}
+from conftest import SMALL_SPEC as SPEC, run_wsbuild
 
 
 def _tree(root: Path) -> list[str]:
@@ -26,14 +24,6 @@ def _tree(root: Path) -> list[str]:
         for name in dirnames + filenames:
             found.append(os.path.relpath(os.path.join(dirpath, name), root))
     return sorted(found)
-
-
-@pytest.fixture
-def built(make_workspace: Callable[..., Path]) -> Path:
-    ws = make_workspace(SPEC)
-    result = run_wsbuild("build", cwd=ws)
-    assert result.returncode == 0, result.stdout + result.stderr
-    return ws
 
 
 def _sourced_prefixes(ws: Path) -> list[str]:

@@ -11,11 +11,7 @@ import stat
 from collections.abc import Callable
 from pathlib import Path
 
-import pytest
-
-from conftest import run_wsbuild
-
-SPEC = {"pa": ("ament_python", []), "pb": ("ament_python", ["pa"]), "pc": ("cmake", [])}
+from conftest import SMALL_SPEC as SPEC, run_wsbuild
 
 
 def snapshot(ws: Path) -> dict[str, tuple[object, ...]]:
@@ -38,14 +34,6 @@ def snapshot(ws: Path) -> dict[str, tuple[object, ...]]:
                 found[os.path.relpath(path, ws)] = (info.st_mode, info.st_size,
                                                     info.st_mtime_ns, content)
     return found
-
-
-@pytest.fixture
-def built(make_workspace: Callable[..., Path]) -> Path:
-    ws = make_workspace(SPEC)
-    result = run_wsbuild("build", cwd=ws)
-    assert result.returncode == 0, result.stdout + result.stderr
-    return ws
 
 
 def _plan(ws: Path, *args: str) -> dict:  # type: ignore[type-arg]
