@@ -105,6 +105,11 @@ sys.exit(code)
     assert "REPORT-SECONDS" in result.stdout
     record = json.loads((_run_dir(built) / "report.json").read_text())
     assert {p["outcome"] for p in record["packages"]} == {"up to date"}
+    # a no-op's page (nothing but up-to-date names) is drawn when asked for
+    assert not (_run_dir(built) / "report.html").exists()
+    drawn = run_wsbuild("report", cwd=built)
+    assert drawn.returncode == 0, drawn.stderr
+    assert "3 up to date" in drawn.stdout
     assert (_run_dir(built) / "report.html").is_file()
 
 

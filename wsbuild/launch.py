@@ -1,5 +1,7 @@
-"""The `wsbuild` command: `wsbuild --version` is answered before anything is imported;
-everything else goes to cli.py, with the sourced workspaces' Python paths searched last."""
+"""The `wsbuild` command: `wsbuild --version` is answered before anything is imported, and a
+`wsbuild build` that the last no-op's record shows to be one again is replayed from it
+(builder/noop.py); everything else goes to cli.py, with the sourced workspaces' Python paths
+searched last."""
 
 from __future__ import annotations
 
@@ -8,15 +10,30 @@ import sys
 
 
 def main() -> int:
-    if sys.argv[1:] == ["--version"]:
+    argv = sys.argv[1:]
+    if argv == ["--version"]:
         from wsbuild import __version__
 
         print(f"wsbuild {__version__}")
         return 0
     search_pythonpath_last()
-    from wsbuild.cli import main as run_command_line
+    if argv[:1] != ["build"]:
+        from wsbuild.cli import main as run_command_line
 
-    return run_command_line()
+        return run_command_line(argv)
+    from wsbuild.builder import noop
+
+    replayed = noop.replay(argv)
+    if replayed is not None:
+        return replayed
+    from wsbuild.builder.noop_record import recording
+
+    with recording(argv) as finish:
+        from wsbuild.cli import main as run_command_line
+
+        code = run_command_line(argv)
+        finish(code)
+    return code
 
 
 def search_pythonpath_last() -> None:

@@ -45,6 +45,7 @@ from wsbuild.session import Session, SessionOptions, open_session
 from wsbuild.workspace.selected import Selection
 
 from wsbuild.engine.cpu_sampler import CpuSampler
+from wsbuild.builder import noop_record
 from wsbuild.runreport.write import start_sampler
 
 if TYPE_CHECKING:  # what only packages to build need: a no-op imports none of it
@@ -72,6 +73,9 @@ def run_build(selection: Selection, request: BuildRequest, emit: Emit) -> list[J
     cpu_before = cpu_times()
     with open_session(selection.workspace, session_options(request), emit) as session:
         plan = make_plan(selection, request, session)
+        watcher = noop_record.recorder()
+        if watcher is not None and (plan.refusal is not None or plan.to_do()):
+            watcher.drop()
         if plan.refusal is not None:
             raise plan.refusal.error
         _warn(plan, emit)
@@ -80,11 +84,17 @@ def run_build(selection: Selection, request: BuildRequest, emit: Emit) -> list[J
         details = _run_details(request, session, results, recorder, counts,
                                time.monotonic() - started, cpu_before)
         details += _write_report(selection, request, session, results, counts, sampler)
-    emit(RunFinished(tuple(results), time.monotonic() - started, details=details))
+    seconds = time.monotonic() - started
+    emit(RunFinished(tuple(results), seconds, details=details))
     failed = [r.package for r in results if r.outcome is Outcome.FAILED]
     if failed:
         raise BuildFailed(f"{len(failed)} package(s) failed: {', '.join(failed)}",
                           hint=f"logs in {session.run_log}")
+    if watcher is not None and all(r.outcome is Outcome.UP_TO_DATE for r in results):
+        assert session.run_log is not None
+        watcher.no_op(build_base=selection.workspace.build_base,
+                      log_base=selection.workspace.log_base, run_log=session.run_log,
+                      seconds=seconds)
     return results
 
 

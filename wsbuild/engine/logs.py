@@ -14,12 +14,12 @@ def new_run_log(log_base: Path, verb: str) -> Path:
     """Create `log/<verb>_<timestamp>/`, point `latest_<verb>` and `latest` at it, prune old runs."""
     log_base.mkdir(parents=True, exist_ok=True)
     (log_base / "COLCON_IGNORE").touch()
-    stamp = time.strftime("%Y-%m-%d_%H-%M-%S")
-    run_dir = log_base / f"{verb}_{stamp}"
-    suffix = 0
-    while run_dir.exists():
-        suffix += 1
-        run_dir = log_base / f"{verb}_{stamp}_{suffix}"
+    name = f"{verb}_{time.strftime('%Y-%m-%d_%H-%M-%S')}"
+    # runs within the same second count on from the highest number there (more than
+    # KEEP_RUNS of them: the first ones are pruned, and their names must not be reused)
+    same = [_run_order(p)[1] for p in log_base.iterdir() if p.name == name
+            or (p.name.startswith(name + "_") and p.name[len(name) + 1:].isdigit())]
+    run_dir = log_base / (f"{name}_{max(same) + 1}" if same else name)
     run_dir.mkdir()
     _link(log_base / f"latest_{verb}", run_dir.name)
     _link(log_base / "latest", f"latest_{verb}")

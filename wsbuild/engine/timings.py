@@ -17,7 +17,6 @@ recorded durations the scheduler weighs packages by.
 from __future__ import annotations
 
 import json
-import resource
 import threading
 import time
 from collections.abc import Iterable, Mapping
@@ -25,12 +24,20 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from wsbuild.engine.jobs import JobEvent, JobFinished, JobResult, JobStarted, Outcome, StepStarted
+from wsbuild.engine.timing_files import (
+    TIMINGS_JSON,
+    TIMINGS_TEXT,
+    cpu_seconds,
+    summary_line,
+    totals_json,
+    write_timing_files,
+)
 from wsbuild.files import atomic_write
+
+__all__ = ["TIMINGS_JSON", "TIMINGS_TEXT"]
 
 #: under the build base: each package's duration the last time it was built
 DURATIONS_FILE = Path(".wsbuild") / "durations.json"
-TIMINGS_JSON = "timings.json"
-TIMINGS_TEXT = "timings.txt"
 
 def read_durations(build_base: Path) -> dict[str, float]:
     """Recorded durations (seconds) by package; empty when none or unreadable."""
@@ -71,9 +78,7 @@ class CpuTimes:
 
 
 def cpu_times() -> CpuTimes:
-    children = resource.getrusage(resource.RUSAGE_CHILDREN)
-    own = resource.getrusage(resource.RUSAGE_SELF)
-    return CpuTimes(children.ru_utime + children.ru_stime, own.ru_utime + own.ru_stime)
+    return CpuTimes(*cpu_seconds())
 
 
 @dataclass(frozen=True, slots=True)
@@ -190,13 +195,9 @@ class RunTimings:
 
     def as_json(self) -> dict[str, object]:
         return {
-            "wall_seconds": round(self.wall, 3),
-            "cpu_seconds": {"children": round(self.cpu.children, 3),
-                            "wsbuild": round(self.cpu.own, 3),
-                            "total": round(self.cpu.total, 3)},
+            **totals_json(self.wall, self.cpu.children, self.cpu.own, self.cores),
             "cores": self.cores,
             "job_budget": self.job_budget or self.cores,
-            "limit_seconds": round(self.limit, 3),
             "packages": [
                 {"package": p.package, "outcome": p.outcome, "ready": round(p.ready, 3),
                  "started": round(p.started, 3), "finished": round(p.finished, 3),
@@ -209,9 +210,7 @@ class RunTimings:
         }
 
     def summary_line(self) -> str:
-        ratio = f" ({self.wall / self.limit:.2f}× the limit)" if self.limit > 0 else ""
-        return (f"CPU {self.cpu.total:.1f} s (wsbuild {self.cpu.own:.1f} s) on {self.cores} "
-                f"cores: limit {self.limit:.1f} s, wall {self.wall:.1f} s{ratio}")
+        return summary_line(self.wall, self.cpu.children, self.cpu.own, self.cores)
 
     def table(self) -> list[str]:
         """Per built package: idle (waiting for the CPU budget), then its phases, in seconds."""
@@ -236,8 +235,6 @@ class RunTimings:
 
 def write_timings(run_log: Path, timings: RunTimings) -> None:
     """`timings.json` (machine-readable) and `timings.txt` (the table) in the run's log."""
-    run_log.mkdir(parents=True, exist_ok=True)
-    (run_log / TIMINGS_JSON).write_text(json.dumps(timings.as_json(), indent=1) + "\n")
     extra = [timings.compile_jobs.summary()] if timings.compile_jobs else []
-    (run_log / TIMINGS_TEXT).write_text("\n".join([*timings.table(), "",
-                                                   timings.summary_line(), *extra]) + "\n")
+    write_timing_files(run_log, timings.as_json(),
+                       [*timings.table(), "", timings.summary_line(), *extra])

@@ -11,7 +11,6 @@ import os
 import re
 import shlex
 import sys
-import time
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -19,6 +18,7 @@ from typing import TYPE_CHECKING
 
 from wsbuild.engine.cpu_sampler import CpuSample
 from wsbuild.engine.jobs import JobResult, Outcome
+from wsbuild.engine.timing_files import started_at
 
 if TYPE_CHECKING:
     from wsbuild.cache.settings import CacheSettings
@@ -52,12 +52,6 @@ def command_line(argv: Sequence[str] | None = None) -> str:
     """The command as a user would type it again (`wsbuild build --timings`)."""
     args = sys.argv[1:] if argv is None else argv
     return shlex.join(["wsbuild", *args])
-
-
-def started_at(origin: float) -> str:
-    """The wall-clock time (UTC) of the monotonic instant `origin`."""
-    wall = time.time() - (time.monotonic() - origin)
-    return time.strftime("%Y-%m-%d %H:%M:%S UTC", time.gmtime(wall))
 
 
 def artifact_cache_text(settings: CacheSettings | None, symlink_install: bool = False) -> str:

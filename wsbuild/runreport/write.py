@@ -10,7 +10,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from wsbuild.engine.cpu_sampler import CpuSampler
-from wsbuild.engine.jobs import JobResult
+from wsbuild.engine.jobs import JobResult, Outcome
 from wsbuild.engine.progress import Progress
 from wsbuild.engine.timings import (
     RunTimings,
@@ -34,11 +34,13 @@ def start_sampler(enabled: bool, origin: float) -> CpuSampler:
     return CpuSampler.started(origin=origin) if enabled else CpuSampler(origin=origin)
 
 
-def _written(run_log: Path, record: Mapping[str, object]) -> Path | str:
-    """report.json then report.html; the page's path, or why it was not written."""
+def _written(run_log: Path, record: Mapping[str, object], *, page: bool = True
+             ) -> Path | str | None:
+    """report.json then (`page`) report.html; the page's path (None: not drawn), or why it
+    was not written."""
     try:
         write_record(run_log, record)
-        return write_report(run_log)
+        return write_report(run_log) if page else None
     except OSError as exc:
         return f"report not written: {exc.strerror or exc}"
 
@@ -46,15 +48,18 @@ def _written(run_log: Path, record: Mapping[str, object]) -> Path | str:
 def write_build_report(plan: Plan, facts: BuildFacts, run_log: Path,
                        results: Sequence[JobResult], sampler: CpuSampler) -> tuple[str, ...]:
     """At the end of `wsbuild build` (after timings.json): the report, unless --no-report.
-    The lines the summary ends with: the report's path with --timings, or why it failed."""
+    A no-op's page (every package up to date: nothing to show but their names) is drawn when
+    asked for (--timings, `wsbuild report`); its report.json is written. The lines the
+    summary ends with: the report's path with --timings, or why it failed."""
     samples = sampler.stop()
     if not facts.report:
         return ()
+    no_op = all(r.outcome is Outcome.UP_TO_DATE for r in results)
     written = _written(run_log, build_record(plan, facts, run_log, results, samples,
-                                             sampler.origin))
+                                             sampler.origin), page=facts.timings or not no_op)
     if isinstance(written, str):
         return (written,)
-    return (f"report: {written}",) if facts.timings else ()
+    return (f"report: {written}",) if facts.timings and written is not None else ()
 
 
 class RunWatch:

@@ -1,0 +1,271 @@
+"""A no-op build is replayed from the record of the last no-op (builder/noop.py) only while
+everything that no-op looked at is unchanged: any change to the workspace, its build state,
+its install tree, a defaults file, the environment or the underlay sends the build down the
+full path, which plans (and builds) as before."""
+
+from __future__ import annotations
+
+import fcntl
+import json
+import os
+import subprocess
+import sys
+import time
+from collections.abc import Callable
+from pathlib import Path
+
+import pytest
+from conftest import run_wsbuild as run_in_environment
+from conftest import write_package
+
+from wsbuild import cli, launch
+from wsbuild.builder import noop
+
+#: a recording run must start this long after the last change it could read (noop_record's
+#: racy rule): a change in the same timestamp tick as the read would not show
+SETTLE = 1.1
+#: pytest names the test and its phase in the environment: the record's key holds the
+#: environment, so the runs here leave it out
+PYTEST_VARIABLE = "PYTEST_CURRENT_TEST"
+WARNING = "build dependencies not found"
+
+
+def run_wsbuild(*args: str, cwd: Path,
+                env: dict[str, str] | None = None) -> subprocess.CompletedProcess[str]:
+    environ = dict(os.environ if env is None else env)
+    environ.pop(PYTEST_VARIABLE, None)
+    return run_in_environment(*args, cwd=cwd, env=environ)
+
+
+class Runs:
+    """`wsbuild build` run in this process (as the `wsbuild` command runs it), telling
+    whether the full command line ran or the record answered."""
+
+    def __init__(self, ws: Path, monkeypatch: pytest.MonkeyPatch,
+                 capsys: pytest.CaptureFixture[str]) -> None:
+        self.capsys = capsys
+        self.full: list[bool] = []
+        real = cli.main
+
+        def counted(argv: list[str] | None = None) -> int:
+            self.full.append(True)
+            return real(argv)
+
+        monkeypatch.setattr(cli, "main", counted)
+        monkeypatch.chdir(ws)
+
+    def build(self, *args: str) -> tuple[int, str, bool]:
+        """(exit code, what it printed, whether it was replayed)"""
+        os.environ.pop(PYTEST_VARIABLE, None)
+        before = len(self.full)
+        saved = sys.argv
+        sys.argv = ["wsbuild", "build", *args]
+        try:
+            code = launch.main()
+        finally:
+            sys.argv = saved
+        out = self.capsys.readouterr()
+        return code, out.out + out.err, len(self.full) == before
+
+
+@pytest.fixture
+def built(make_workspace: Callable[..., Path], monkeypatch: pytest.MonkeyPatch) -> Path:
+    """An ament_python and a cmake package, built, with no defaults file of the user's."""
+    ws = make_workspace({"pa": ("ament_python", []), "pc": ("cmake", [])})
+    home = ws.parent / "colcon-home"
+    home.mkdir()
+    monkeypatch.setenv("COLCON_HOME", str(home))
+    monkeypatch.delenv("COLCON_DEFAULTS_FILE", raising=False)
+    monkeypatch.setenv("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
+    first = run_wsbuild("build", cwd=ws)
+    assert first.returncode == 0, first.stdout + first.stderr
+    time.sleep(SETTLE)
+    return ws
+
+
+@pytest.fixture
+def recorded(built: Path, monkeypatch: pytest.MonkeyPatch,
+             capsys: pytest.CaptureFixture[str]) -> tuple[Path, Runs]:
+    """`built`, after a no-op (the real command) that left a record."""
+    no_op = run_wsbuild("build", cwd=built)
+    assert no_op.returncode == 0 and "2 packages up to date" in no_op.stdout, no_op.stderr
+    assert (built / noop.RECORD).is_file(), "a no-op of settled inputs leaves a record"
+    return built, Runs(built, monkeypatch, capsys)
+
+
+def test_the_next_no_op_is_replayed_with_the_same_output_and_log(
+        recorded: tuple[Path, Runs]) -> None:
+    ws, runs = recorded
+    full_log = (ws / "log" / "latest_build").resolve()
+    full = (full_log / "up_to_date.log").read_text()
+    code, out, replayed = runs.build()
+    assert code == 0 and replayed, out
+    assert out.splitlines()[1:] == ["  2 packages up to date"]
+    assert out.startswith("Summary: 0 packages finished [")
+    run = (ws / "log" / "latest_build").resolve()
+    assert run != full_log, "a replayed run has its own log directory"
+    assert sorted(p.name for p in run.iterdir()) == sorted(p.name for p in full_log.iterdir())
+    assert (run / "up_to_date.log").read_text() == (full_log / "up_to_date.log").read_text()
+    report = json.loads((run / "report.json").read_text())
+    earlier = json.loads((full_log / "report.json").read_text())
+    assert report["packages"] == earlier["packages"]
+    assert {p["outcome"] for p in report["packages"]} == {"up to date"}
+    assert report["started"] >= earlier["started"]
+    timings = json.loads((run / "timings.json").read_text())
+    assert [p["package"] for p in timings["packages"]] == ["pa", "pc"]
+    # `wsbuild report` draws the replayed run's page like any other's
+    drawn = run_wsbuild("report", cwd=ws)
+    assert drawn.returncode == 0, drawn.stderr
+    assert "2 up to date" in drawn.stdout and (run / "report.html").is_file()
+
+
+def _edit_source(ws: Path) -> None:
+    module = ws / "src" / "pa" / "pa" / "__init__.py"
+    module.write_text(module.read_text() + "\nVALUE = 2\n")
+
+
+def _add_source_file(ws: Path) -> None:
+    (ws / "src" / "pa" / "pa" / "extra.py").write_text("EXTRA = 1\n")
+
+
+def _add_package(ws: Path) -> None:
+    write_package(ws / "src", "pn", "cmake")
+
+
+def _ignore_package(ws: Path) -> None:
+    (ws / "src" / "pc" / "COLCON_IGNORE").touch()
+
+
+def _remove_installed_file(ws: Path) -> None:
+    (ws / "install" / "pa" / "share" / "pa" / "package.xml").unlink()
+
+
+def _workspace_defaults(ws: Path) -> None:
+    (ws / "wsbuild.yaml").write_text("build:\n  cmake-args: [-DWSB_PROBE=1]\n")
+
+
+def _user_defaults(ws: Path) -> None:
+    (ws.parent / "colcon-home" / "defaults.yaml").write_text(
+        "build:\n  cmake-args: [-DWSB_PROBE=1]\n")
+
+
+def _unfinished_build(ws: Path) -> None:
+    marker = ws / "build" / "pc" / ".wsbuild" / "building"
+    marker.parent.mkdir(parents=True, exist_ok=True)
+    marker.touch()
+
+
+def _setup_script_removed(ws: Path) -> None:
+    (ws / "install" / "setup.bash").unlink()
+
+
+CHANGES = {
+    "a source file edited": (_edit_source, "pa"),
+    "a source file added": (_add_source_file, "pa"),
+    "a package added": (_add_package, "pn"),
+    "a package ignored": (_ignore_package, None),
+    "an installed file removed": (_remove_installed_file, "pa"),
+    "a workspace defaults file written": (_workspace_defaults, "pc"),
+    "the user's defaults file written": (_user_defaults, "pc"),
+    "an interrupted build's marker": (_unfinished_build, "pc"),
+    "a setup script removed": (_setup_script_removed, None),
+}
+
+
+@pytest.mark.parametrize("change", sorted(CHANGES))
+def test_any_change_runs_the_full_build(recorded: tuple[Path, Runs], change: str) -> None:
+    ws, runs = recorded
+    make, rebuilt = CHANGES[change]
+    make(ws)
+    code, out, replayed = runs.build()
+    assert code == 0, out
+    assert not replayed, f"{change}: replayed\n{out}"
+    if rebuilt is not None:
+        assert f"Finished <<< {rebuilt}" in out, out
+    if change == "a package ignored":
+        assert "1 package up to date" in out and "pc" not in out
+    if change == "a setup script removed":
+        assert (ws / "install" / "setup.bash").is_file(), "the full run writes it again"
+
+
+def test_a_changed_environment_runs_the_full_build(
+        recorded: tuple[Path, Runs], monkeypatch: pytest.MonkeyPatch) -> None:
+    ws, runs = recorded
+    monkeypatch.setenv("CMAKE_PREFIX_PATH", str(ws / "elsewhere"))
+    code, out, replayed = runs.build()
+    assert code == 0 and not replayed, out
+    # other options, another record: the command line is part of it
+    assert not runs.build("--packages-select", "pa")[2]
+
+
+def test_another_build_holding_the_lock_is_not_replayed_past(
+        recorded: tuple[Path, Runs]) -> None:
+    ws, _ = recorded
+    os.environ.pop(PYTEST_VARIABLE, None)
+    fd = os.open(ws / "build" / ".wsbuild.build.lock", os.O_RDWR)
+    try:
+        fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        assert noop.replay(["build"]) is None
+    finally:
+        os.close(fd)
+    assert noop.replay(["build"]) == 0
+
+
+def test_inputs_changed_just_before_a_no_op_leave_no_record(
+        make_workspace: Callable[..., Path], monkeypatch: pytest.MonkeyPatch,
+        capsys: pytest.CaptureFixture[str]) -> None:
+    """A file written in the second before the recording run started may have changed in the
+    same timestamp tick as the run read it: no record, the next build runs in full."""
+    ws = make_workspace({"pa": ("ament_python", [])})
+    assert run_wsbuild("build", cwd=ws).returncode == 0
+    runs = Runs(ws, monkeypatch, capsys)
+    _edit_source(ws)
+    assert runs.build()[0] == 0  # builds pa
+    code, out, replayed = runs.build()  # a no-op, right after pa's build wrote its state
+    assert code == 0 and not replayed and "1 package up to date" in out
+    assert not (ws / noop.RECORD).exists()
+
+
+def test_an_underlay_change_after_a_recorded_no_op_is_noticed(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
+        capsys: pytest.CaptureFixture[str]) -> None:
+    """A replay repeats the warnings of the run it repeats; a distribution installed into a
+    site directory afterwards is seen (the full path runs again)."""
+    ws = tmp_path / "ws"
+    package = write_package(ws / "src", "needs_it", "ament_python")
+    manifest = package / "package.xml"
+    manifest.write_text(manifest.read_text().replace(
+        "</package>", "  <build_depend>python3-wsb-probe-dist</build_depend>\n</package>"))
+    site = tmp_path / "site"
+    site.mkdir()
+    monkeypatch.setenv("PYTHONPATH", str(site))
+    monkeypatch.setenv("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
+    assert run_wsbuild("build", cwd=ws).returncode == 0
+    time.sleep(SETTLE)
+    recording = run_wsbuild("build", cwd=ws)
+    assert recording.returncode == 0 and WARNING in recording.stdout + recording.stderr
+    runs = Runs(ws, monkeypatch, capsys)
+    code, out, replayed = runs.build()
+    assert code == 0 and replayed and WARNING in out, "a replay repeats the warning"
+
+    info = site / "wsb_probe_dist-1.0.dist-info"
+    info.mkdir()
+    (info / "METADATA").write_text("Metadata-Version: 2.1\nName: wsb-probe-dist\nVersion: 1.0\n")
+    code, out, replayed = runs.build()
+    assert code == 0 and not replayed and WARNING not in out, out
+
+
+def test_a_replayed_no_op_imports_no_command_line_and_starts_no_process(built: Path) -> None:
+    """The real command, three times: the full no-op records, the next one is replayed by
+    a process that imports neither the argument parser nor the planner (-X importtime)."""
+    env = {**os.environ, "PYTHONPROFILEIMPORTTIME": "1"}
+    recording = run_wsbuild("build", cwd=built, env=env)
+    assert recording.returncode == 0 and "wsbuild.cli" in recording.stderr
+    replayed = run_wsbuild("build", cwd=built, env=env)
+    assert replayed.returncode == 0, replayed.stderr
+    assert replayed.stdout.splitlines()[1:] == recording.stdout.splitlines()[1:]
+    imported = {line.rsplit("|", 1)[-1].strip() for line in replayed.stderr.splitlines()
+                if line.startswith("import time:")}
+    assert "wsbuild.builder.noop" in imported
+    assert not imported & {"wsbuild.cli", "wsbuild.builder.plan", "subprocess", "threading",
+                           "argparse"}, sorted(imported)

@@ -1,0 +1,174 @@
+"""A no-op build answered from what the last no-op looked at.
+
+A `wsbuild build` whose plan finds every package up to date records, while it runs, every path
+it looks at (stat, open, directory listing), then keeps those paths' stat signatures with the
+command line, the working directory, the environment, the terminal, what it printed and what
+it wrote to its log directory: `build/.wsbuild/noop/record.json` (builder/noop_record.py).
+
+The next `wsbuild build` with the same command line, in the same directory, environment and
+terminal, takes the workspace lock and stats those paths again (`replay`, here). When every one
+is as recorded, the full run would read the same files and so plan the same no-op: the run
+prints what the recorded one printed (with its own time) and writes a log directory with the
+same files (with its own times), without parsing, scanning or planning anything. Anything else
+(a path changed, another build holding the lock, no record) goes down the full path, which
+records anew. This module imports nothing a replay does not use.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import sys
+import time
+from pathlib import Path
+
+TYPE_CHECKING = False
+if TYPE_CHECKING:
+    from collections.abc import Sequence
+    from typing import Any
+
+#: relative to the working directory: the default build base of a run started at the root
+RECORD = Path("build") / ".wsbuild" / "noop" / "record.json"
+FORMAT = 5
+#: set by the shell for each command, meaningless to a build
+VOLATILE = frozenset({"_", "OLDPWD", "SHLVL"})
+#: what a record keeps in place of the summary's seconds and of the run's log directory
+SECONDS = "\0seconds\0"
+RUN_LOG = "\0run_log\0"
+#: report.json's start time, as the record keeps it (a JSON string)
+STARTED = '"@@wsbuild-started@@"'
+
+
+#: the signature of a path that does not exist
+ABSENT = (0, 0, 0, 0, 0)
+#: how a path is looked at: follow symlinks (stat, not lstat); only its type and inode count
+#: (a directory only lstat'ed, as realpath does with each ancestor of a path: its entries are
+#: recorded one by one where they matter, and its times change with every file made in it)
+FOLLOW, IDENTITY = 1, 2
+
+
+def signature(path: str, how: int) -> tuple[int, ...]:
+    """What a change to `path` changes: type and mode, inode, size, modification and change
+    times (with IDENTITY: type, mode and inode); ABSENT when it does not exist."""
+    try:
+        st = os.stat(path) if how & FOLLOW else os.lstat(path)
+    except (FileNotFoundError, NotADirectoryError):
+        return ABSENT
+    if how & IDENTITY:
+        return (st.st_mode, st.st_ino)
+    return (st.st_mode, st.st_ino, st.st_size, st.st_mtime_ns, st.st_ctime_ns)
+
+
+def digest(paths: list[list[Any]]) -> int:
+    """One number for the signatures of `paths` ([directory, [name, ...], [how, ...]]; the
+    name "" is the directory itself), in their order: a change to any path changes it. (The
+    hash of a tuple of integers is the same in every process of one Python version; the
+    record's key holds the version.)"""
+    stat, lstat = os.stat, os.lstat
+    signatures: list[tuple[int, ...]] = []
+    add = signatures.append
+    for directory, names, hows in paths:
+        for name, how in zip(names, hows):
+            path = f"{directory}/{name}" if name else directory
+            try:
+                st = stat(path) if how & FOLLOW else lstat(path)
+            except (FileNotFoundError, NotADirectoryError):
+                add(ABSENT)
+                continue
+            if how & IDENTITY:
+                add((st.st_mode, st.st_ino))
+            else:
+                add((st.st_mode, st.st_ino, st.st_size, st.st_mtime_ns, st.st_ctime_ns))
+    return hash(tuple(signatures))
+
+
+def key_of(argv: Sequence[str]) -> dict[str, object]:
+    """Everything besides files that a build's plan and its console output depend on."""
+    from wsbuild import __version__
+
+    tty = [sys.stdout.isatty(), sys.stderr.isatty()]
+    columns = os.get_terminal_size(sys.stdout.fileno()).columns if tty[0] else 0
+    return {
+        "format": FORMAT,
+        "argv": list(argv),
+        "cwd": os.getcwd(),
+        "environ": _environ(),
+        "python": [sys.executable, sys.version],
+        "wsbuild": __version__,
+        "terminal": [*tty, columns],
+    }
+
+
+def _environ() -> dict[str, str]:
+    """The environment, less the shell's per-command variables. LD_LIBRARY_PATH as a sorted
+    set: the ROS wheels' bootstrapper writes its entries in a random (set) order in each
+    process, and no plan reads their order."""
+    environ = {k: v for k, v in sorted(os.environ.items()) if k not in VOLATILE}
+    if "LD_LIBRARY_PATH" in environ:
+        entries = sorted(set(environ["LD_LIBRARY_PATH"].split(os.pathsep)))
+        environ["LD_LIBRARY_PATH"] = os.pathsep.join(entries)
+    return environ
+
+
+def replay(argv: Sequence[str]) -> int | None:
+    """Answer `wsbuild build <argv[1:]>` from the record, or None: run it in full."""
+    record = _read_record(argv)
+    if record is None:
+        return None
+    started = time.monotonic()
+    from wsbuild.engine.lock import workspace_lock
+    from wsbuild.errors import WorkspaceError
+
+    lock = workspace_lock(Path(record["build_base"]), wait=False, on_wait=lambda _: None)
+    try:
+        lock.__enter__()
+    except WorkspaceError:
+        return None
+    try:
+        if digest(record["paths"]) != record["digest"]:
+            return None
+        run_log = _write_log(record["log"], started)
+        seconds = time.monotonic() - started
+        for stream, text in ((sys.stdout, record["stdout"]), (sys.stderr, record["stderr"])):
+            stream.write(text.replace(SECONDS, f"{seconds:.2f}").replace(RUN_LOG, str(run_log)))
+            stream.flush()
+        return 0
+    finally:
+        lock.__exit__(None, None, None)
+
+
+def _read_record(argv: Sequence[str]) -> dict[str, Any] | None:
+    """The record, when there is one for this command line, directory and environment."""
+    try:
+        with open(RECORD, encoding="utf-8") as handle:
+            record = json.load(handle)
+    except (OSError, ValueError):
+        return None
+    if not isinstance(record, dict) or record.get("key") != key_of(argv):
+        return None
+    return record
+
+
+def _write_log(log: dict[str, Any], started: float) -> Path:
+    """The run's log directory, as the recorded run wrote it, with this run's times."""
+    from wsbuild.engine.logs import new_run_log
+    from wsbuild.engine.timing_files import (
+        cpu_seconds,
+        started_at,
+        summary_line,
+        totals_json,
+        write_timing_files,
+    )
+
+    run_log = new_run_log(Path(log["log_base"]), "build")
+    if log["up_to_date"]:
+        (run_log / "up_to_date.log").write_text(log["up_to_date"])
+    wall = time.monotonic() - started
+    children, own = cpu_seconds()
+    cores = log["timings"]["cores"]
+    write_timing_files(run_log, {**log["timings"], **totals_json(wall, children, own, cores)},
+                       [*log["table"], "", summary_line(wall, children, own, cores)])
+    if log["report"] is not None:
+        text = log["report"].replace(STARTED, json.dumps(started_at(started)))
+        (run_log / "report.json").write_text(text, encoding="utf-8")
+    return run_log

@@ -1,0 +1,332 @@
+"""The record of a no-op build that lets the next one be replayed (builder/noop.py).
+
+`recording(argv)` watches a whole `wsbuild build` run: it notes every path the run stats,
+opens, lists or reads a link of (by wrapping those functions of `os`, `io` and `builtins`) and
+keeps a copy of what the run prints. The build pipeline tells the `recorder()` whether the run
+is a no-op (`no_op`) or not (`drop`: the wrappers come off at once, before any package is
+built). At the end of a no-op that exited 0 the record is written: those paths, their parent
+directories and each listed directory's entries, each with its stat signature now.
+
+A record is only written when it can be trusted:
+- Nothing the run looked at may have changed while it ran, or in the second before it started
+  (the "racy" rule of git's index): a change in the same timestamp tick as the read would not
+  show in a later stat, and a deleted file shows as its changed parent directory. A path whose
+  change time is that recent spoils the record, and the next build runs in full again.
+- The run's own outputs are not inputs: the log base, the workspace lock and the record.
+- Accesses relative to a directory descriptor (shutil.rmtree's) and from C code (lxml reading
+  package.xml) are not seen; the scan that finds those files lists their directory, and the
+  entries of every listed directory are recorded.
+- Options that do more than plan and build (`--install-deps` runs installers) or print what
+  differs from run to run (the CPU times of `--timings`) are never recorded.
+"""
+
+from __future__ import annotations
+
+import builtins
+import io
+import json
+import os
+import stat
+import sys
+import time
+from collections.abc import Callable, Iterator, Sequence
+from contextlib import contextmanager
+from pathlib import Path
+from typing import Any, TextIO
+
+from wsbuild.builder.noop import (
+    ABSENT,
+    FOLLOW,
+    IDENTITY,
+    RECORD,
+    RUN_LOG,
+    SECONDS,
+    STARTED,
+    key_of,
+    signature,
+)
+
+#: a path changed this recently (ns) before the run started may have changed unseen
+RACY_NS = 1_000_000_000
+NOT_RECORDED = frozenset({"--install-deps", "--timings"})
+#: what a no-op writes to its log directory (a replay writes the same)
+LOG_FILES = frozenset({"up_to_date.log", "report.json", "timings.json", "timings.txt"})
+
+
+class _Tee(io.TextIOBase):
+    """A text stream that writes through to `stream` and keeps a copy."""
+
+    def __init__(self, stream: TextIO) -> None:
+        self.stream = stream
+        self.parts: list[str] = []
+        self.keep = True
+
+    def write(self, text: str) -> int:
+        if self.keep:
+            self.parts.append(text)
+        return self.stream.write(text)
+
+    def flush(self) -> None:
+        self.stream.flush()
+
+    def isatty(self) -> bool:
+        return self.stream.isatty()
+
+    def fileno(self) -> int:
+        return self.stream.fileno()
+
+    @property
+    def encoding(self) -> str:  # type: ignore[override]
+        return self.stream.encoding
+
+    def __getattr__(self, name: str) -> Any:
+        return getattr(self.stream, name)
+
+
+#: what a run saw of a path it opened (its signature is taken at the end)
+OPENED = (1,)
+
+
+class Recorder:
+    """The paths a run looks at, from `install` until `finish` or `drop`."""
+
+    def __init__(self, argv: Sequence[str]) -> None:
+        self.key = key_of(argv)
+        self.started_ns = time.time_ns()
+        #: (absolute path, follows symlinks) -> what the run first saw: a signature (stat,
+        #: lstat), ABSENT, or OPENED
+        self.seen: dict[tuple[str, bool], tuple[int, ...]] = {}
+        #: directories the run listed
+        self.listed: set[str] = set()
+        self.outcome: dict[str, str] | None = None
+        self.active = False
+        self.stdout = _Tee(sys.stdout)
+        self.stderr = _Tee(sys.stderr)
+        self._saved: list[tuple[object, str, object]] = []
+
+    def no_op(self, *, build_base: Path, log_base: Path, run_log: Path, seconds: float) -> None:
+        """The run was a no-op that ended well; `seconds` as its summary shows them."""
+        self.outcome = {"build_base": str(build_base), "log_base": str(log_base),
+                        "run_log": str(run_log), "seconds": f"{seconds:.2f}"}
+
+    def drop(self) -> None:
+        """Not a no-op: stop watching, write nothing."""
+        self.outcome = None
+        self.stdout.keep = self.stderr.keep = False
+        self.stdout.parts.clear()
+        self.stderr.parts.clear()
+        self._uninstall()
+
+    def _note(self, path: object, follow: bool, saw: tuple[int, ...]) -> None:
+        if self.active and isinstance(path, (str, bytes, os.PathLike)):
+            self.seen.setdefault((os.path.abspath(os.fsdecode(path)), follow), saw)
+
+    def _watched(self, call: Callable[..., Any], path: Any, follow: bool,
+                 *args: Any, **kwargs: Any) -> Any:
+        """`call(path, ...)`, noting what it saw of `path`."""
+        try:
+            result = call(path, *args, **kwargs)
+        except (FileNotFoundError, NotADirectoryError):
+            self._note(path, follow, ABSENT)
+            raise
+        if isinstance(result, os.stat_result):
+            self._note(path, follow, (result.st_mode, result.st_ino, result.st_size,
+                                      result.st_mtime_ns, result.st_ctime_ns))
+        else:
+            self._note(path, follow, OPENED)
+        return result
+
+    def _note_listed(self, path: object) -> None:
+        if self.active and isinstance(path, (str, bytes, os.PathLike)):
+            self.listed.add(os.path.abspath(os.fsdecode(path)))
+
+    def install(self) -> None:
+        watched, note_listed = self._watched, self._note_listed
+        os_stat, lstat, scandir, listdir = os.stat, os.lstat, os.scandir, os.listdir
+        os_open, readlink, file_open = os.open, os.readlink, builtins.open
+
+        def watched_stat(path: Any, *, dir_fd: Any = None,
+                         follow_symlinks: bool = True) -> os.stat_result:
+            if dir_fd is not None:
+                return os_stat(path, dir_fd=dir_fd, follow_symlinks=follow_symlinks)
+            return watched(os_stat, path, follow_symlinks, follow_symlinks=follow_symlinks)
+
+        def watched_lstat(path: Any, *, dir_fd: Any = None) -> os.stat_result:
+            if dir_fd is not None:
+                return lstat(path, dir_fd=dir_fd)
+            return watched(lstat, path, False)
+
+        def watched_scandir(path: Any = ".") -> Any:
+            note_listed(path)
+            return scandir(path)
+
+        def watched_listdir(path: Any = ".") -> list[Any]:
+            note_listed(path)
+            return listdir(path)
+
+        def watched_os_open(path: Any, *args: Any, dir_fd: Any = None, **kwargs: Any) -> int:
+            if dir_fd is not None:
+                return os_open(path, *args, dir_fd=dir_fd, **kwargs)
+            return watched(os_open, path, True, *args, **kwargs)
+
+        def watched_readlink(path: Any, *, dir_fd: Any = None) -> Any:
+            if dir_fd is not None:
+                return readlink(path, dir_fd=dir_fd)
+            return watched(readlink, path, False)
+
+        def watched_open(file: Any, *args: Any, **kwargs: Any) -> Any:
+            return watched(file_open, file, True, *args, **kwargs)
+
+        for owner, name, value in ((os, "stat", watched_stat), (os, "lstat", watched_lstat),
+                                   (os, "scandir", watched_scandir),
+                                   (os, "listdir", watched_listdir),
+                                   (os, "open", watched_os_open),
+                                   (os, "readlink", watched_readlink),
+                                   (builtins, "open", watched_open), (io, "open", watched_open)):
+            self._saved.append((owner, name, getattr(owner, name)))
+            setattr(owner, name, value)
+        sys.stdout, sys.stderr = self.stdout, self.stderr  # type: ignore[assignment]
+        self.active = True
+
+    def _uninstall(self) -> None:
+        self.active = False
+        for owner, name, value in reversed(self._saved):
+            setattr(owner, name, value)
+        self._saved.clear()
+
+    def finish(self, exit_code: int) -> None:
+        """At the end of the run: the record, if the run was a no-op that can be trusted."""
+        self._uninstall()
+        if sys.stdout is self.stdout:
+            sys.stdout = self.stdout.stream
+        if sys.stderr is self.stderr:
+            sys.stderr = self.stderr.stream
+        outcome = self.outcome
+        if exit_code != 0 or outcome is None:
+            return
+        if os.path.abspath(RECORD.parent.parent.parent) != outcome["build_base"]:
+            return  # a replay looks for the record under ./build only
+        inputs = self._paths(outcome)
+        stdout, stderr = self._text(self.stdout, outcome), self._text(self.stderr, outcome)
+        log = _log_of(Path(outcome["run_log"]), outcome["log_base"])
+        if inputs is None or stdout is None or stderr is None or log is None:
+            return
+        record = {"key": self.key, "build_base": outcome["build_base"], "paths": inputs[0],
+                  "digest": inputs[1], "stdout": stdout, "stderr": stderr, "log": log}
+        from wsbuild.files import atomic_write
+
+        try:
+            RECORD.parent.mkdir(parents=True, exist_ok=True)
+            atomic_write(RECORD.absolute(), json.dumps(record, separators=(",", ":")))
+        except OSError:
+            pass  # the next build runs in full
+
+    def _paths(self, outcome: dict[str, str]) -> tuple[list[list[object]], int] | None:
+        """Every path the run looked at and each listed directory's entries that are not
+        directories, grouped by directory, with how to look at them again (noop.signature)
+        and the digest of their signatures now; None when one of them is not what the run
+        saw, or changed too recently to trust."""
+        outputs = (outcome["log_base"] + os.sep, str(RECORD.parent.absolute()) + os.sep)
+        lock = os.path.join(outcome["build_base"], ".wsbuild.build.lock")
+        wanted: dict[tuple[str, bool], tuple[int, ...] | None] = dict(self.seen)
+        for directory in self.listed:
+            wanted.setdefault((directory, True), None)
+            try:
+                entries = list(os.scandir(directory))
+            except OSError:
+                continue
+            for entry in entries:
+                if not entry.is_dir(follow_symlinks=False):
+                    wanted.setdefault((entry.path, False), None)
+        racy = self.started_ns - RACY_NS
+        grouped: dict[str, list[tuple[str, int, tuple[int, ...]]]] = {}
+        for (path, follow), saw in sorted(wanted.items()):
+            if path == lock or (path + os.sep).startswith(outputs):
+                continue
+            how = FOLLOW if follow else 0
+            now = signature(path, how)
+            if not follow and stat.S_ISDIR(now[0]) and path not in self.listed:
+                how |= IDENTITY
+                now, saw = now[:2], (saw[:2] if saw not in (None, OPENED) else saw)
+            elif max(now[3:], default=0) >= racy:
+                return None
+            if saw is OPENED and now == ABSENT or saw not in (None, OPENED) and saw != now:
+                return None  # changed while the run ran
+            directory, name = os.path.split(path)
+            if not name:  # the root directory
+                directory, name = path, ""
+            grouped.setdefault(directory, []).append((name, how, now))
+        paths: list[list[object]] = [[d, [n for n, _, _ in e], [h for _, h, _ in e]]
+                                     for d, e in grouped.items()]
+        # the digest of these very signatures (in noop.digest's order): stat'ing again could
+        # see a change made after the checks above
+        return paths, hash(tuple(sig for e in grouped.values() for _, _, sig in e))
+
+    def _text(self, tee: _Tee, outcome: dict[str, str]) -> str | None:
+        """What the run printed, its summary's seconds and its log directory made blanks."""
+        text = "".join(tee.parts)
+        if tee is self.stdout:
+            seconds = f"[{outcome['seconds']}s]"
+            if text.count(seconds) != 1:
+                return None
+            text = text.replace(seconds, f"[{SECONDS}s]")
+        return text.replace(outcome["run_log"], RUN_LOG)
+
+
+def _log_of(run_log: Path, log_base: str) -> dict[str, object] | None:
+    """What the recorded run wrote to its log directory that a replay writes again: the
+    same files, with its start time made a blank (None: something else is there)."""
+    try:
+        names = set(os.listdir(run_log))
+        if names - LOG_FILES or "timings.json" not in names:
+            return None
+        up_to_date = (run_log / "up_to_date.log").read_text() if "up_to_date.log" in names \
+            else ""
+        timings = json.loads((run_log / "timings.json").read_text())
+        lines = (run_log / "timings.txt").read_text().splitlines()
+        report = (run_log / "report.json").read_text(encoding="utf-8") \
+            if "report.json" in names else None
+    except (OSError, ValueError):
+        return None
+    if "" not in lines or not isinstance(timings, dict) or "cores" not in timings:
+        return None
+    if report is not None:
+        started = json.loads(report).get("started")
+        if not started or report.count(json.dumps(started)) != 1:
+            return None
+        report = report.replace(json.dumps(started), STARTED)
+    return {"log_base": log_base, "up_to_date": up_to_date, "report": report,
+            "timings": timings, "table": lines[:lines.index("")]}
+
+
+_active: Recorder | None = None
+
+
+def recorder() -> Recorder | None:
+    """The recorder watching this run, if any (the build pipeline tells it what the run was)."""
+    return _active
+
+
+@contextmanager
+def recording(argv: Sequence[str]) -> Iterator[Callable[[int], None]]:
+    """Watch the run of `argv` (a build); call the yielded function with its exit code."""
+    global _active
+    if any(arg.split("=")[0] in NOT_RECORDED for arg in argv):
+        yield lambda code: None
+        return
+    watcher = Recorder(argv)
+    watcher.install()
+    _active = watcher
+    done = False
+
+    def finish(code: int) -> None:
+        nonlocal done
+        done = True
+        watcher.finish(code)
+
+    try:
+        yield finish
+    finally:
+        _active = None
+        if not done:
+            watcher.finish(1)
