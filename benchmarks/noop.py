@@ -47,6 +47,10 @@ BEGIN = "<!-- noop.py: begin -->"
 END = "<!-- noop.py: end -->"
 CORPUS = REPO / "tests" / "data" / "corpus" / "src"
 GUARD = "_ROS_WHEELS_BOOTSTRAP_COMPLETE"
+#: a run records only inputs that did not change in the second before it started
+SETTLE = 1.1
+#: where the records are, under a workspace
+RECORDS = Path("build") / ".wsbuild" / "noop"
 _SUMMARY = re.compile(r"^Summary: .*\[(?P<s>[\d.]+)s\]", re.MULTILINE)
 
 
@@ -87,16 +91,46 @@ class NoopBench:
         self.rows.append((what, ms(colcon.median) if colcon else "–", ms(fresh.median),
                           ms(sourced.median) if sourced else "–", f"{ratio}; target {target}"))
 
+    def settled(self, ws: Path, *args: str, env: dict[str, str]) -> None:
+        """Run `wsbuild args` until it leaves a record: a run records only what did not change
+        in the second before it started (engine/recording.py), and the first run in another
+        environment rewrites the dependency check's memo."""
+        for _ in range(2):
+            run_timed(self.tools.wsbuild_cmd(*args), cwd=ws, env=env, log_file=self.log_file)
+            time.sleep(SETTLE)
+        run_timed(self.tools.wsbuild_cmd(*args), cwd=ws, env=env, log_file=self.log_file)
+
+    def repeated(self, ws: Path, *args: str, env: dict[str, str] | None = None) -> Measurement:
+        """The command run again and again on an unchanged workspace (replayed)."""
+        env = env or self.tools.wsbuild_env
+        self.settled(ws, *args, env=env)
+        return self.wsbuild(ws, *args, env=env)
+
+    def full(self, ws: Path, *args: str, env: dict[str, str] | None = None) -> Measurement:
+        """The command with no record to replay: the first run after a change, in full."""
+        measurement = Measurement()
+        for _ in range(self.runs):
+            shutil.rmtree(ws / RECORDS, ignore_errors=True)
+            measurement.samples.append(run_timed(self.tools.wsbuild_cmd(*args), cwd=ws,
+                                                 env=env or self.tools.wsbuild_env,
+                                                 log_file=self.log_file))
+        return measurement
+
     def noop(self, label: str, ws: Path, target: str, colcon_runs: int = 0) -> None:
-        self.log(f"{label}: wsbuild build (full), then no-op x{self.runs}")
+        self.log(f"{label}: wsbuild build (full), then no-op x{self.runs}, repeated and full")
         run_timed(self.tools.wsbuild_cmd("build"), cwd=ws, env=self.tools.wsbuild_env,
                   log_file=self.log_file)
-        fresh = self.wsbuild(ws, "build")
-        sourced = self.wsbuild(ws, "build", env=self.sourced_env(ws))
-        own = [float(m["s"]) for s in fresh.samples for m in _SUMMARY.finditer(s.output)]
+        time.sleep(SETTLE)
+        sourced_env = self.sourced_env(ws)
+        full_fresh = self.full(ws, "build")
+        full_sourced = self.full(ws, "build", env=sourced_env)
+        fresh = self.repeated(ws, "build")
+        sourced = self.repeated(ws, "build", env=sourced_env)
+        own = [float(m["s"]) for s in full_fresh.samples for m in _SUMMARY.finditer(s.output)]
         if own:
-            self.notes.append(f"{label}: the run's own time (its Summary line) "
-                              f"{ms(sorted(own)[len(own) // 2])} of the {ms(fresh.median)}")
+            self.notes.append(f"{label}: the full run's own time (its Summary line) "
+                              f"{ms(sorted(own)[len(own) // 2])} of the "
+                              f"{ms(full_fresh.median)}")
         colcon = None
         if colcon_runs:
             colcon_ws = ws.parent / f"{ws.name}-colcon"
@@ -107,12 +141,18 @@ class NoopBench:
                       log_file=self.log_file)
             colcon = self.colcon(colcon_ws, "build", runs=colcon_runs)
         self.row(f"no-op build, {label}", colcon, fresh, sourced, target)
+        self.row(f"no-op build, {label}: the first after a change (full run)", colcon,
+                 full_fresh, full_sourced, "–")
 
     def listing(self, ws: Path, colcon_runs: int) -> None:
-        self.log(f"list, {ws.name}: wsbuild x{self.runs}, colcon x{colcon_runs}")
-        fresh = self.wsbuild(ws, "list")
+        self.log(f"list, {ws.name}: wsbuild x{self.runs} full and repeated, colcon "
+                 f"x{colcon_runs}")
+        full = self.full(ws, "list")
+        fresh = self.repeated(ws, "list")
         colcon = self.colcon(ws, "list", runs=colcon_runs)
-        self.row("`list`, 1,000 packages", colcon, fresh, None, "≤ 150 ms, ≥ 25×")
+        self.row("`list`, 1,000 packages: the first after a change (full run)", colcon, full,
+                 None, "–")
+        self.row("`list`, 1,000 packages, repeated", colcon, fresh, None, "≤ 150 ms, ≥ 25×")
 
     def version(self, ws: Path) -> None:
         fresh = self.wsbuild(ws, "--version", runs=self.runs * 2)
@@ -128,10 +168,14 @@ class NoopBench:
                           f"in a fresh terminal, {ms(bare_guarded.median)} with the "
                           "bootstrapper's guard set (its re-exec costs the difference)")
 
-    def importtime(self, ws: Path) -> list[str]:
+    def importtime(self, ws: Path, *, replayed: bool) -> list[str]:
         python = str(self.tools.project_venv / "bin" / "python")
-        env = dict(self.tools.wsbuild_env, **{GUARD: "1"})
-        done = subprocess.run([python, "-X", "importtime", "-m", "wsbuild", "build"], cwd=ws,
+        env = dict(self.tools.wsbuild_env, **{GUARD: "1", "PYTHONPROFILEIMPORTTIME": "1"})
+        if replayed:
+            self.settled(ws, "build", env=env)
+        else:
+            shutil.rmtree(ws / RECORDS, ignore_errors=True)
+        done = subprocess.run([python, "-m", "wsbuild", "build"], cwd=ws,
                               env=env, capture_output=True, text=True)
         rows = []
         for line in done.stderr.splitlines():
@@ -141,7 +185,8 @@ class NoopBench:
         total = sum(int(line.split("|")[0].split(":")[1]) for line in done.stderr.splitlines()
                     if line.startswith("import time:") and "self" not in line)
         top = sorted(rows, reverse=True)[:8]
-        return [f"imports of a no-op `wsbuild build` (mixed workspace, `-X importtime`): "
+        which = "a repeated (replayed)" if replayed else "a full"
+        return [f"imports of {which} no-op `wsbuild build` (mixed workspace, `-X importtime`): "
                 f"{ms(total / 1e6)} in all; the largest (cumulative): "
                 + ", ".join(f"{name} {us / 1000:.1f} ms" for us, name in top)]
 
@@ -156,7 +201,12 @@ def render(bench: NoopBench, details: dict[str, str], command: str, started: str
     lines += [f"| {' | '.join(row)} |" for row in bench.rows]
     lines += ["", "Medians. \"Fresh terminal\": the project venv activated, as the README's "
               "quick start runs wsbuild: the ROS wheels' bootstrapper re-executes the "
-              "interpreter once. After sourcing, its guard is set and it does not.", ""]
+              "interpreter once. After sourcing, its guard is set and it does not. "
+              "\"No-op build\" and \"repeated\": the command run again on an unchanged "
+              "workspace, answered from the record of the run before (engine/replay.py); "
+              "\"the first after a change\": the same command with no record, so it scans, "
+              "plans and records in full (what the first no-op after a real build, a `git "
+              "pull` or a new terminal environment costs).", ""]
     lines += [f"- {note}" for note in bench.notes]
     lines += [END, ""]
     return "\n".join(lines)
@@ -191,7 +241,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     clean_outputs(many)
     bench.listing(many, colcon_runs=2 if args.quick else 3)
     bench.version(mixed)
-    bench.notes += bench.importtime(mixed)
+    bench.notes += bench.importtime(mixed, replayed=False)
+    bench.notes += bench.importtime(mixed, replayed=True)
     command = "python benchmarks/noop.py" + (" --quick" if args.quick else "")
     section = render(bench, machine_details(tools), command, started, args.quick)
     print(section)

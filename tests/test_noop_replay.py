@@ -1,4 +1,4 @@
-"""A no-op build is replayed from the record of the last no-op (builder/noop.py) only while
+"""A no-op build is replayed from the record of the last no-op (engine/replay.py) only while
 everything that no-op looked at is unchanged: any change to the workspace, its build state,
 its install tree, a defaults file, the environment or the underlay sends the build down the
 full path, which plans (and builds) as before."""
@@ -19,9 +19,9 @@ from conftest import run_wsbuild as run_in_environment
 from conftest import write_package
 
 from wsbuild import cli, launch
-from wsbuild.builder import noop
+from wsbuild.engine import replay
 
-#: a recording run must start this long after the last change it could read (noop_record's
+#: a recording run must start this long after the last change it could read (engine/recording.py's
 #: racy rule): a change in the same timestamp tick as the read would not show
 SETTLE = 1.1
 #: pytest names the test and its phase in the environment: the record's key holds the
@@ -89,7 +89,7 @@ def recorded(built: Path, monkeypatch: pytest.MonkeyPatch,
     """`built`, after a no-op (the real command) that left a record."""
     no_op = run_wsbuild("build", cwd=built)
     assert no_op.returncode == 0 and "2 packages up to date" in no_op.stdout, no_op.stderr
-    assert (built / noop.RECORD).is_file(), "a no-op of settled inputs leaves a record"
+    assert (built / replay.record_path("build")).is_file(), "a no-op of settled inputs leaves a record"
     return built, Runs(built, monkeypatch, capsys)
 
 
@@ -205,10 +205,10 @@ def test_another_build_holding_the_lock_is_not_replayed_past(
     fd = os.open(ws / "build" / ".wsbuild.build.lock", os.O_RDWR)
     try:
         fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
-        assert noop.replay(["build"]) is None
+        assert replay.replay(["build"]) is None
     finally:
         os.close(fd)
-    assert noop.replay(["build"]) == 0
+    assert replay.replay(["build"]) == 0
 
 
 def test_inputs_changed_just_before_a_no_op_leave_no_record(
@@ -223,7 +223,7 @@ def test_inputs_changed_just_before_a_no_op_leave_no_record(
     assert runs.build()[0] == 0  # builds pa
     code, out, replayed = runs.build()  # a no-op, right after pa's build wrote its state
     assert code == 0 and not replayed and "1 package up to date" in out
-    assert not (ws / noop.RECORD).exists()
+    assert not (ws / replay.record_path("build")).exists()
 
 
 def test_an_underlay_change_after_a_recorded_no_op_is_noticed(
@@ -266,6 +266,42 @@ def test_a_replayed_no_op_imports_no_command_line_and_starts_no_process(built: P
     assert replayed.stdout.splitlines()[1:] == recording.stdout.splitlines()[1:]
     imported = {line.rsplit("|", 1)[-1].strip() for line in replayed.stderr.splitlines()
                 if line.startswith("import time:")}
-    assert "wsbuild.builder.noop" in imported
+    assert "wsbuild.engine.replay" in imported
     assert not imported & {"wsbuild.cli", "wsbuild.builder.plan", "subprocess", "threading",
                            "argparse"}, sorted(imported)
+
+
+def test_list_is_replayed_while_the_workspace_is_unchanged(
+        built: Path, monkeypatch: pytest.MonkeyPatch,
+        capsys: pytest.CaptureFixture[str]) -> None:
+    """`list`, `graph` and `info` only read: an unchanged workspace's listing is printed from
+    the record of the last one; a package added is listed by the full run that follows."""
+    first = run_wsbuild("list", cwd=built)
+    assert first.returncode == 0 and (built / replay.record_path("list")).is_file()
+    monkeypatch.chdir(built)
+    os.environ.pop(PYTEST_VARIABLE, None)
+    assert replay.replay(["list"]) == 0
+    assert capsys.readouterr().out == first.stdout
+    assert replay.replay(["graph"]) is None, "each verb has its own record"
+    assert replay.replay(["list", "--topological-order"]) is None
+
+    write_package(built / "src", "pn", "cmake")
+    assert replay.replay(["list"]) is None
+    again = run_wsbuild("list", cwd=built)
+    assert again.returncode == 0 and "pn" in again.stdout
+    failing = run_wsbuild("list", "--packages-select", "nothing_here", cwd=built)
+    assert failing.returncode == 2
+    assert not (built / replay.record_path("list")).read_text().count("nothing_here"), \
+        "a failed run leaves no record"
+
+
+def test_a_damaged_record_means_a_full_run(recorded: tuple[Path, Runs]) -> None:
+    ws, runs = recorded
+    path = ws / replay.record_path("build")
+    record = json.loads(path.read_text())
+    record["paths"] = [["/", "not a list of names", 3]]
+    path.write_text(json.dumps(record))
+    code, out, replayed = runs.build()
+    assert code == 0 and not replayed and "2 packages up to date" in out
+    path.write_text("{not json")
+    assert runs.build()[2] is False

@@ -12,7 +12,7 @@ import argparse
 import os
 import shutil
 import sys
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Collection, Mapping, Sequence
 from pathlib import Path
 
 from wsbuild import __version__
@@ -61,10 +61,18 @@ def _help_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--help-all", action=_HelpAll, help=argparse.SUPPRESS)
 
 
-def build_parser(*, pkg_arguments: bool = True) -> argparse.ArgumentParser:
-    """The whole argument tree. `pkg_arguments=False` leaves out `pkg create`'s options, whose
-    defaults need the (slow to import) template machinery: other verbs start faster."""
-    from wsbuild.verbs import build, colcon, listing, run, test
+#: every verb, in the order `wsbuild --help` lists them
+VERBS = ("list", "graph", "info", "build", "test", "clean", "deps", "completion",
+         "test-result", "report", "run", "mixin", "pkg", "underlay", "cache")
+
+
+def build_parser(*, pkg_arguments: bool = True,
+                 verbs: Collection[str] | None = None) -> argparse.ArgumentParser:
+    """The argument tree: every verb, or (`verbs`) only those named (a command line needs
+    the verb it runs, and those its defaults files set options for; the other verbs'
+    modules are not even imported). `pkg_arguments=False` leaves out `pkg create`'s
+    options, whose defaults need the (slow to import) template machinery."""
+    from wsbuild.verbs import colcon
 
     parser = argparse.ArgumentParser(
         prog="wsbuild",
@@ -76,65 +84,119 @@ def build_parser(*, pkg_arguments: bool = True) -> argparse.ArgumentParser:
     )
     parser.add_argument("--version", action="version", version=f"wsbuild {__version__}")
     colcon.add_global_arguments(parser)
-    verbs = parser.add_subparsers(dest="verb", metavar="VERB")
-    verbs.required = True
+    subparsers = parser.add_subparsers(dest="verb", metavar="VERB")
+    subparsers.required = True
 
     def verb(name: str, func: str, doc: str, *, selection: bool = True,
              operands: str = "") -> argparse.ArgumentParser:
         summary, _, details = doc.strip().partition("\n")
-        sub = verbs.add_parser(name, help=summary, description=doc.strip(), add_help=False,
-                               formatter_class=_Formatter,
-                               usage=f"%(prog)s [options]{operands}   (every option: --help-all)")
+        sub = subparsers.add_parser(name, help=summary, description=doc.strip(),
+                                    add_help=False, formatter_class=_Formatter,
+                                    usage=f"%(prog)s [options]{operands}   "
+                                          "(every option: --help-all)")
         sub.set_defaults(func=func)
         _help_arguments(sub)
         add_workspace_arguments(sub, selection=selection)
         return sub
 
+    adders = {
+        "list": _list_parser, "graph": _graph_parser, "info": _info_parser,
+        "build": _build_parser, "test": _test_parser, "clean": _clean_parser,
+        "deps": _deps_parser, "completion": _completion_parser,
+        "test-result": _test_result_parser, "report": _report_parser, "run": _run_parser,
+        "mixin": _mixin_parser, "underlay": _underlay_parser, "cache": _cache_parser,
+    }
+    for name in VERBS:
+        if verbs is not None and name not in verbs:
+            continue
+        if name == "pkg":
+            _pkg_parser(subparsers, pkg_arguments)
+        elif name in ("completion", "test-result", "report", "run", "mixin", "underlay",
+                      "cache"):
+            adders[name](subparsers)
+        else:
+            adders[name](verb)
+    return parser
+
+
+def verbs_named(argv: Sequence[str], also: Collection[str] = ()) -> set[str] | None:
+    """The verbs a parser for `argv` needs: every word of it that names one, and `also`
+    (verb keys such as "pkg.create" from defaults files); None (all of them) when `argv`
+    names none, for the usage, --help or the error that lists them."""
+    named = {item for item in argv if item in VERBS}
+    if not named:
+        return None
+    return named | {key.split(".")[0] for key in also}
+
+
+_VerbMaker = Callable[..., argparse.ArgumentParser]
+
+
+def _list_parser(verb: _VerbMaker) -> None:
+    from wsbuild.verbs import colcon, listing
+
     sub = verb("list", "wsbuild.verbs.listing:run_list", listing.LIST_DOC)
     listing.add_list_arguments(sub)
     colcon.add_list_arguments(sub)
+
+
+def _graph_parser(verb: _VerbMaker) -> None:
+    from wsbuild.verbs import colcon, listing
+
     sub = verb("graph", "wsbuild.verbs.listing:run_graph", listing.GRAPH_DOC)
     listing.add_graph_arguments(sub)
     colcon.add_graph_arguments(sub)
+
+
+def _info_parser(verb: _VerbMaker) -> None:
+    from wsbuild.verbs import colcon, listing
+
     sub = verb("info", "wsbuild.verbs.listing:run_info", listing.INFO_DOC,
                operands=" [PKG ...]")
     listing.add_info_arguments(sub)
     colcon.add_info_arguments(sub)
+
+
+def _build_parser(verb: _VerbMaker) -> None:
+    from wsbuild.verbs import build, colcon
+
     sub = verb("build", "wsbuild.verbs.build:run_build_verb", build.BUILD_DOC)
     build.add_arguments(sub)
     colcon.add_build_arguments(sub)
+
+
+def _test_parser(verb: _VerbMaker) -> None:
+    from wsbuild.verbs import colcon, test
+
     sub = verb("test", "wsbuild.verbs.test:run_test_verb", test.TEST_DOC)
     test.add_arguments(sub)
     colcon.add_test_arguments(sub)
 
+
+def _clean_parser(verb: _VerbMaker) -> None:
     from wsbuild.verbs.clean import CLEAN_DOC, add_clean_arguments
 
     add_clean_arguments(verb("clean", "wsbuild.verbs.clean:run_clean", CLEAN_DOC))
 
+
+def _deps_parser(verb: _VerbMaker) -> None:
     from wsbuild.verbs import deps
 
     deps.add_arguments(verb("deps", "wsbuild.verbs.deps:run_deps", deps.DEPS_DOC,
                             operands=" [check|install]"))
 
-    _result_and_tool_parsers(verbs)
-    _mixin_parsers(verbs)
-    _pkg_parsers(verbs, pkg_arguments)
-    _underlay_parsers(verbs)
-    _cache_parsers(verbs)
-    return parser
 
-
-
-def _result_and_tool_parsers(verbs: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
-    """completion, test-result, report and run: verbs that work on what a run left behind."""
-    from wsbuild.verbs import colcon, run, test
-
+def _completion_parser(verbs: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
     from wsbuild.verbs.completion import COMPLETION_DOC, add_completion_arguments
 
     sub = verbs.add_parser("completion", help=COMPLETION_DOC.partition("\n")[0],
                            description=COMPLETION_DOC.strip(), formatter_class=_Formatter)
     sub.set_defaults(func="wsbuild.verbs.completion:run_completion")
     add_completion_arguments(sub)
+
+
+def _test_result_parser(verbs: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
+    from wsbuild.verbs import colcon, test
 
     sub = verbs.add_parser("test-result", help="show the results of earlier test runs",
                            description=test.TEST_RESULT_DOC.strip(), formatter_class=_Formatter,
@@ -145,6 +207,8 @@ def _result_and_tool_parsers(verbs: argparse._SubParsersAction) -> None:  # type
     test.add_result_arguments(sub)
     colcon.add_test_result_arguments(sub)
 
+
+def _report_parser(verbs: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
     from wsbuild.verbs.report import REPORT_DOC, add_report_arguments
 
     sub = verbs.add_parser("report", help=REPORT_DOC.partition("\n")[0],
@@ -152,12 +216,17 @@ def _result_and_tool_parsers(verbs: argparse._SubParsersAction) -> None:  # type
     sub.set_defaults(func="wsbuild.verbs.report:run_report")
     add_report_arguments(sub)
 
+
+def _run_parser(verbs: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
+    from wsbuild.verbs import run
+
     sub = verbs.add_parser("run", help="run an executable of an installed package",
                            description=run.RUN_DOC.strip(), formatter_class=_Formatter)
     sub.set_defaults(func="wsbuild.verbs.run:run_executable")
     run.add_arguments(sub)
 
-def _mixin_parsers(verbs: argparse._SubParsersAction) -> None:
+
+def _mixin_parser(verbs: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
     from wsbuild.verbs import mixin
 
     sub = verbs.add_parser("mixin", help="manage colcon-mixin's named option sets",
@@ -172,7 +241,8 @@ def _mixin_parsers(verbs: argparse._SubParsersAction) -> None:
     mixin.add_arguments(actions, make)
 
 
-def _pkg_parsers(verbs: argparse._SubParsersAction, pkg_arguments: bool) -> None:
+def _pkg_parser(verbs: argparse._SubParsersAction,  # type: ignore[type-arg]
+                pkg_arguments: bool) -> None:
     from wsbuild.verbs.pkg import CREATE_DOC
 
     sub = verbs.add_parser("pkg", help="create packages",
@@ -189,7 +259,7 @@ def _pkg_parsers(verbs: argparse._SubParsersAction, pkg_arguments: bool) -> None
         add_pkg_create_arguments(create)
 
 
-def _underlay_parsers(verbs: argparse._SubParsersAction) -> None:
+def _underlay_parser(verbs: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
     from wsbuild.verbs.underlay import UNDERLAY_DOC
 
     sub = verbs.add_parser("underlay", help="check or repair the ROS underlay in the virtualenv",
@@ -202,7 +272,7 @@ def _underlay_parsers(verbs: argparse._SubParsersAction) -> None:
     repair.set_defaults(func="wsbuild.verbs.underlay:run_repair")
 
 
-def _cache_parsers(verbs: argparse._SubParsersAction) -> None:
+def _cache_parser(verbs: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
     from wsbuild.verbs.cache import CACHE_DOC, add_prune_arguments
 
     sub = verbs.add_parser("cache", help="look after the local build cache",
@@ -274,7 +344,7 @@ def _known_long_options(argv: Sequence[str]) -> set[str]:
     `test --ctest-args --verbose` passes `--verbose` on, although test-result has one)."""
     from wsbuild.verbs.defaults import chosen_verb, verb_parsers
 
-    parser = build_parser(pkg_arguments=False)
+    parser = build_parser(pkg_arguments=False, verbs=verbs_named(argv))
     parsers = [parser, verb_parsers(parser).get(chosen_verb(parser, argv), parser)]
     names = {o for p in parsers for a in p._actions for o in a.option_strings  # no public walk
              if o.startswith("--")}
@@ -300,7 +370,7 @@ def parse_command_line(raw: list[str], environ: Mapping[str, str],
 
     def make_parser(verbs_in_defaults: set[str]) -> argparse.ArgumentParser:
         full = "pkg" in raw or any(v.split(".")[0] == "pkg" for v in verbs_in_defaults)
-        return build_parser(pkg_arguments=full)
+        return build_parser(pkg_arguments=full, verbs=verbs_named(raw, verbs_in_defaults))
 
     def finish(parser: argparse.ArgumentParser, verb: str, args: argparse.Namespace) -> None:
         _finish(parser, verb, args, environ, cwd)

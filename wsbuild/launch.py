@@ -1,7 +1,7 @@
 """The `wsbuild` command: `wsbuild --version` is answered before anything is imported, and a
-`wsbuild build` that the last no-op's record shows to be one again is replayed from it
-(builder/noop.py); everything else goes to cli.py, with the sourced workspaces' Python paths
-searched last."""
+command whose inputs did not change since its last run (a no-op build, `list`, `graph`,
+`info`) is replayed from that run's record (engine/replay.py); everything else goes to cli.py,
+with the sourced workspaces' Python paths searched last."""
 
 from __future__ import annotations
 
@@ -17,16 +17,16 @@ def main() -> int:
         print(f"wsbuild {__version__}")
         return 0
     search_pythonpath_last()
-    if argv[:1] != ["build"]:
+    from wsbuild.engine import replay
+
+    if not argv or argv[0] not in replay.VERBS:
         from wsbuild.cli import main as run_command_line
 
         return run_command_line(argv)
-    from wsbuild.builder import noop
-
-    replayed = noop.replay(argv)
+    replayed = replay.replay(argv)
     if replayed is not None:
         return replayed
-    from wsbuild.builder.noop_record import recording
+    from wsbuild.engine.recording import recording
 
     with recording(argv) as finish:
         from wsbuild.cli import main as run_command_line

@@ -45,7 +45,7 @@ from wsbuild.session import Session, SessionOptions, open_session
 from wsbuild.workspace.selected import Selection
 
 from wsbuild.engine.cpu_sampler import CpuSampler
-from wsbuild.builder import noop_record
+from wsbuild.engine import recording
 from wsbuild.runreport.write import start_sampler
 
 if TYPE_CHECKING:  # what only packages to build need: a no-op imports none of it
@@ -73,7 +73,7 @@ def run_build(selection: Selection, request: BuildRequest, emit: Emit) -> list[J
     cpu_before = cpu_times()
     with open_session(selection.workspace, session_options(request), emit) as session:
         plan = make_plan(selection, request, session)
-        watcher = noop_record.recorder()
+        watcher = recording.recorder()
         if watcher is not None and (plan.refusal is not None or plan.to_do()):
             watcher.drop()
         if plan.refusal is not None:

@@ -19,7 +19,6 @@ from wsbuild.engine.timings import (
     read_durations,
     write_timings,
 )
-from wsbuild.runreport.page import write_report
 from wsbuild.runreport.record import BuildFacts, build_record, test_run_record, write_record
 
 if TYPE_CHECKING:
@@ -40,7 +39,11 @@ def _written(run_log: Path, record: Mapping[str, object], *, page: bool = True
     was not written."""
     try:
         write_record(run_log, record)
-        return write_report(run_log) if page else None
+        if not page:
+            return None
+        from wsbuild.runreport.page import write_report
+
+        return write_report(run_log)
     except OSError as exc:
         return f"report not written: {exc.strerror or exc}"
 

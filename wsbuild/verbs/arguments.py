@@ -5,11 +5,13 @@ from __future__ import annotations
 
 import argparse
 import os
-from dataclasses import fields
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from wsbuild.workspace.root import BUILD_BASE, INSTALL_BASE, LOG_BASE, Workspace
-from wsbuild.workspace.selection import SelectionOptions
+
+if TYPE_CHECKING:  # imported when a verb runs, not to parse its arguments
+    from wsbuild.workspace.selection import SelectionOptions
 
 #: options whose values are handed through to another tool and may start with '-'
 PASSTHROUGH = ("--cmake-args", "--pytest-args", "--ctest-args", "--ament-cmake-args",
@@ -133,6 +135,10 @@ _OPTIONAL = ("packages_select", "packages_select_regex", "packages_start", "pack
 
 def selection_from_args(args: argparse.Namespace) -> SelectionOptions:
     """The --packages-* options of `args` (absent ones: not given)."""
+    from dataclasses import fields
+
+    from wsbuild.workspace.selection import SelectionOptions
+
     values = {}
     for field in fields(SelectionOptions):
         value = getattr(args, field.name, None)

@@ -13,6 +13,7 @@ from wsbuild.report import print_warnings
 
 if TYPE_CHECKING:  # the modules of the work are imported when a verb runs, not to parse
     from wsbuild.workspace.graph import Graph
+    from wsbuild.verbs.load import Loaded
     from wsbuild.workspace.model import Package
 
 LIST_DOC = """List the packages of the workspace.
@@ -76,11 +77,22 @@ def _relative(path: Path, root: Path) -> str:
         return str(path)
 
 
+def _read_only(loaded: Loaded) -> None:
+    """This run only reads and prints: when it ends well, its record lets the same command on
+    an unchanged workspace be replayed (engine/replay.py)."""
+    from wsbuild.engine.recording import recorder
+
+    watcher = recorder()
+    if watcher is not None:
+        watcher.read_only(build_base=loaded.workspace.build_base)
+
+
 def run_list(args: argparse.Namespace) -> int:
     """List the selected packages."""
     from wsbuild.verbs.load import load
 
     loaded = load(args, warn=print_warnings, remember=True)
+    _read_only(loaded)
     graph_style = "dot" if getattr(args, "topological_graph_dot", False) else "text" if \
         getattr(args, "topological_graph", False) else None
     if graph_style is not None:  # colcon list -g / --topological-graph-dot
@@ -193,6 +205,7 @@ def run_graph(args: argparse.Namespace) -> int:
     from wsbuild.verbs.load import load
 
     loaded = load(args, warn=print_warnings, remember=True)
+    _read_only(loaded)
     style = "dot" if args.dot else "mermaid" if args.mermaid else "text"
     text = format_graph(loaded.graph, loaded.selected, style)
     if text:
@@ -206,6 +219,7 @@ def run_info(args: argparse.Namespace) -> int:
     from wsbuild.verbs.load import load
 
     loaded = load(args, warn=print_warnings, remember=True)
+    _read_only(loaded)
     resolver = _resolver()
     blocks = []
     records: list[dict[str, object]] = []

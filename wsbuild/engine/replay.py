@@ -1,17 +1,18 @@
-"""A no-op build answered from what the last no-op looked at.
+"""A command whose inputs did not change, answered from the record of its last run.
 
-A `wsbuild build` whose plan finds every package up to date records, while it runs, every path
-it looks at (stat, open, directory listing), then keeps those paths' stat signatures with the
-command line, the working directory, the environment, the terminal, what it printed and what
-it wrote to its log directory: `build/.wsbuild/noop/record.json` (builder/noop_record.py).
+`wsbuild build` when its plan finds every package up to date, and `list`, `graph` and `info`,
+which only read, record while they run every path they look at (stat, open, directory listing)
+and keep those paths' stat signatures with the command line, the working directory, the
+environment, the terminal, what they printed and (a build) what they wrote to its log
+directory: `build/.wsbuild/noop/<verb>.json` (engine/recording.py).
 
-The next `wsbuild build` with the same command line, in the same directory, environment and
-terminal, takes the workspace lock and stats those paths again (`replay`, here). When every one
-is as recorded, the full run would read the same files and so plan the same no-op: the run
-prints what the recorded one printed (with its own time) and writes a log directory with the
-same files (with its own times), without parsing, scanning or planning anything. Anything else
-(a path changed, another build holding the lock, no record) goes down the full path, which
-records anew. This module imports nothing a replay does not use.
+The next run of the same command line, in the same directory, environment and terminal, stats
+those paths again (`replay`, here; a build first takes the workspace lock). When every one is
+as recorded, the full run would read the same files and so print the same: the run prints what
+the recorded one printed (a build: with its own time, and a log directory with the same files
+and its own times), without parsing, scanning or planning anything. Anything else (a path
+changed, another build holding the lock, no record) goes down the full path, which records
+anew. This module imports nothing a replay does not use.
 """
 
 from __future__ import annotations
@@ -27,9 +28,12 @@ if TYPE_CHECKING:
     from collections.abc import Sequence
     from typing import Any
 
-#: relative to the working directory: the default build base of a run started at the root
-RECORD = Path("build") / ".wsbuild" / "noop" / "record.json"
-FORMAT = 5
+#: relative to the working directory: under the default build base of a run started at the
+#: workspace root, one record per verb
+RECORDS = Path("build") / ".wsbuild" / "noop"
+#: the verbs that are replayed: build (a no-op), and those that only read
+VERBS = frozenset({"build", "list", "graph", "info"})
+FORMAT = 6
 #: set by the shell for each command, meaningless to a build
 VOLATILE = frozenset({"_", "OLDPWD", "SHLVL"})
 #: what a record keeps in place of the summary's seconds and of the run's log directory
@@ -110,12 +114,21 @@ def _environ() -> dict[str, str]:
     return environ
 
 
+def record_path(verb: str) -> Path:
+    return RECORDS / f"{verb}.json"
+
+
 def replay(argv: Sequence[str]) -> int | None:
-    """Answer `wsbuild build <argv[1:]>` from the record, or None: run it in full."""
+    """Answer `wsbuild <argv>` from its record, or None: run it in full."""
     record = _read_record(argv)
     if record is None:
         return None
     started = time.monotonic()
+    if record["log"] is None:  # a verb that only reads
+        if not _unchanged(record):
+            return None
+        _print(record, {})
+        return 0
     from wsbuild.engine.lock import workspace_lock
     from wsbuild.errors import WorkspaceError
 
@@ -125,26 +138,49 @@ def replay(argv: Sequence[str]) -> int | None:
     except WorkspaceError:
         return None
     try:
-        if digest(record["paths"]) != record["digest"]:
+        if not _unchanged(record):
             return None
         run_log = _write_log(record["log"], started)
-        seconds = time.monotonic() - started
-        for stream, text in ((sys.stdout, record["stdout"]), (sys.stderr, record["stderr"])):
-            stream.write(text.replace(SECONDS, f"{seconds:.2f}").replace(RUN_LOG, str(run_log)))
-            stream.flush()
+        _print(record, {SECONDS: f"{time.monotonic() - started:.2f}", RUN_LOG: str(run_log)})
         return 0
     finally:
         lock.__exit__(None, None, None)
 
 
+def _unchanged(record: dict[str, Any]) -> bool:
+    try:
+        return digest(record["paths"]) == record["digest"]
+    except (TypeError, ValueError):  # not a record this version wrote
+        return False
+
+
+def _print(record: dict[str, Any], blanks: dict[str, str]) -> None:
+    """What the recorded run printed, its blanks filled in."""
+    for stream, text in ((sys.stdout, record["stdout"]), (sys.stderr, record["stderr"])):
+        for blank, value in blanks.items():
+            text = text.replace(blank, value)
+        stream.write(text)
+        stream.flush()
+
+
 def _read_record(argv: Sequence[str]) -> dict[str, Any] | None:
     """The record, when there is one for this command line, directory and environment."""
     try:
-        with open(RECORD, encoding="utf-8") as handle:
+        with open(record_path(argv[0]), encoding="utf-8") as handle:
             record = json.load(handle)
     except (OSError, ValueError):
         return None
     if not isinstance(record, dict) or record.get("key") != key_of(argv):
+        return None
+    log = record.get("log")
+    shapes = ((record.get("paths"), list), (record.get("digest"), int),
+              (record.get("stdout"), str), (record.get("stderr"), str),
+              (record.get("build_base"), str), (log, (dict, type(None))))
+    if not all(isinstance(value, kind) for value, kind in shapes):
+        return None
+    if log is not None and not (isinstance(log.get("timings"), dict)
+                                and isinstance(log.get("table"), list)
+                                and isinstance(log.get("log_base"), str)):
         return None
     return record
 

@@ -1,18 +1,20 @@
-"""The record of a no-op build that lets the next one be replayed (builder/noop.py).
+"""The record of a run that lets the next run of the same command be replayed
+(engine/replay.py).
 
-`recording(argv)` watches a whole `wsbuild build` run: it notes every path the run stats,
+`recording(argv)` watches a whole run of a replayed verb: it notes every path the run stats,
 opens, lists or reads a link of (by wrapping those functions of `os`, `io` and `builtins`) and
-keeps a copy of what the run prints. The build pipeline tells the `recorder()` whether the run
-is a no-op (`no_op`) or not (`drop`: the wrappers come off at once, before any package is
-built). At the end of a no-op that exited 0 the record is written: those paths, their parent
-directories and each listed directory's entries, each with its stat signature now.
+keeps a copy of what the run prints. The run tells the `recorder()` what it was: a build
+whose plan is a no-op calls `no_op` (or `drop` as soon as its plan has work: the wrappers come
+off before any package is built), a verb that only reads calls `read_only` when it is done.
+At the end of such a run, exiting 0, the record is written: those paths and each listed
+directory's entries, each with its stat signature now.
 
 A record is only written when it can be trusted:
-- Nothing the run looked at may have changed while it ran, or in the second before it started
-  (the "racy" rule of git's index): a change in the same timestamp tick as the read would not
-  show in a later stat, and a deleted file shows as its changed parent directory. A path whose
-  change time is that recent spoils the record, and the next build runs in full again.
-- The run's own outputs are not inputs: the log base, the workspace lock and the record.
+- What the run saw of each path (a stat's result; that an opened file existed) must be what
+  is there at the end, and nothing it looked at may have changed in the second before it
+  started (the "racy" rule of git's index): a change in the same timestamp tick as the read
+  would not show in a later stat. Otherwise there is no record, and the next run is full.
+- The run's own outputs are not inputs: the log base, the workspace lock and the records.
 - Accesses relative to a directory descriptor (shutil.rmtree's) and from C code (lxml reading
   package.xml) are not seen; the scan that finds those files lists their directory, and the
   entries of every listed directory are recorded.
@@ -34,15 +36,16 @@ from contextlib import contextmanager
 from pathlib import Path
 from typing import Any, TextIO
 
-from wsbuild.builder.noop import (
+from wsbuild.engine.replay import (
     ABSENT,
     FOLLOW,
     IDENTITY,
-    RECORD,
+    RECORDS,
     RUN_LOG,
     SECONDS,
     STARTED,
     key_of,
+    record_path,
     signature,
 )
 
@@ -91,6 +94,7 @@ class Recorder:
     """The paths a run looks at, from `install` until `finish` or `drop`."""
 
     def __init__(self, argv: Sequence[str]) -> None:
+        self.verb = argv[0]
         self.key = key_of(argv)
         self.started_ns = time.time_ns()
         #: (absolute path, follows symlinks) -> what the run first saw: a signature (stat,
@@ -100,14 +104,20 @@ class Recorder:
         self.listed: set[str] = set()
         self.outcome: dict[str, str] | None = None
         self.active = False
+        #: the run met something a record could not describe (a path it could not read)
+        self.spoiled = False
         self.stdout = _Tee(sys.stdout)
         self.stderr = _Tee(sys.stderr)
         self._saved: list[tuple[object, str, object]] = []
 
     def no_op(self, *, build_base: Path, log_base: Path, run_log: Path, seconds: float) -> None:
-        """The run was a no-op that ended well; `seconds` as its summary shows them."""
+        """The build was a no-op that ended well; `seconds` as its summary shows them."""
         self.outcome = {"build_base": str(build_base), "log_base": str(log_base),
                         "run_log": str(run_log), "seconds": f"{seconds:.2f}"}
+
+    def read_only(self, *, build_base: Path) -> None:
+        """The run only read, and printed all it did."""
+        self.outcome = {"build_base": str(build_base)}
 
     def drop(self) -> None:
         """Not a no-op: stop watching, write nothing."""
@@ -128,6 +138,9 @@ class Recorder:
             result = call(path, *args, **kwargs)
         except (FileNotFoundError, NotADirectoryError):
             self._note(path, follow, ABSENT)
+            raise
+        except OSError:
+            self.spoiled = True  # what the run made of it (unreadable: missing?) is unknown
             raise
         if isinstance(result, os.stat_result):
             self._note(path, follow, (result.st_mode, result.st_ino, result.st_size,
@@ -202,31 +215,35 @@ class Recorder:
         if sys.stderr is self.stderr:
             sys.stderr = self.stderr.stream
         outcome = self.outcome
-        if exit_code != 0 or outcome is None:
+        if exit_code != 0 or outcome is None or self.spoiled:
             return
-        if os.path.abspath(RECORD.parent.parent.parent) != outcome["build_base"]:
+        if os.path.abspath(RECORDS.parent.parent) != outcome["build_base"]:
             return  # a replay looks for the record under ./build only
         inputs = self._paths(outcome)
         stdout, stderr = self._text(self.stdout, outcome), self._text(self.stderr, outcome)
-        log = _log_of(Path(outcome["run_log"]), outcome["log_base"])
-        if inputs is None or stdout is None or stderr is None or log is None:
+        log = _log_of(Path(outcome["run_log"]), outcome["log_base"]) \
+            if "run_log" in outcome else None
+        if inputs is None or stdout is None or stderr is None or \
+                log is None and "run_log" in outcome:
             return
         record = {"key": self.key, "build_base": outcome["build_base"], "paths": inputs[0],
                   "digest": inputs[1], "stdout": stdout, "stderr": stderr, "log": log}
         from wsbuild.files import atomic_write
 
         try:
-            RECORD.parent.mkdir(parents=True, exist_ok=True)
-            atomic_write(RECORD.absolute(), json.dumps(record, separators=(",", ":")))
+            RECORDS.mkdir(parents=True, exist_ok=True)
+            atomic_write(record_path(self.verb).absolute(),
+                         json.dumps(record, separators=(",", ":")))
         except OSError:
-            pass  # the next build runs in full
+            pass  # the next run is a full one
 
     def _paths(self, outcome: dict[str, str]) -> tuple[list[list[object]], int] | None:
         """Every path the run looked at and each listed directory's entries that are not
-        directories, grouped by directory, with how to look at them again (noop.signature)
+        directories, grouped by directory, with how to look at them again (replay.signature)
         and the digest of their signatures now; None when one of them is not what the run
         saw, or changed too recently to trust."""
-        outputs = (outcome["log_base"] + os.sep, str(RECORD.parent.absolute()) + os.sep)
+        outputs = tuple(path + os.sep for path in (outcome.get("log_base"),
+                                                   str(RECORDS.absolute())) if path)
         lock = os.path.join(outcome["build_base"], ".wsbuild.build.lock")
         wanted: dict[tuple[str, bool], tuple[int, ...] | None] = dict(self.seen)
         for directory in self.listed:
@@ -258,13 +275,15 @@ class Recorder:
             grouped.setdefault(directory, []).append((name, how, now))
         paths: list[list[object]] = [[d, [n for n, _, _ in e], [h for _, h, _ in e]]
                                      for d, e in grouped.items()]
-        # the digest of these very signatures (in noop.digest's order): stat'ing again could
+        # the digest of these very signatures (in replay.digest's order): stat'ing again could
         # see a change made after the checks above
         return paths, hash(tuple(sig for e in grouped.values() for _, _, sig in e))
 
     def _text(self, tee: _Tee, outcome: dict[str, str]) -> str | None:
         """What the run printed, its summary's seconds and its log directory made blanks."""
         text = "".join(tee.parts)
+        if "run_log" not in outcome:
+            return text
         if tee is self.stdout:
             seconds = f"[{outcome['seconds']}s]"
             if text.count(seconds) != 1:
@@ -309,7 +328,8 @@ def recorder() -> Recorder | None:
 
 @contextmanager
 def recording(argv: Sequence[str]) -> Iterator[Callable[[int], None]]:
-    """Watch the run of `argv` (a build); call the yielded function with its exit code."""
+    """Watch the run of `argv` (a replayed verb's); call the yielded function with its exit
+    code."""
     global _active
     if any(arg.split("=")[0] in NOT_RECORDED for arg in argv):
         yield lambda code: None
