@@ -124,6 +124,29 @@ def run_wsbuild(*args: str, cwd: Path, env: Mapping[str, str] | None = None,
     )
 
 
+def needing_a_missing_distribution(tmp_path: Path) -> tuple[Path, Path]:
+    """A workspace whose one package build-depends on a Python distribution nothing provides
+    (`python3-wsb-probe-dist`), and an empty site directory to put on PYTHONPATH and install
+    it into (`install_probe_distribution`): (workspace, site)."""
+    ws = tmp_path / "ws"
+    package = write_package(ws / "src", "needs_it", "ament_python")
+    manifest = package / "package.xml"
+    manifest.write_text(manifest.read_text().replace(
+        "</package>", "  <build_depend>python3-wsb-probe-dist</build_depend>\n</package>"))
+    site = tmp_path / "site"
+    site.mkdir()
+    return ws, site
+
+
+def install_probe_distribution(site: Path) -> Path:
+    """What pip leaves in `site` for an installed wheel of wsb-probe-dist; its dist-info."""
+    info = site / "wsb_probe_dist-1.0.dist-info"
+    info.mkdir()
+    (info / "METADATA").write_text("Metadata-Version: 2.1\nName: wsb-probe-dist\nVersion: 1.0\n")
+    (info / "RECORD").write_text("")
+    return info
+
+
 #: two ament_python packages (pb depends on pa) and a plain cmake one
 SMALL_SPEC: dict[str, Spec] = {"pa": ("ament_python", []), "pb": ("ament_python", ["pa"]),
                                "pc": ("cmake", [])}

@@ -10,7 +10,11 @@ from collections.abc import Callable
 from pathlib import Path
 
 import pytest
-from conftest import run_wsbuild, write_package
+from conftest import (
+    install_probe_distribution,
+    needing_a_missing_distribution,
+    run_wsbuild,
+)
 
 from wsbuild.cli import main
 
@@ -44,13 +48,7 @@ def test_a_no_op_build_starts_no_process_and_no_thread(
 def test_an_underlay_change_is_noticed_by_the_next_build(tmp_path: Path) -> None:
     """The dependency check's result is remembered while its inputs hold: a distribution
     installed into a site directory after a build is seen by the next one."""
-    ws = tmp_path / "ws"
-    package = write_package(ws / "src", "needs_it", "ament_python")
-    manifest = package / "package.xml"
-    manifest.write_text(manifest.read_text().replace(
-        "</package>", "  <build_depend>python3-wsb-probe-dist</build_depend>\n</package>"))
-    site = tmp_path / "site"
-    site.mkdir()
+    ws, site = needing_a_missing_distribution(tmp_path)
     env = {**os.environ, "PYTHONPATH": str(site)}
 
     first = run_wsbuild("build", cwd=ws, env=env)
@@ -58,10 +56,7 @@ def test_an_underlay_change_is_noticed_by_the_next_build(tmp_path: Path) -> None
     again = run_wsbuild("build", cwd=ws, env=env)
     assert WARNING in again.stdout + again.stderr, "a remembered result is still reported"
 
-    info = site / "wsb_probe_dist-1.0.dist-info"  # what pip leaves for an installed wheel
-    info.mkdir()
-    (info / "METADATA").write_text("Metadata-Version: 2.1\nName: wsb-probe-dist\nVersion: 1.0\n")
-    (info / "RECORD").write_text("")
+    info = install_probe_distribution(site)
     installed = run_wsbuild("build", cwd=ws, env=env)
     assert installed.returncode == 0
     assert WARNING not in installed.stdout + installed.stderr, installed.stdout

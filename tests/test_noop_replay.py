@@ -16,7 +16,11 @@ from pathlib import Path
 
 import pytest
 from conftest import run_wsbuild as run_in_environment
-from conftest import write_package
+from conftest import (
+    install_probe_distribution,
+    needing_a_missing_distribution,
+    write_package,
+)
 
 from wsbuild import cli, launch
 from wsbuild.engine import replay
@@ -97,7 +101,6 @@ def test_the_next_no_op_is_replayed_with_the_same_output_and_log(
         recorded: tuple[Path, Runs]) -> None:
     ws, runs = recorded
     full_log = (ws / "log" / "latest_build").resolve()
-    full = (full_log / "up_to_date.log").read_text()
     code, out, replayed = runs.build()
     assert code == 0 and replayed, out
     assert out.splitlines()[1:] == ["  2 packages up to date"]
@@ -231,13 +234,7 @@ def test_an_underlay_change_after_a_recorded_no_op_is_noticed(
         capsys: pytest.CaptureFixture[str]) -> None:
     """A replay repeats the warnings of the run it repeats; a distribution installed into a
     site directory afterwards is seen (the full path runs again)."""
-    ws = tmp_path / "ws"
-    package = write_package(ws / "src", "needs_it", "ament_python")
-    manifest = package / "package.xml"
-    manifest.write_text(manifest.read_text().replace(
-        "</package>", "  <build_depend>python3-wsb-probe-dist</build_depend>\n</package>"))
-    site = tmp_path / "site"
-    site.mkdir()
+    ws, site = needing_a_missing_distribution(tmp_path)
     monkeypatch.setenv("PYTHONPATH", str(site))
     monkeypatch.setenv("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
     assert run_wsbuild("build", cwd=ws).returncode == 0
@@ -248,9 +245,7 @@ def test_an_underlay_change_after_a_recorded_no_op_is_noticed(
     code, out, replayed = runs.build()
     assert code == 0 and replayed and WARNING in out, "a replay repeats the warning"
 
-    info = site / "wsb_probe_dist-1.0.dist-info"
-    info.mkdir()
-    (info / "METADATA").write_text("Metadata-Version: 2.1\nName: wsb-probe-dist\nVersion: 1.0\n")
+    install_probe_distribution(site)
     code, out, replayed = runs.build()
     assert code == 0 and not replayed and WARNING not in out, out
 

@@ -7,13 +7,15 @@ keeps a copy of what the run prints. The run tells the `recorder()` what it was:
 whose plan is a no-op calls `no_op` (or `drop` as soon as its plan has work: the wrappers come
 off before any package is built), a verb that only reads calls `read_only` when it is done.
 At the end of such a run, exiting 0, the record is written: those paths and each listed
-directory's entries, each with its stat signature now.
+directory's entries, each with its signature.
 
 A record is only written when it can be trusted:
-- What the run saw of each path (a stat's result; that an opened file existed) must be what
-  is there at the end, and nothing it looked at may have changed in the second before it
-  started (the "racy" rule of git's index): a change in the same timestamp tick as the read
-  would not show in a later stat. Otherwise there is no record, and the next run is full.
+- It holds what the run saw of each path it stat'ed (a change after that read shows at the
+  next replay) and, for files it opened and the entries of directories it listed, their
+  signatures at its end (an opened file gone by then spoils it). Nothing it looked at may have
+  changed in the second before it started (the "racy" rule of git's index): a change in the
+  same timestamp tick as the read would not show in a later stat. Otherwise there is no
+  record, and the next run is full.
 - The run's own outputs are not inputs: the log base, the workspace lock and the records.
 - Accesses relative to a directory descriptor (shutil.rmtree's) and from C code (lxml reading
   package.xml) are not seen; the scan that finds those files lists their directory, and the
@@ -96,6 +98,8 @@ class Recorder:
     def __init__(self, argv: Sequence[str]) -> None:
         self.verb = argv[0]
         self.key = key_of(argv)
+        #: wsbuild never changes its working directory (it starts commands in others)
+        self.cwd = os.getcwd()
         self.started_ns = time.time_ns()
         #: (absolute path, follows symlinks) -> what the run first saw: a signature (stat,
         #: lstat), ABSENT, or OPENED
@@ -127,31 +131,44 @@ class Recorder:
         self.stderr.parts.clear()
         self._uninstall()
 
-    def _note(self, path: object, follow: bool, saw: tuple[int, ...]) -> None:
-        if self.active and isinstance(path, (str, bytes, os.PathLike)):
-            self.seen.setdefault((os.path.abspath(os.fsdecode(path)), follow), saw)
+    def _absolute(self, path: object) -> str | None:
+        """`path` as the key of what was seen (None: not a path, e.g. a descriptor). Not
+        normalised: the run's paths are, and a path seen twice in two spellings is merely
+        stat'ed twice by a replay."""
+        if type(path) is not str:
+            if not isinstance(path, (str, bytes, os.PathLike)):
+                return None
+            path = os.fsdecode(path)
+        return path if path[:1] == "/" else os.path.join(self.cwd, path)  # type: ignore[index]
 
     def _watched(self, call: Callable[..., Any], path: Any, follow: bool,
                  *args: Any, **kwargs: Any) -> Any:
-        """`call(path, ...)`, noting what it saw of `path`."""
+        """`call(path, ...)`, noting what it saw of `path` (the first time)."""
         try:
             result = call(path, *args, **kwargs)
         except (FileNotFoundError, NotADirectoryError):
-            self._note(path, follow, ABSENT)
+            self._saw(path, follow, ABSENT)
             raise
         except OSError:
             self.spoiled = True  # what the run made of it (unreadable: missing?) is unknown
             raise
-        if isinstance(result, os.stat_result):
-            self._note(path, follow, (result.st_mode, result.st_ino, result.st_size,
-                                      result.st_mtime_ns, result.st_ctime_ns))
+        if type(result) is os.stat_result:
+            self._saw(path, follow, (result.st_mode, result.st_ino, result.st_size,
+                                     result.st_mtime_ns, result.st_ctime_ns))
         else:
-            self._note(path, follow, OPENED)
+            self._saw(path, follow, OPENED)
         return result
 
+    def _saw(self, path: object, follow: bool, saw: tuple[int, ...]) -> None:
+        if self.active:
+            name = self._absolute(path)
+            if name is not None and (name, follow) not in self.seen:
+                self.seen[(name, follow)] = saw
+
     def _note_listed(self, path: object) -> None:
-        if self.active and isinstance(path, (str, bytes, os.PathLike)):
-            self.listed.add(os.path.abspath(os.fsdecode(path)))
+        name = self._absolute(path) if self.active else None
+        if name is not None:
+            self.listed.add(name)
 
     def install(self) -> None:
         watched, note_listed = self._watched, self._note_listed
@@ -240,8 +257,9 @@ class Recorder:
     def _paths(self, outcome: dict[str, str]) -> tuple[list[list[object]], int] | None:
         """Every path the run looked at and each listed directory's entries that are not
         directories, grouped by directory, with how to look at them again (replay.signature)
-        and the digest of their signatures now; None when one of them is not what the run
-        saw, or changed too recently to trust."""
+        and the digest of their signatures: what the run saw where it stat'ed them, else
+        their signatures now; None when an opened file is gone, or a path changed too
+        recently to trust."""
         outputs = tuple(path + os.sep for path in (outcome.get("log_base"),
                                                    str(RECORDS.absolute())) if path)
         lock = os.path.join(outcome["build_base"], ".wsbuild.build.lock")
@@ -261,14 +279,15 @@ class Recorder:
             if path == lock or (path + os.sep).startswith(outputs):
                 continue
             how = FOLLOW if follow else 0
-            now = signature(path, how)
+            # a stat's result is what the run decided on; a later change shows at replay
+            now = signature(path, how) if saw is None or saw is OPENED else saw
+            if saw is OPENED and now == ABSENT:
+                return None  # deleted while the run ran
             if not follow and stat.S_ISDIR(now[0]) and path not in self.listed:
                 how |= IDENTITY
-                now, saw = now[:2], (saw[:2] if saw not in (None, OPENED) else saw)
+                now = now[:2]
             elif max(now[3:], default=0) >= racy:
                 return None
-            if saw is OPENED and now == ABSENT or saw not in (None, OPENED) and saw != now:
-                return None  # changed while the run ran
             directory, name = os.path.split(path)
             if not name:  # the root directory
                 directory, name = path, ""
