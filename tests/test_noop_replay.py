@@ -300,3 +300,33 @@ def test_a_damaged_record_means_a_full_run(recorded: tuple[Path, Runs]) -> None:
     assert code == 0 and not replayed and "2 packages up to date" in out
     path.write_text("{not json")
     assert runs.build()[2] is False
+
+
+def test_a_reader_that_stops_early_gets_no_error_and_leaves_no_short_record(
+        make_workspace: Callable[..., Path]) -> None:
+    """`wsbuild list | true`: neither a replay nor the full run complains, and a full run whose
+    output was cut short leaves no record (a verb that prints as it goes would have printed
+    only part of its answer, and a later `wsbuild list > file` must get all of it)."""
+    names = [f"pkg_{index:03d}" for index in range(300)]
+    ws = make_workspace({name: ("cmake", []) for name in names})
+    environ = {k: v for k, v in os.environ.items() if k != PYTEST_VARIABLE}
+    record = ws / replay.record_path("list")
+
+    def shell(pipe: str) -> subprocess.CompletedProcess[str]:
+        """`wsbuild list` run as a user's shell runs it (bash sets PWD, part of the key)."""
+        done = subprocess.run(["bash", "-o", "pipefail", "-c",
+                               f"{sys.executable} -m wsbuild list{pipe}"], cwd=ws,
+                              env=environ, capture_output=True, text=True, timeout=120)
+        assert done.returncode == 0 and done.stderr == "", done.stderr
+        return done
+
+    shell("")  # makes build/: too recent to be recorded
+    time.sleep(SETTLE)
+    complete = shell("")
+    assert [line.split()[0] for line in complete.stdout.splitlines()] == names
+    assert record.is_file()
+    shell(" | true")  # replayed: the reader is gone before it writes
+    record.unlink()
+    shell(" | true")  # in full
+    assert not record.exists(), "a run whose output was cut short is not replayed"
+    assert shell("").stdout == complete.stdout

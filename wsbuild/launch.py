@@ -23,7 +23,11 @@ def main() -> int:
         from wsbuild.cli import main as run_command_line
 
         return run_command_line(argv)
-    replayed = replay.replay(argv)
+    try:
+        replayed = replay.replay(argv)
+    except KeyboardInterrupt:
+        print("wsbuild: interrupted", file=sys.stderr)
+        return 130
     if replayed is not None:
         return replayed
     from wsbuild.engine.recording import recording

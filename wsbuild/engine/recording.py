@@ -65,14 +65,24 @@ class _Tee(io.TextIOBase):
         self.stream = stream
         self.parts: list[str] = []
         self.keep = True
+        #: a write failed (`wsbuild list | head -1`): the copy is not what the run printed
+        self.failed = False
 
     def write(self, text: str) -> int:
         if self.keep:
             self.parts.append(text)
-        return self.stream.write(text)
+        try:
+            return self.stream.write(text)
+        except BaseException:
+            self.failed = True
+            raise
 
     def flush(self) -> None:
-        self.stream.flush()
+        try:
+            self.stream.flush()
+        except BaseException:
+            self.failed = True
+            raise
 
     def isatty(self) -> bool:
         return self.stream.isatty()
@@ -232,7 +242,8 @@ class Recorder:
         if sys.stderr is self.stderr:
             sys.stderr = self.stderr.stream
         outcome = self.outcome
-        if exit_code != 0 or outcome is None or self.spoiled:
+        if exit_code != 0 or outcome is None or self.spoiled or self.stdout.failed \
+                or self.stderr.failed:
             return
         if os.path.abspath(RECORDS.parent.parent) != outcome["build_base"]:
             return  # a replay looks for the record under ./build only

@@ -140,7 +140,10 @@ def replay(argv: Sequence[str]) -> int | None:
     try:
         if not _unchanged(record):
             return None
-        run_log = _write_log(record["log"], started)
+        try:
+            run_log = _write_log(record["log"], started)
+        except OSError:
+            return None  # the full run says what is wrong (a full disk, a read-only log/)
         _print(record, {SECONDS: f"{time.monotonic() - started:.2f}", RUN_LOG: str(run_log)})
         return 0
     finally:
@@ -155,12 +158,16 @@ def _unchanged(record: dict[str, Any]) -> bool:
 
 
 def _print(record: dict[str, Any], blanks: dict[str, str]) -> None:
-    """What the recorded run printed, its blanks filled in."""
+    """What the recorded run printed, its blanks filled in. A reader that went away
+    (`wsbuild list | head -1`) is no error, as in cli.py."""
     for stream, text in ((sys.stdout, record["stdout"]), (sys.stderr, record["stderr"])):
         for blank, value in blanks.items():
             text = text.replace(blank, value)
-        stream.write(text)
-        stream.flush()
+        try:
+            stream.write(text)
+            stream.flush()
+        except BrokenPipeError:
+            os.dup2(os.open(os.devnull, os.O_WRONLY), stream.fileno())
 
 
 def _read_record(argv: Sequence[str]) -> dict[str, Any] | None:
