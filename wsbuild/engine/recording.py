@@ -170,10 +170,17 @@ class Recorder:
         return result
 
     def _saw(self, path: object, follow: bool, saw: tuple[int, ...]) -> None:
-        if self.active:
+        if not self.active:
+            return
+        if type(path) is str and path[:1] == "/":
+            key = (path, follow)
+        else:
             name = self._absolute(path)
-            if name is not None and (name, follow) not in self.seen:
-                self.seen[(name, follow)] = saw
+            if name is None:
+                return
+            key = (name, follow)
+        if key not in self.seen:
+            self.seen[key] = saw
 
     def _note_listed(self, path: object) -> None:
         name = self._absolute(path) if self.active else None
@@ -185,16 +192,39 @@ class Recorder:
         os_stat, lstat, scandir, listdir = os.stat, os.lstat, os.scandir, os.listdir
         os_open, readlink, file_open = os.open, os.readlink, builtins.open
 
+        saw = self._saw
+
+        # stat and lstat are called tens of thousands of times in a large workspace: no
+        # detour through _watched
         def watched_stat(path: Any, *, dir_fd: Any = None,
                          follow_symlinks: bool = True) -> os.stat_result:
             if dir_fd is not None:
                 return os_stat(path, dir_fd=dir_fd, follow_symlinks=follow_symlinks)
-            return watched(os_stat, path, follow_symlinks, follow_symlinks=follow_symlinks)
+            try:
+                st = os_stat(path, follow_symlinks=follow_symlinks)
+            except (FileNotFoundError, NotADirectoryError):
+                saw(path, follow_symlinks, ABSENT)
+                raise
+            except OSError:
+                self.spoiled = True
+                raise
+            saw(path, follow_symlinks,
+                (st.st_mode, st.st_ino, st.st_size, st.st_mtime_ns, st.st_ctime_ns))
+            return st
 
         def watched_lstat(path: Any, *, dir_fd: Any = None) -> os.stat_result:
             if dir_fd is not None:
                 return lstat(path, dir_fd=dir_fd)
-            return watched(lstat, path, False)
+            try:
+                st = lstat(path)
+            except (FileNotFoundError, NotADirectoryError):
+                saw(path, False, ABSENT)
+                raise
+            except OSError:
+                self.spoiled = True
+                raise
+            saw(path, False, (st.st_mode, st.st_ino, st.st_size, st.st_mtime_ns, st.st_ctime_ns))
+            return st
 
         def watched_scandir(path: Any = ".") -> Any:
             note_listed(path)
@@ -241,6 +271,12 @@ class Recorder:
             sys.stdout = self.stdout.stream
         if sys.stderr is self.stderr:
             sys.stderr = self.stderr.stream
+        try:
+            self._write(exit_code)
+        except Exception:  # noqa: BLE001 - a record is never worth failing the run
+            pass  # (a bug here shows as no record: tests/test_noop_replay.py)
+
+    def _write(self, exit_code: int) -> None:
         outcome = self.outcome
         if exit_code != 0 or outcome is None or self.spoiled or self.stdout.failed \
                 or self.stderr.failed:
@@ -275,7 +311,7 @@ class Recorder:
                                                    str(RECORDS.absolute())) if path)
         lock = os.path.join(outcome["build_base"], ".wsbuild.build.lock")
         wanted: dict[tuple[str, bool], tuple[int, ...] | None] = dict(self.seen)
-        for directory in self.listed:
+        for directory in sorted(self.listed):  # (a set: the same record for the same run)
             wanted.setdefault((directory, True), None)
             try:
                 entries = list(os.scandir(directory))
@@ -286,7 +322,7 @@ class Recorder:
                     wanted.setdefault((entry.path, False), None)
         racy = self.started_ns - RACY_NS
         grouped: dict[str, list[tuple[str, int, tuple[int, ...]]]] = {}
-        for (path, follow), saw in sorted(wanted.items()):
+        for (path, follow), saw in wanted.items():
             if path == lock or (path + os.sep).startswith(outputs):
                 continue
             how = FOLLOW if follow else 0
@@ -299,8 +335,8 @@ class Recorder:
                 now = now[:2]
             elif max(now[3:], default=0) >= racy:
                 return None
-            directory, name = os.path.split(path)
-            if not name:  # the root directory
+            directory, _, name = path.rpartition("/")
+            if not name or not directory:  # "/" and the directories right under it
                 directory, name = path, ""
             grouped.setdefault(directory, []).append((name, how, now))
         paths: list[list[object]] = [[d, [n for n, _, _ in e], [h for _, h, _ in e]]
