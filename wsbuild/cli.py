@@ -66,6 +66,29 @@ VERBS = ("list", "graph", "info", "build", "test", "clean", "deps", "completion"
          "test-result", "report", "run", "mixin", "pkg", "underlay", "cache")
 
 
+class _Tree:
+    """The verbs' subparsers while build_parser() fills them."""
+
+    def __init__(self, subparsers: argparse._SubParsersAction,  # type: ignore[type-arg]
+                 pkg_arguments: bool) -> None:
+        self.subparsers = subparsers
+        self.pkg_arguments = pkg_arguments
+
+    def verb(self, name: str, func: str, doc: str, *, selection: bool = True,
+             operands: str = "") -> argparse.ArgumentParser:
+        """A verb with the workspace (and `selection`) options; --help shows the common
+        ones, --help-all every one."""
+        sub = self.subparsers.add_parser(name, help=doc.strip().partition("\n")[0],
+                                         description=doc.strip(), add_help=False,
+                                         formatter_class=_Formatter,
+                                         usage=f"%(prog)s [options]{operands}   "
+                                               "(every option: --help-all)")
+        sub.set_defaults(func=func)
+        _help_arguments(sub)
+        add_workspace_arguments(sub, selection=selection)
+        return sub
+
+
 def build_parser(*, pkg_arguments: bool = True,
                  verbs: Collection[str] | None = None) -> argparse.ArgumentParser:
     """The argument tree: every verb, or (`verbs`) only those named (a command line needs
@@ -86,36 +109,10 @@ def build_parser(*, pkg_arguments: bool = True,
     colcon.add_global_arguments(parser)
     subparsers = parser.add_subparsers(dest="verb", metavar="VERB")
     subparsers.required = True
-
-    def verb(name: str, func: str, doc: str, *, selection: bool = True,
-             operands: str = "") -> argparse.ArgumentParser:
-        summary, _, details = doc.strip().partition("\n")
-        sub = subparsers.add_parser(name, help=summary, description=doc.strip(),
-                                    add_help=False, formatter_class=_Formatter,
-                                    usage=f"%(prog)s [options]{operands}   "
-                                          "(every option: --help-all)")
-        sub.set_defaults(func=func)
-        _help_arguments(sub)
-        add_workspace_arguments(sub, selection=selection)
-        return sub
-
-    adders = {
-        "list": _list_parser, "graph": _graph_parser, "info": _info_parser,
-        "build": _build_parser, "test": _test_parser, "clean": _clean_parser,
-        "deps": _deps_parser, "completion": _completion_parser,
-        "test-result": _test_result_parser, "report": _report_parser, "run": _run_parser,
-        "mixin": _mixin_parser, "underlay": _underlay_parser, "cache": _cache_parser,
-    }
+    tree = _Tree(subparsers, pkg_arguments)
     for name in VERBS:
-        if verbs is not None and name not in verbs:
-            continue
-        if name == "pkg":
-            _pkg_parser(subparsers, pkg_arguments)
-        elif name in ("completion", "test-result", "report", "run", "mixin", "underlay",
-                      "cache"):
-            adders[name](subparsers)
-        else:
-            adders[name](verb)
+        if verbs is None or name in verbs:
+            _ADDERS.get(name, _mirrored_parser)(tree, name)
     return parser
 
 
@@ -129,75 +126,58 @@ def verbs_named(argv: Sequence[str], also: Collection[str] = ()) -> set[str] | N
     return named | {key.split(".")[0] for key in also}
 
 
-_VerbMaker = Callable[..., argparse.ArgumentParser]
+#: the verbs that mirror colcon's: their module under wsbuild.verbs, the function that runs
+#: them, the name of their doc and of the function adding their own options, their operands;
+#: colcon's options come from verbs/colcon.py's add_<verb>_arguments
+_MIRRORED = {
+    "list": ("listing", "run_list", "LIST_DOC", "add_list_arguments", ""),
+    "graph": ("listing", "run_graph", "GRAPH_DOC", "add_graph_arguments", ""),
+    "info": ("listing", "run_info", "INFO_DOC", "add_info_arguments", " [PKG ...]"),
+    "build": ("build", "run_build_verb", "BUILD_DOC", "add_arguments", ""),
+    "test": ("test", "run_test_verb", "TEST_DOC", "add_arguments", ""),
+}
 
 
-def _list_parser(verb: _VerbMaker) -> None:
-    from wsbuild.verbs import colcon, listing
+def _mirrored_parser(tree: _Tree, name: str) -> None:
+    import importlib
 
-    sub = verb("list", "wsbuild.verbs.listing:run_list", listing.LIST_DOC)
-    listing.add_list_arguments(sub)
-    colcon.add_list_arguments(sub)
+    from wsbuild.verbs import colcon
 
-
-def _graph_parser(verb: _VerbMaker) -> None:
-    from wsbuild.verbs import colcon, listing
-
-    sub = verb("graph", "wsbuild.verbs.listing:run_graph", listing.GRAPH_DOC)
-    listing.add_graph_arguments(sub)
-    colcon.add_graph_arguments(sub)
+    module_name, run, doc, own_arguments, operands = _MIRRORED[name]
+    module = importlib.import_module(f"wsbuild.verbs.{module_name}")
+    sub = tree.verb(name, f"wsbuild.verbs.{module_name}:{run}", getattr(module, doc),
+                    operands=operands)
+    getattr(module, own_arguments)(sub)
+    getattr(colcon, f"add_{name}_arguments")(sub)
 
 
-def _info_parser(verb: _VerbMaker) -> None:
-    from wsbuild.verbs import colcon, listing
-
-    sub = verb("info", "wsbuild.verbs.listing:run_info", listing.INFO_DOC,
-               operands=" [PKG ...]")
-    listing.add_info_arguments(sub)
-    colcon.add_info_arguments(sub)
-
-
-def _build_parser(verb: _VerbMaker) -> None:
-    from wsbuild.verbs import build, colcon
-
-    sub = verb("build", "wsbuild.verbs.build:run_build_verb", build.BUILD_DOC)
-    build.add_arguments(sub)
-    colcon.add_build_arguments(sub)
-
-
-def _test_parser(verb: _VerbMaker) -> None:
-    from wsbuild.verbs import colcon, test
-
-    sub = verb("test", "wsbuild.verbs.test:run_test_verb", test.TEST_DOC)
-    test.add_arguments(sub)
-    colcon.add_test_arguments(sub)
-
-
-def _clean_parser(verb: _VerbMaker) -> None:
+def _clean_parser(tree: _Tree, name: str) -> None:
     from wsbuild.verbs.clean import CLEAN_DOC, add_clean_arguments
 
-    add_clean_arguments(verb("clean", "wsbuild.verbs.clean:run_clean", CLEAN_DOC))
+    add_clean_arguments(tree.verb(name, "wsbuild.verbs.clean:run_clean", CLEAN_DOC))
 
 
-def _deps_parser(verb: _VerbMaker) -> None:
+def _deps_parser(tree: _Tree, name: str) -> None:
     from wsbuild.verbs import deps
 
-    deps.add_arguments(verb("deps", "wsbuild.verbs.deps:run_deps", deps.DEPS_DOC,
-                            operands=" [check|install]"))
+    deps.add_arguments(tree.verb(name, "wsbuild.verbs.deps:run_deps", deps.DEPS_DOC,
+                                 operands=" [check|install]"))
 
 
-def _completion_parser(verbs: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
+def _completion_parser(tree: _Tree, name: str) -> None:
     from wsbuild.verbs.completion import COMPLETION_DOC, add_completion_arguments
 
+    verbs = tree.subparsers
     sub = verbs.add_parser("completion", help=COMPLETION_DOC.partition("\n")[0],
                            description=COMPLETION_DOC.strip(), formatter_class=_Formatter)
     sub.set_defaults(func="wsbuild.verbs.completion:run_completion")
     add_completion_arguments(sub)
 
 
-def _test_result_parser(verbs: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
+def _test_result_parser(tree: _Tree, name: str) -> None:
     from wsbuild.verbs import colcon, test
 
+    verbs = tree.subparsers
     sub = verbs.add_parser("test-result", help="show the results of earlier test runs",
                            description=test.TEST_RESULT_DOC.strip(), formatter_class=_Formatter,
                            add_help=False,
@@ -208,27 +188,30 @@ def _test_result_parser(verbs: argparse._SubParsersAction) -> None:  # type: ign
     colcon.add_test_result_arguments(sub)
 
 
-def _report_parser(verbs: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
+def _report_parser(tree: _Tree, name: str) -> None:
     from wsbuild.verbs.report import REPORT_DOC, add_report_arguments
 
+    verbs = tree.subparsers
     sub = verbs.add_parser("report", help=REPORT_DOC.partition("\n")[0],
                            description=REPORT_DOC.strip(), formatter_class=_Formatter)
     sub.set_defaults(func="wsbuild.verbs.report:run_report")
     add_report_arguments(sub)
 
 
-def _run_parser(verbs: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
+def _run_parser(tree: _Tree, name: str) -> None:
     from wsbuild.verbs import run
 
+    verbs = tree.subparsers
     sub = verbs.add_parser("run", help="run an executable of an installed package",
                            description=run.RUN_DOC.strip(), formatter_class=_Formatter)
     sub.set_defaults(func="wsbuild.verbs.run:run_executable")
     run.add_arguments(sub)
 
 
-def _mixin_parser(verbs: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
+def _mixin_parser(tree: _Tree, name: str) -> None:
     from wsbuild.verbs import mixin
 
+    verbs = tree.subparsers
     sub = verbs.add_parser("mixin", help="manage colcon-mixin's named option sets",
                            description=mixin.MIXIN_DOC.strip(), formatter_class=_Formatter)
     actions = sub.add_subparsers(dest="action", metavar="ACTION")
@@ -241,10 +224,10 @@ def _mixin_parser(verbs: argparse._SubParsersAction) -> None:  # type: ignore[ty
     mixin.add_arguments(actions, make)
 
 
-def _pkg_parser(verbs: argparse._SubParsersAction,  # type: ignore[type-arg]
-                pkg_arguments: bool) -> None:
+def _pkg_parser(tree: _Tree, name: str) -> None:
     from wsbuild.verbs.pkg import CREATE_DOC
 
+    verbs = tree.subparsers
     sub = verbs.add_parser("pkg", help="create packages",
                            description="Work with packages. Actions: create.",
                            formatter_class=_Formatter)
@@ -253,15 +236,16 @@ def _pkg_parser(verbs: argparse._SubParsersAction,  # type: ignore[type-arg]
     create = actions.add_parser("create", help=CREATE_DOC.partition("\n")[0],
                                 description=CREATE_DOC.strip(), formatter_class=_Formatter)
     create.set_defaults(func="wsbuild.verbs.pkg:run_pkg_create")
-    if pkg_arguments:
+    if tree.pkg_arguments:
         from wsbuild.verbs.pkg import add_pkg_create_arguments
 
         add_pkg_create_arguments(create)
 
 
-def _underlay_parser(verbs: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
+def _underlay_parser(tree: _Tree, name: str) -> None:
     from wsbuild.verbs.underlay import UNDERLAY_DOC
 
+    verbs = tree.subparsers
     sub = verbs.add_parser("underlay", help="check or repair the ROS underlay in the virtualenv",
                            description=UNDERLAY_DOC.strip(), formatter_class=_Formatter)
     actions = sub.add_subparsers(dest="action", metavar="ACTION")
@@ -272,9 +256,10 @@ def _underlay_parser(verbs: argparse._SubParsersAction) -> None:  # type: ignore
     repair.set_defaults(func="wsbuild.verbs.underlay:run_repair")
 
 
-def _cache_parser(verbs: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
+def _cache_parser(tree: _Tree, name: str) -> None:
     from wsbuild.verbs.cache import CACHE_DOC, add_prune_arguments
 
+    verbs = tree.subparsers
     sub = verbs.add_parser("cache", help="look after the local build cache",
                            description=CACHE_DOC.strip(), formatter_class=_Formatter)
     actions = sub.add_subparsers(dest="action", metavar="ACTION")
@@ -286,6 +271,15 @@ def _cache_parser(verbs: argparse._SubParsersAction) -> None:  # type: ignore[ty
     prune.set_defaults(func="wsbuild.verbs.cache:run_prune")
     verify = actions.add_parser("verify", help="check every entry, remove bad ones")
     verify.set_defaults(func="wsbuild.verbs.cache:run_verify")
+
+
+#: the verbs that are not colcon's mirrored ones (_MIRRORED), by name
+_ADDERS: dict[str, Callable[[_Tree, str], None]] = {
+    "clean": _clean_parser, "deps": _deps_parser, "completion": _completion_parser,
+    "test-result": _test_result_parser, "report": _report_parser, "run": _run_parser,
+    "mixin": _mixin_parser, "pkg": _pkg_parser, "underlay": _underlay_parser,
+    "cache": _cache_parser,
+}
 
 
 def _passthrough_name(item: str, known: set[str] | None) -> str | None:

@@ -189,13 +189,13 @@ class Recorder:
 
     def install(self) -> None:
         watched, note_listed = self._watched, self._note_listed
-        os_stat, lstat, scandir, listdir = os.stat, os.lstat, os.scandir, os.listdir
+        os_stat, scandir, listdir = os.stat, os.scandir, os.listdir
         os_open, readlink, file_open = os.open, os.readlink, builtins.open
 
         saw = self._saw
 
-        # stat and lstat are called tens of thousands of times in a large workspace: no
-        # detour through _watched
+        # stat and lstat (stat without following symlinks) are called tens of thousands of
+        # times in a large workspace: no detour through _watched
         def watched_stat(path: Any, *, dir_fd: Any = None,
                          follow_symlinks: bool = True) -> os.stat_result:
             if dir_fd is not None:
@@ -213,18 +213,7 @@ class Recorder:
             return st
 
         def watched_lstat(path: Any, *, dir_fd: Any = None) -> os.stat_result:
-            if dir_fd is not None:
-                return lstat(path, dir_fd=dir_fd)
-            try:
-                st = lstat(path)
-            except (FileNotFoundError, NotADirectoryError):
-                saw(path, False, ABSENT)
-                raise
-            except OSError:
-                self.spoiled = True
-                raise
-            saw(path, False, (st.st_mode, st.st_ino, st.st_size, st.st_mtime_ns, st.st_ctime_ns))
-            return st
+            return watched_stat(path, dir_fd=dir_fd, follow_symlinks=False)
 
         def watched_scandir(path: Any = ".") -> Any:
             note_listed(path)

@@ -28,6 +28,7 @@ from wsbuild.engine.timing_files import (
     TIMINGS_JSON,
     TIMINGS_TEXT,
     cpu_seconds,
+    limit,
     summary_line,
     totals_json,
     write_timing_files,
@@ -191,7 +192,7 @@ class RunTimings:
     @property
     def limit(self) -> float:
         """The wall time if every core were busy for the whole run: CPU seconds ÷ cores."""
-        return self.cpu.total / max(1, self.cores)
+        return limit(self.cpu.children, self.cpu.own, self.cores)
 
     def as_json(self) -> dict[str, object]:
         return {
