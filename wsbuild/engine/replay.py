@@ -68,6 +68,7 @@ def digest(paths: list[list[Any]]) -> int:
     name "" is the directory itself), in their order: a change to any path changes it. (The
     hash of a tuple of integers is the same in every process of one Python version; the
     record's key holds the version.)"""
+    # signature(), inlined: this loop is most of a replay (40,000 paths for 1,000 packages)
     stat, lstat = os.stat, os.lstat
     signatures: list[tuple[int, ...]] = []
     add = signatures.append
