@@ -80,3 +80,12 @@ def create_if_missing(path: Path, content: str = "") -> bool:
     path.parent.mkdir(parents=True, exist_ok=True)
     path.write_text(content)
     return True
+
+
+def private_directory(path: Path) -> Path:
+    """`path` made (with its parents) and kept readable by its owner only (0o700): what
+    wsbuild keeps for itself there is nobody else's to read."""
+    path.mkdir(mode=0o700, parents=True, exist_ok=True)
+    if path.stat().st_mode & 0o077:
+        path.chmod(0o700)
+    return path

@@ -117,9 +117,13 @@ def _prepare_install(workspace: Workspace, merged: bool) -> None:
     from wsbuild.prefix.layout import mark_install_layout, write_ignore_marker
     from wsbuild.prefix.stage import recover_all
 
+    from wsbuild.files import private_directory
+
     for base in (workspace.build_base, workspace.install_base):
         base.mkdir(parents=True, exist_ok=True)
         write_ignore_marker(base)
+    # records, memos and the lint stand-ins: wsbuild's own, private to the user
+    private_directory(workspace.build_base / ".wsbuild")
     create_if_missing(workspace.build_base / BUILD_MARKER, "wsbuild\n")
     mark_install_layout(workspace.install_base, merged=merged)
     if not merged:

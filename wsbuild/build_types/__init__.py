@@ -159,6 +159,12 @@ class BuildType(Protocol):
         """The options that shape what this build type installs (they enter the build key)."""
         ...
 
+    def external_inputs(self, ctx: BuildContext) -> list[str]:
+        """After a build: the absolute paths outside the package that its build system read
+        (from the build system's own dependency lists), recorded with the package's state so
+        that a change to one rebuilds it. Optional for a third-party type (BuildTypeBase: [])."""
+        ...
+
 
 #: options that change how a build runs, never what it installs
 _RUN_ONLY_OPTIONS = ("jobs", "compiler_launcher")
@@ -183,6 +189,9 @@ class BuildTypeBase:
     def key_options(self, options: BuildOptions) -> dict[str, object]:
         return {k: v for k, v in asdict(options).items()
                 if k not in _RUN_ONLY_OPTIONS and k not in _CMAKE_OPTIONS}
+
+    def external_inputs(self, ctx: BuildContext) -> list[str]:
+        return []
 
 
 def cmake_key_options(options: BuildOptions) -> dict[str, object]:

@@ -225,6 +225,14 @@ class CMakeBuildType:
             return []
         return ["--parallel", str(max(1, ctx.options.jobs))]
 
+    def external_inputs(self, ctx: BuildContext) -> list[str]:
+        """What CMake's regeneration list, the build rules and the compiler's dependency
+        lists name outside the package (build_types/cmake_inputs.py)."""
+        from wsbuild.build_types.cmake_inputs import external_inputs
+
+        ninja = find_ninja(ctx.environ)
+        return external_inputs(ctx.build_dir, ctx.source_dir, ninja.path if ninja else None)
+
     def needs_configure(self, ctx: BuildContext) -> bool:
         cache = ctx.build_dir / "CMakeCache.txt"
         if ctx.options.cmake_clean_cache or ctx.options.cmake_force_configure:

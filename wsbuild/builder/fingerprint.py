@@ -1,9 +1,13 @@
 """Whether a package needs building: what its last build depended on, and what changed since.
 
 A package is rebuilt when its source files, its package.xml, the build options that reach it,
-the wsbuild version, the interpreter/underlay it builds against, or the build of a workspace
-dependency changed, or when its install is missing or damaged. File contents are hashed only
-when a file's size or mtime differs from the last build, so a no-op check costs a few stats.
+the wsbuild version, the interpreter/underlay it builds against, the build of a workspace
+dependency, or a file outside the package that its build system read (its external inputs:
+CMake's regeneration list, the headers the compiler read; see `BuildTypeBase.external_inputs`)
+changed, or when its install is missing or damaged. File contents are hashed only when a file's
+stat signature (size, modification and change time, inode: git's index compares the same)
+differs from the last build, so a no-op check costs a few stats; a file reached through a
+symlink is stat'ed through it (its target's signature) and the link's own signature counts too.
 """
 
 from __future__ import annotations
@@ -21,6 +25,8 @@ STATE_FILE = Path(".wsbuild") / "state.json"
 #: directories inside a package that never affect its build
 _SKIP_DIRS = frozenset({"__pycache__", "build", "install", "log"})
 _SKIP_SUFFIXES = (".pyc", ".pyo", ".swp", "~")
+#: what a symlink's own entry, a dangling link and an unreadable path are recorded as
+_LINK, _DANGLING, _UNREADABLE = "\0link", "\0dangling", "\0unreadable"
 
 
 @dataclass(frozen=True, slots=True)
@@ -28,6 +34,13 @@ class FileRecord:
     size: int
     mtime_ns: int
     digest: str
+    #: a same-size edit with its mtime set back (`cp -p`, `touch -d`) still changes these
+    ctime_ns: int = 0
+    inode: int = 0
+
+    def same_stat(self, stat: os.stat_result) -> bool:
+        return (self.size == stat.st_size and self.mtime_ns == stat.st_mtime_ns
+                and self.ctime_ns == stat.st_ctime_ns and self.inode == stat.st_ino)
 
 
 @dataclass(slots=True)
@@ -58,9 +71,19 @@ def _walk(root: Path) -> Iterable[tuple[str, os.stat_result]]:
                     if name not in _SKIP_DIRS and not name.endswith(".egg-info"):
                         stack.append(rel)
                     continue
-                yield rel, entry.stat()
-            except OSError:
+                # os.stat, not entry.stat(): through a symlink to its target (what the build
+                # reads), and seen by whatever watches this process's reads
+                stat = os.stat(entry.path)
+            except FileNotFoundError:
+                if entry.is_symlink():  # a dangling link: the build sees it missing
+                    yield rel + _DANGLING, os.lstat(entry.path)
                 continue
+            except OSError:  # a link loop, an unreadable file: never up to date
+                yield rel + _UNREADABLE, os.lstat(entry.path)
+                continue
+            yield rel, stat
+            if entry.is_symlink():  # where it points counts too (the target may be unchanged)
+                yield rel + _LINK, os.lstat(entry.path)
 
 
 def _hash_file(path: str) -> str:
@@ -78,21 +101,31 @@ def snapshot_sources(root: Path, previous: Mapping[str, FileRecord]) -> SourceSn
     changed: list[str] = []
     for rel, stat in _walk(root):
         old = previous.get(rel)
-        if old is not None and old.size == stat.st_size and old.mtime_ns == stat.st_mtime_ns:
+        if old is not None and old.same_stat(stat):
             files[rel] = old
             continue
-        try:
-            digest = _hash_file(os.path.join(root, rel))
-        except OSError:
-            continue
-        files[rel] = FileRecord(stat.st_size, stat.st_mtime_ns, digest)
+        if rel.endswith((_LINK, _DANGLING, _UNREADABLE)):
+            path = os.path.join(root, rel.rpartition("\0")[0])
+            try:
+                target = os.readlink(path)
+            except OSError:
+                target = ""
+            digest = f"{rel.rpartition(chr(0))[2]}:{target}"
+        else:
+            try:
+                digest = _hash_file(os.path.join(root, rel))
+            except OSError:
+                digest = "unreadable"
+        files[rel] = FileRecord(stat.st_size, stat.st_mtime_ns, digest, stat.st_ctime_ns,
+                                stat.st_ino)
         if old is None or old.digest != digest:
-            changed.append(rel)
+            changed.append(rel.split("\0")[0])
     removed = sorted(set(previous) - set(files))
     total = hashlib.blake2b(digest_size=16)
     for rel in sorted(files):
         total.update(f"{rel}\0{files[rel].digest}\n".encode())
-    return SourceSnapshot(files, total.hexdigest(), sorted(changed) + removed)
+    return SourceSnapshot(files, total.hexdigest(),
+                          sorted(changed) + [r.split("\0")[0] for r in removed])
 
 
 def digest_of(value: object) -> str:
@@ -112,6 +145,8 @@ class BuildState:
     installed: list[tuple[str, int]] = field(default_factory=list)
     #: what `settings` is the digest of, so a rebuild can name the option that changed
     inputs: dict[str, object] = field(default_factory=dict)
+    #: files outside the package its build system read (absolute path -> stat signature)
+    external: dict[str, tuple[int, ...]] = field(default_factory=dict)
 
     @staticmethod
     def make_key(source: str, settings: str, dependencies: Mapping[str, str]) -> str:
@@ -129,8 +164,9 @@ def read_state(build_dir: Path) -> BuildState | None:
             files={k: FileRecord(*v) for k, v in data["files"].items()},
             installed=[(p, s) for p, s in data["installed"]],
             inputs=dict(data.get("inputs") or {}),
+            external={k: tuple(v) for k, v in data["external"].items()},
         )
-    except (OSError, ValueError, KeyError, TypeError):
+    except (OSError, ValueError, KeyError, TypeError, AttributeError):
         return None
 
 
@@ -142,11 +178,48 @@ def write_state(build_dir: Path, state: BuildState) -> None:
         "source": state.source,
         "settings": state.settings,
         "dependencies": state.dependencies,
-        "files": {k: [v.size, v.mtime_ns, v.digest] for k, v in sorted(state.files.items())},
+        "files": {k: [v.size, v.mtime_ns, v.digest, v.ctime_ns, v.inode]
+                  for k, v in sorted(state.files.items())},
         "installed": state.installed,
         "inputs": state.inputs,
+        "external": dict(sorted(state.external.items())),
     }
     atomic_write(path, json.dumps(data, separators=(",", ":")))
+
+
+#: the signature of a path that does not exist (or cannot be stat'ed)
+ABSENT: tuple[int, ...] = (0, 0, 0, 0, 0)
+
+
+def stat_signature(path: str) -> tuple[int, ...]:
+    """What a change to the file at `path` (through symlinks) changes: type and mode, inode,
+    size, modification and change times; ABSENT when it cannot be stat'ed."""
+    try:
+        st = os.stat(path)
+    except OSError:
+        return ABSENT
+    return (st.st_mode, st.st_ino, st.st_size, st.st_mtime_ns, st.st_ctime_ns)
+
+
+def external_signatures(paths: Iterable[str]) -> dict[str, tuple[int, ...]]:
+    return {path: stat_signature(path) for path in sorted(set(paths))}
+
+
+def changed_external(external: Mapping[str, tuple[int, ...]]) -> str | None:
+    """The first recorded outside file whose signature changed, if any."""
+    for path, signature in external.items():
+        if stat_signature(path) != signature:
+            return path
+    return None
+
+
+def system_state_paths() -> list[str]:
+    """What changes when a package manager changes the system or the interpreter's
+    distributions: dpkg's database, and the directories pip installs distributions into."""
+    import sysconfig
+
+    paths = sysconfig.get_paths()
+    return ["/var/lib/dpkg/status", *sorted({paths["purelib"], paths["platlib"]})]
 
 
 def forget_state(build_dir: Path) -> None:
@@ -177,7 +250,9 @@ class Reason:
     """Why a package is rebuilt: `kind` for tools, `text` for people, `details` the files,
     options or dependencies that changed."""
 
-    kind: str  # "new", "options", "source", "dependency", "install" (also "forced", "unfinished")
+    #: "new", "options", "source", "dependency", "external", "install" (also "forced",
+    #: "unfinished")
+    kind: str
     text: str
     details: tuple[str, ...] = ()
 
@@ -234,6 +309,9 @@ def rebuild_reason(old: BuildState | None, snapshot: SourceSnapshot, settings: s
     if changed_deps:
         return Reason("dependency", "dependency rebuilt: " + ", ".join(changed_deps),
                       tuple(changed_deps))
+    outside = changed_external(old.external)
+    if outside is not None:
+        return Reason("external", f"file outside the package changed: {outside}", (outside,))
     damaged = damaged_install(install_base, old.installed)
     if damaged is not None:
         return Reason("install", f"install damaged: {damaged} missing or changed", (damaged,))

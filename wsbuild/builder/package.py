@@ -51,6 +51,8 @@ class PackageBuild:
     planned: PackagePlan
     run: RunResources
     started: float = field(default_factory=time.monotonic)
+    #: the wall clock at the start: an outside file changed since may have changed unseen
+    started_ns: int = field(default_factory=time.time_ns)
     stage_prefix: Path | None = None
     context: BuildContext | None = None
     warnings: list[str] = field(default_factory=list)
@@ -180,9 +182,23 @@ class PackageBuild:
                 self.run.compilers.start()
             except WsbuildError as exc:
                 raise StepFailed(f"{exc}") from None
+        self._advance_backdated()
         for step in get_build_type(ctx.package.build_type).steps(ctx):
             self.run.emit(StepStarted(self.name, step.label))
             step.action(ctx)
+
+    def _advance_backdated(self) -> None:
+        """Files whose content changed while their modification time did not advance (`cp -p`,
+        `touch -d`, some sync tools) get the current time: make and Ninja compare times only
+        and would keep the outputs built from the old content."""
+        for rel in self.planned.backdated:
+            path = self.planned.snapshot_root / rel
+            try:
+                os.utime(path)
+            except OSError:
+                continue
+            self._log(f"Set the modification time of {path} to now: its content changed, its "
+                      "time did not advance, and the build system compares times only")
 
     def register(self) -> None:
         """package.xml, the index marker and the environment hooks, into the stage."""
@@ -222,8 +238,23 @@ class PackageBuild:
         write_state(self.build_dir, BuildState(
             key=planned.key, source=planned.snapshot.digest, settings=planned.settings,
             dependencies=dict(planned.dependency_keys), files=planned.snapshot.files,
-            installed=installed, inputs=dict(planned.inputs)))
+            installed=installed, inputs=dict(planned.inputs), external=self._external()))
         (self.build_dir / BUILDING_MARKER).unlink(missing_ok=True)
+
+    def _external(self) -> dict[str, tuple[int, ...]]:
+        """The outside files the build system read, with their signatures; one changed while
+        the package built is recorded as changed, so the next plan builds it again. A restore
+        read nothing here: what its cache key trusted stands in (the system's package
+        database and the interpreter's installed distributions)."""
+        from wsbuild.builder.fingerprint import ABSENT, external_signatures, system_state_paths
+
+        if self.context is None:
+            return external_signatures(system_state_paths())
+        paths = get_build_type(self.planned.build_type).external_inputs(self.context)
+        own = str(self.prefix) + os.sep
+        signatures = external_signatures(p for p in paths if not p.startswith(own))
+        return {path: ABSENT if max(sig[3:]) >= self.started_ns else sig
+                for path, sig in signatures.items()}
 
     def store(self) -> None:
         """Into the build cache (when on), for the next machine or branch that needs it."""

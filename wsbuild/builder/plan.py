@@ -57,6 +57,10 @@ class PackagePlan:
     cache_key: CacheKey | None = None
     #: the entry to restore (decision RESTORE)
     cache_entry: Found | None = None
+    #: the package's source directory, which the snapshot's paths are relative to
+    snapshot_root: Path = Path()
+    #: source files whose content changed but whose modification time did not advance
+    backdated: tuple[str, ...] = ()
 
 
 @dataclass(frozen=True, slots=True)
@@ -150,10 +154,12 @@ def plan_package(selection: Selection, request: BuildRequest, options: BuildOpti
     dep_keys = dependency_keys(selection, selection.graph.build_closure(name), keys)
     reason = rebuild_reason(selection, request, name, old, snapshot, settings, dep_keys, inputs)
     common = dict(name=name, build_type=package.build_type, prefix=prefix, inputs=inputs,
-                  settings=settings, dependency_keys=dep_keys, snapshot=snapshot)
+                  settings=settings, dependency_keys=dep_keys, snapshot=snapshot,
+                  snapshot_root=package.path)
     if reason is None and old is not None:
         return PackagePlan(decision=Decision.UP_TO_DATE, reason=None, key=old.key, **common)
     key = BuildState.make_key(snapshot.digest, settings, dep_keys)
+    common["backdated"] = _backdated(old, snapshot)
     cache_key = session.cache.key(name, package.build_type, key, prefix, session.environ)
     found = None
     if cache_key is not None and reason is not None and reason.kind != "forced":
@@ -161,6 +167,15 @@ def plan_package(selection: Selection, request: BuildRequest, options: BuildOpti
     decision = Decision.RESTORE if found is not None else Decision.BUILD
     return PackagePlan(decision=decision, reason=reason, key=key, cache_key=cache_key,
                        cache_entry=found, **common)
+
+
+def _backdated(old: BuildState | None, snapshot: SourceSnapshot) -> tuple[str, ...]:
+    """The changed files whose modification time is not after the one last built from."""
+    if old is None:
+        return ()
+    return tuple(rel for rel in snapshot.changed
+                 if rel in old.files and rel in snapshot.files
+                 and snapshot.files[rel].mtime_ns <= old.files[rel].mtime_ns)
 
 
 def _prefix(selection: Selection, session: Session, name: str) -> Path:

@@ -3,8 +3,14 @@
 The build key (builder/fingerprint.py) already covers the sources, the options, the interpreter,
 the underlay's paths, the dependencies' keys and the absolute install prefix. Across machines
 that is not enough, so the cache key adds the platform (OS release, machine, C library), the
-toolchain (compilers and CMake, by version) and the underlay's contents (installed Python
-distributions and ROS package versions), each identified once per run.
+toolchain (compilers and CMake, by version), the underlay's contents (installed Python
+distributions and ROS package versions) and the system's packages (every installed Debian
+package with its version: the headers, libraries and CMake modules a build reads from /usr
+come from them, so a machine with another `libfoo-dev` point release never restores this
+machine's build), each identified once per run. Files outside any package manager's
+control (a hand-made /usr/local or /opt tree) are not in the key: a package whose build read
+them is only ever built, never restored, when it is built here first (its recorded outside
+inputs then decide), and restoring it elsewhere trusts that tree to be the same.
 
 A second checkout at another path misses: installed files embed the absolute prefix (CMake
 config files, setup scripts, shebangs), so relocating them would mean rewriting binaries.
@@ -64,6 +70,7 @@ def cache_key(*, package: str, build_key: str, install_prefix: Path, build_type:
                                  environ.get("PATH", os.defpath), memo)
         underlay = underlay_id(environ.get("AMENT_PREFIX_PATH", ""),
                                str(workspace_install) if workspace_install else "")
+        system = system_packages_id()
     parts = {
         "format": ENTRY_FORMAT,
         "package": package,
@@ -74,8 +81,30 @@ def cache_key(*, package: str, build_key: str, install_prefix: Path, build_type:
         "platform": platform,
         "toolchain": toolchain,
         "underlay": underlay,
+        "system": system,
     }
     return CacheKey(package, json.dumps(parts, sort_keys=True, separators=(",", ":")))
+
+
+#: dpkg's database of installed packages
+DPKG_STATUS = Path("/var/lib/dpkg/status")
+
+
+@functools.lru_cache(maxsize=1)
+def system_packages_id() -> str:
+    """Digest of the installed Debian packages and their versions ("" without dpkg)."""
+    try:
+        text = DPKG_STATUS.read_text(errors="replace")
+    except OSError:
+        return ""
+    digest = hashlib.sha256()
+    for stanza in text.split("\n\n"):
+        fields = dict(line.split(": ", 1) for line in stanza.splitlines()
+                      if ": " in line and not line.startswith(" "))
+        if fields.get("Status", "").endswith(" installed"):
+            digest.update(f"{fields.get('Package')} {fields.get('Architecture')} "
+                          f"{fields.get('Version')}\n".encode())
+    return digest.hexdigest()
 
 
 @functools.lru_cache(maxsize=1)

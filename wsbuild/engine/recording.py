@@ -100,6 +100,8 @@ class _Tee(io.TextIOBase):
 
 #: what a run saw of a path it opened (its signature is taken at the end)
 OPENED = (1,)
+#: a path declared as an input (wsbuild/inputs.py): its signature at the end, absent or not
+DECLARED = (2,)
 
 
 class Recorder:
@@ -123,6 +125,20 @@ class Recorder:
         self.stdout = _Tee(sys.stdout)
         self.stderr = _Tee(sys.stderr)
         self._saved: list[tuple[object, str, object]] = []
+        self._unlisten: Callable[[], None] | None = None
+
+    def _declared(self, path: str, directory: bool) -> None:
+        """An input a subprocess reads (wsbuild/inputs.py): a directory's entries are
+        recorded as a listed directory's, a file as one opened."""
+        if not self.active:
+            return
+        name = self._absolute(path)
+        if name is None:
+            return
+        if directory:
+            self.listed.add(name)
+        else:
+            self.seen.setdefault((name, True), DECLARED)
 
     def no_op(self, *, build_base: Path, log_base: Path, run_log: Path, seconds: float) -> None:
         """The build was a no-op that ended well; `seconds` as its summary shows them."""
@@ -245,10 +261,16 @@ class Recorder:
             self._saved.append((owner, name, getattr(owner, name)))
             setattr(owner, name, value)
         sys.stdout, sys.stderr = self.stdout, self.stderr  # type: ignore[assignment]
+        from wsbuild.inputs import listen
+
+        self._unlisten = listen(self._declared)
         self.active = True
 
     def _uninstall(self) -> None:
         self.active = False
+        if self._unlisten is not None:
+            self._unlisten()
+            self._unlisten = None
         for owner, name, value in reversed(self._saved):
             setattr(owner, name, value)
         self._saved.clear()
@@ -281,12 +303,13 @@ class Recorder:
             return
         record = {"key": self.key, "build_base": outcome["build_base"], "paths": inputs[0],
                   "digest": inputs[1], "stdout": stdout, "stderr": stderr, "log": log}
-        from wsbuild.files import atomic_write
+        from wsbuild.files import atomic_write, private_directory
 
         try:
-            RECORDS.mkdir(parents=True, exist_ok=True)
+            private_directory(RECORDS.parent)
+            private_directory(RECORDS)
             atomic_write(record_path(self.verb).absolute(),
-                         json.dumps(record, separators=(",", ":")))
+                         json.dumps(record, separators=(",", ":")), mode=0o600)
         except OSError:
             pass  # the next run is a full one
 
@@ -309,6 +332,8 @@ class Recorder:
             for entry in entries:
                 if not entry.is_dir(follow_symlinks=False):
                     wanted.setdefault((entry.path, False), None)
+                if entry.is_symlink():  # where it points, and what is there (or is not)
+                    wanted.setdefault((entry.path, True), None)
         racy = self.started_ns - RACY_NS
         grouped: dict[str, list[tuple[str, int, tuple[int, ...]]]] = {}
         for (path, follow), saw in wanted.items():
@@ -316,7 +341,8 @@ class Recorder:
                 continue
             how = FOLLOW if follow else 0
             # a stat's result is what the run decided on; a later change shows at replay
-            now = signature(path, how) if saw is None or saw is OPENED else saw
+            now = signature(path, how) if saw is None or saw is OPENED or saw is DECLARED \
+                else saw
             if saw is OPENED and now == ABSENT:
                 return None  # deleted while the run ran
             if not follow and stat.S_ISDIR(now[0]) and path not in self.listed:

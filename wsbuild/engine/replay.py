@@ -33,7 +33,7 @@ if TYPE_CHECKING:
 RECORDS = Path("build") / ".wsbuild" / "noop"
 #: the verbs that are replayed: build (a no-op), and those that only read
 VERBS = frozenset({"build", "list", "graph", "info"})
-FORMAT = 6
+FORMAT = 7
 #: set by the shell for each command, meaningless to a build
 VOLATILE = frozenset({"_", "OLDPWD", "SHLVL"})
 #: what a record keeps in place of the summary's seconds and of the run's log directory
@@ -58,6 +58,8 @@ def signature(path: str, how: int) -> tuple[int, ...]:
         st = os.stat(path) if how & FOLLOW else os.lstat(path)
     except (FileNotFoundError, NotADirectoryError):
         return ABSENT
+    except OSError as exc:  # a symlink loop, a path that cannot be read: unlike any record
+        return (-1, exc.errno or 0)
     if how & IDENTITY:
         return (st.st_mode, st.st_ino)
     return (st.st_mode, st.st_ino, st.st_size, st.st_mtime_ns, st.st_ctime_ns)
@@ -80,6 +82,9 @@ def digest(paths: list[list[Any]]) -> int:
             except (FileNotFoundError, NotADirectoryError):
                 add(ABSENT)
                 continue
+            except OSError as exc:  # as signature() says
+                add((-1, exc.errno or 0))
+                continue
             if how & IDENTITY:
                 add((st.st_mode, st.st_ino))
             else:
@@ -95,7 +100,8 @@ def key_of(argv: Sequence[str]) -> dict[str, object]:
     columns = os.get_terminal_size(sys.stdout.fileno()).columns if tty[0] else 0
     return {
         "format": FORMAT,
-        "argv": list(argv),
+        # a digest: a command line may carry a credential (--cache http://user:token@host/)
+        "argv": _digest("\0".join(argv)),
         "cwd": os.getcwd(),
         "environ": _environ(),
         "python": [sys.executable, sys.version],
@@ -104,15 +110,28 @@ def key_of(argv: Sequence[str]) -> dict[str, object]:
     }
 
 
-def _environ() -> dict[str, str]:
-    """The environment, less the shell's per-command variables. LD_LIBRARY_PATH as a sorted
-    set: the ROS wheels' bootstrapper writes its entries in a random (set) order in each
-    process, and no plan reads their order."""
-    environ = {k: v for k, v in sorted(os.environ.items()) if k not in VOLATILE}
+def _environ() -> str:
+    """A digest of the environment, less the shell's per-command variables (no value is ever
+    written to the record: a token in the environment stays out of build/). LD_LIBRARY_PATH
+    as a sorted set: the ROS wheels' bootstrapper writes its entries in a random (set) order
+    in each process, and no plan reads their order."""
+    import hashlib
+
+    environ = {k: v for k, v in os.environ.items() if k not in VOLATILE}
     if "LD_LIBRARY_PATH" in environ:
         entries = sorted(set(environ["LD_LIBRARY_PATH"].split(os.pathsep)))
         environ["LD_LIBRARY_PATH"] = os.pathsep.join(entries)
-    return environ
+    digest = hashlib.blake2b(digest_size=32)
+    for name in sorted(environ):
+        digest.update(name.encode("utf-8", "surrogateescape") + b"\0"
+                      + environ[name].encode("utf-8", "surrogateescape") + b"\0")
+    return digest.hexdigest()
+
+
+def _digest(text: str) -> str:
+    import hashlib
+
+    return hashlib.blake2b(text.encode("utf-8", "surrogateescape"), digest_size=32).hexdigest()
 
 
 def record_path(verb: str) -> Path:
@@ -136,7 +155,7 @@ def replay(argv: Sequence[str]) -> int | None:
     lock = workspace_lock(Path(record["build_base"]), wait=False, on_wait=lambda _: None)
     try:
         lock.__enter__()
-    except WorkspaceError:
+    except (WorkspaceError, OSError):  # busy, or unwritable: the full run says what is wrong
         return None
     try:
         if not _unchanged(record):

@@ -20,6 +20,7 @@ stop a build that would succeed.
 
 from __future__ import annotations
 
+import functools
 import importlib.util
 import os
 import re
@@ -223,9 +224,31 @@ class Resolver:
             return name
         return f"{name} {done.stdout.strip()}".strip() if done.returncode == 0 else name
 
+    def pkg_config_search_path(self) -> list[str]:
+        """The directories pkg-config searches: PKG_CONFIG_PATH, then PKG_CONFIG_LIBDIR when
+        set, else its compiled-in default (asked of the program once per run) — each
+        declared as an input of the run (wsbuild/inputs.py): a module installed into one
+        changes its listing."""
+        from wsbuild.inputs import declare_directory, declare_file
+
+        tool = shutil.which("pkg-config", path=self.path) if self.path else None
+        if tool is not None:
+            declare_file(tool)
+        directories = _split_str(self.pkg_config_path)
+        libdir = os.environ.get("PKG_CONFIG_LIBDIR")
+        if libdir is not None:
+            directories += _split_str(libdir)
+        elif tool is not None:
+            directories += _split_str(_pkg_config_default_path(os.path.realpath(tool)))
+        directories = list(dict.fromkeys(directories))
+        for directory in directories:
+            declare_directory(directory)
+        return directories
+
     def _list_pkg_config_modules(self) -> frozenset[str]:
         """Every module pkg-config knows, from one run (not one per dependency)."""
         tool = shutil.which("pkg-config", path=self.path) if self.path else None
+        self.pkg_config_search_path()
         if tool is None:
             return frozenset()
         import subprocess
@@ -251,7 +274,7 @@ class Resolver:
             directories += [str(prefix / "share"), str(prefix / "lib" / "cmake"),
                             str(prefix / "lib")]
         directories += list(self.python_paths)
-        directories += _split_str(self.path) + _split_str(self.pkg_config_path)
+        directories += _split_str(self.path) + self.pkg_config_search_path()
         return {
             "ament_prefixes": [str(p) for p in self.ament_prefixes],
             "cmake_prefixes": [str(p) for p in self.cmake_prefixes],
@@ -262,11 +285,28 @@ class Resolver:
         }
 
 
-def _mtime(directory: str) -> int:
+@functools.lru_cache(maxsize=4)
+def _pkg_config_default_path(tool: str) -> str:
+    """pkg-config's compiled-in search path (`pc_path`), by the program's real path."""
+    import subprocess
+
     try:
-        return os.stat(directory).st_mtime_ns
+        done = subprocess.run([tool, "--variable", "pc_path", "pkg-config"],
+                              capture_output=True, text=True, timeout=10, check=False,
+                              env={k: v for k, v in os.environ.items()
+                                   if not k.startswith("PKG_CONFIG")})
+    except (OSError, subprocess.TimeoutExpired):
+        return ""
+    return done.stdout.strip() if done.returncode == 0 else ""
+
+
+def _mtime(directory: str) -> list[int]:
+    """A directory's modification and change time and inode (0s when it does not exist)."""
+    try:
+        st = os.stat(directory)
     except OSError:
-        return 0
+        return [0, 0, 0]
+    return [st.st_mtime_ns, st.st_ctime_ns, st.st_ino]
 
 
 def python_distributions(paths: Iterable[str], *, read_metadata: bool = False

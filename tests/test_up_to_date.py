@@ -1,0 +1,360 @@
+""""Up to date" is never wrong: after a recorded no-op, one change at a time — to a file outside
+the package that its build system read, to a file reached through a symlink, to what a
+subprocess searched (pkg-config), to a file whose time was set back — and the next build
+rebuilds what it must, its install equal to a build from scratch. Secrets in the environment
+never reach a file; a symlink loop, a read-only workspace and a lock deleted under a waiting
+build are handled as the full run handles them."""
+
+from __future__ import annotations
+
+import fcntl
+import hashlib
+import os
+import shutil
+import subprocess
+import sys
+import time
+import uuid
+from pathlib import Path
+
+import pytest
+
+from test_build_helpers import clean_env, output, sh_quote, write, write_cmake
+from test_build_helpers import wsbuild as run
+
+#: a recording run must start this long after the last change it could read (the racy rule)
+SETTLE = 1.1
+RECORD = Path("build") / ".wsbuild" / "noop" / "build.json"
+
+
+def _env(**extra: str) -> dict[str, str]:
+    # the build cache would restore instead of build: these tests are about building
+    return clean_env(WSBUILD_CACHE="off", **extra)
+
+
+def _build(ws: Path, *args: str, env: dict[str, str] | None = None
+           ) -> subprocess.CompletedProcess[str]:
+    result = run("build", *args, cwd=ws, env=env or _env())
+    assert result.returncode == 0, output(result)
+    assert "Traceback" not in result.stdout + result.stderr, output(result)
+    return result
+
+
+def _recorded_noop(ws: Path, env: dict[str, str] | None = None) -> None:
+    """Build, then a no-op that leaves its record (what the next build replays)."""
+    _build(ws, env=env)
+    time.sleep(SETTLE)
+    result = _build(ws, env=env)
+    assert "0 packages finished" in result.stdout, output(result)
+    assert (ws / RECORD).is_file(), "the no-op left no record"
+
+
+def _rebuilt(result: subprocess.CompletedProcess[str]) -> list[str]:
+    return sorted(line.split()[2] for line in result.stdout.splitlines()
+                  if line.startswith("Finished <<<"))
+
+
+def _tree(root: Path) -> dict[str, str]:
+    tree = {}
+    for path in sorted(root.rglob("*")):
+        rel = str(path.relative_to(root))
+        if path.is_symlink():
+            tree[rel] = "-> " + os.readlink(path)
+        elif path.is_file():
+            tree[rel] = hashlib.sha256(path.read_bytes()).hexdigest()
+    return tree
+
+
+def _assert_install_as_from_scratch(ws: Path) -> None:
+    """install/ equals what a build from scratch of the same sources makes."""
+    incremental = _tree(ws / "install")
+    for base in ("build", "install", "log"):
+        shutil.rmtree(ws / base)
+    _build(ws)
+    assert _tree(ws / "install") == incremental
+
+
+def _program(ws: Path, pkg: str) -> str:
+    done = subprocess.run([str(ws / "install" / pkg / "bin" / pkg)], capture_output=True,
+                          text=True, timeout=30, check=True)
+    return done.stdout.strip()
+
+
+def _cmake_program(src: Path, name: str, prelude: str, source: str, *,
+                   files: dict[str, str] | None = None) -> Path:
+    return write_cmake(src, name, f"""
+        cmake_minimum_required(VERSION 3.16)
+        project({name} CXX)
+        {prelude}
+        add_executable({name} src/main.cpp)
+        install(TARGETS {name} DESTINATION bin)
+        install(FILES package.xml DESTINATION share/{name})
+        """, files={"src/main.cpp": source, **(files or {})})
+
+
+def _same_size_edit(path: Path, old: str, new: str, *, keep_time: bool = False) -> None:
+    assert len(old) == len(new)
+    before = path.stat()
+    path.write_text(path.read_text().replace(old, new))
+    if keep_time:  # as `cp -p`, `touch -d` or a sync tool leave it
+        os.utime(path, ns=(before.st_atime_ns, before.st_mtime_ns))
+
+
+def test_a_cmake_file_included_from_outside_the_package_rebuilds_it(tmp_path: Path) -> None:
+    ws = tmp_path / "ws"
+    shared = write(ws / "cmake" / "greeting.cmake", 'set(GREETING "one")\n')
+    _cmake_program(ws / "src", "greeter",
+                   f'include("{shared}")\nadd_compile_definitions(GREETING="${{GREETING}}")',
+                   '#include <cstdio>\nint main() { std::puts(GREETING); return 0; }\n')
+    _recorded_noop(ws)
+    assert _program(ws, "greeter") == "one"
+
+    _same_size_edit(shared, '"one"', '"two"')
+    result = _build(ws)
+
+    assert _rebuilt(result) == ["greeter"], output(result)
+    assert _program(ws, "greeter") == "two"
+    dry = run("build", "--dry-run", cwd=ws, env=_env())
+    assert "greeter" in dry.stdout and "up to date" in dry.stdout, output(dry)
+    _assert_install_as_from_scratch(ws)
+
+
+def test_a_header_outside_the_package_rebuilds_it(tmp_path: Path) -> None:
+    ws = tmp_path / "ws"
+    header = write(ws / "third_party" / "include" / "answer.h", "#define ANSWER 41\n")
+    _cmake_program(ws / "src", "asker", f'include_directories("{header.parent}")',
+                   '#include <cstdio>\n#include "answer.h"\n'
+                   'int main() { std::printf("%d\\n", ANSWER); return 0; }\n')
+    _recorded_noop(ws)
+
+    _same_size_edit(header, "41", "42")
+    result = _build(ws)
+
+    assert _rebuilt(result) == ["asker"], output(result)
+    assert _program(ws, "asker") == "42"
+    _assert_install_as_from_scratch(ws)
+
+
+def test_a_same_size_edit_with_its_time_set_back_rebuilds(tmp_path: Path) -> None:
+    ws = tmp_path / "ws"
+    pkg = _cmake_program(ws / "src", "clock", "",
+                         '#include <cstdio>\nint main() { std::puts("tick"); return 0; }\n')
+    _recorded_noop(ws)
+
+    _same_size_edit(pkg / "src" / "main.cpp", '"tick"', '"tock"', keep_time=True)
+    result = _build(ws)
+
+    assert _rebuilt(result) == ["clock"], output(result)
+    assert _program(ws, "clock") == "tock"  # Ninja, which compares times, was told too
+    _assert_install_as_from_scratch(ws)
+
+
+def test_a_source_file_linked_from_outside_the_workspace_rebuilds(tmp_path: Path) -> None:
+    ws = tmp_path / "ws"
+    outside = write(tmp_path / "elsewhere" / "main.cpp",
+                    '#include <cstdio>\nint main() { std::puts("left"); return 0; }\n')
+    pkg = _cmake_program(ws / "src", "linked", "", "")
+    (pkg / "src" / "main.cpp").unlink()
+    (pkg / "src" / "main.cpp").symlink_to(outside)
+    _recorded_noop(ws)
+
+    _same_size_edit(outside, '"left"', '"rite"')
+    result = _build(ws)
+
+    assert _rebuilt(result) == ["linked"], output(result)
+    assert _program(ws, "linked") == "rite"
+    _assert_install_as_from_scratch(ws)
+
+
+def test_a_dangling_package_link_that_gains_a_target_is_a_new_package(tmp_path: Path) -> None:
+    ws = tmp_path / "ws"
+    _cmake_program(ws / "src", "first", "",
+                   '#include <cstdio>\nint main() { std::puts("first"); return 0; }\n')
+    later = tmp_path / "checkouts" / "later"
+    (ws / "src" / "later").symlink_to(later)  # not there yet
+    _recorded_noop(ws)
+
+    _cmake_program(later.parent, "later", "",
+                   '#include <cstdio>\nint main() { std::puts("later"); return 0; }\n')
+    result = _build(ws)
+
+    assert _rebuilt(result) == ["later"], output(result)
+    assert _program(ws, "later") == "later"
+
+
+def test_a_symlink_loop_in_place_of_a_recorded_directory_builds(tmp_path: Path) -> None:
+    ws = tmp_path / "ws"
+    pkg = _cmake_program(ws / "src", "loopy", "",
+                         '#include <cstdio>\nint main() { std::puts("ok"); return 0; }\n',
+                         files={"data/notes.txt": "notes\n"})
+    _recorded_noop(ws)
+
+    shutil.rmtree(pkg / "data")
+    (pkg / "data").symlink_to(pkg / "data")  # a link to itself: ELOOP
+    result = run("build", cwd=ws, env=_env())
+
+    assert result.returncode == 0, output(result)
+    assert "Traceback" not in result.stdout + result.stderr, output(result)
+    assert _rebuilt(result) == ["loopy"], output(result)
+    assert _program(ws, "loopy") == "ok"
+
+
+def test_a_pkg_config_module_installed_in_the_default_directory_resolves(
+        tmp_path: Path) -> None:
+    """pkg-config searches its compiled-in path even when PKG_CONFIG_PATH names nothing: a
+    module installed there is seen by `info`, the dependency check and its memo."""
+    name = f"wsbprobe{uuid.uuid4().hex[:8]}"
+    default = subprocess.run(["pkg-config", "--variable", "pc_path", "pkg-config"],
+                             capture_output=True, text=True, check=True).stdout.strip()
+    directory = Path(default.split(":")[0])  # /usr/local/lib/<triplet>/pkgconfig
+    ws = tmp_path / "ws"
+    write_cmake(ws / "src", "needs_probe", "cmake_minimum_required(VERSION 3.16)\n"
+                "project(needs_probe NONE)\ninstall(FILES package.xml DESTINATION share)\n",
+                depend=[name])
+    env = _env()
+    env.pop("PKG_CONFIG_PATH", None)
+    env.pop("PKG_CONFIG_LIBDIR", None)
+    _recorded_noop(ws, env)
+    time.sleep(SETTLE)
+    before = run("info", "needs_probe", cwd=ws, env=env)
+    assert before.returncode == 0 and "unresolved" in before.stdout, output(before)
+    refused = run("build", "--strict-dependencies", cwd=ws, env=env)
+    assert refused.returncode == 2, output(refused)
+
+    made = not directory.exists()
+    pc = directory / f"{name}.pc"
+    try:
+        directory.mkdir(parents=True, exist_ok=True)
+        pc.write_text(f"Name: {name}\nDescription: a probe\nVersion: 1.2.3\n")
+        info = run("info", "needs_probe", cwd=ws, env=env)
+        strict = run("build", "--strict-dependencies", cwd=ws, env=env)
+    finally:
+        pc.unlink()
+        if made:
+            directory.rmdir()
+
+    assert info.returncode == 0, output(info)
+    line = next(line for line in info.stdout.splitlines() if name in line)
+    assert "unresolved" not in line and "pkg-config" in line, output(info)
+    assert strict.returncode == 0, output(strict)
+
+
+SECRETS = {
+    "WSBUILD_CACHE_TOKEN": "wsb-token-" + uuid.uuid4().hex,
+    "AWS_SECRET_ACCESS_KEY": "aws-secret-" + uuid.uuid4().hex,
+    "GITHUB_TOKEN": "ghp_" + uuid.uuid4().hex,
+}
+
+
+def test_no_secret_of_the_environment_is_written_and_records_are_private(
+        tmp_path: Path) -> None:
+    ws = tmp_path / "ws"
+    _cmake_program(ws / "src", "quiet", "",
+                   '#include <cstdio>\nint main() { std::puts("ok"); return 0; }\n')
+    env = _env(**SECRETS)
+    _recorded_noop(ws, env)
+    replayed = _build(ws, env=env)
+    assert "0 packages finished" in replayed.stdout
+    run("list", cwd=ws, env=env)
+    run("list", cwd=ws, env=env)
+
+    for base in ("build", "log", "install"):
+        for path in (ws / base).rglob("*"):
+            if path.is_file() and not path.is_symlink():
+                data = path.read_bytes()
+                for name, value in SECRETS.items():
+                    assert value.encode() not in data, f"{name}'s value is in {path}"
+    own = ws / "build" / ".wsbuild"
+    assert own.stat().st_mode & 0o777 == 0o700
+    for record in (own / "noop").iterdir():
+        assert record.stat().st_mode & 0o777 == 0o600, record
+    assert (ws / "build" / ".wsbuild.build.lock").stat().st_mode & 0o077 == 0
+
+
+def _private_mounts(probe: Path) -> list[str]:
+    probe.mkdir(parents=True, exist_ok=True)
+    for prefix in (["unshare", "--mount"], ["unshare", "--user", "--map-root-user", "--mount"]):
+        done = subprocess.run([*prefix, "--", "sh", "-c",
+                               f"mount -t tmpfs -o size=64k tmpfs {sh_quote(str(probe))}"],
+                              capture_output=True, text=True, timeout=30, check=False)
+        if done.returncode == 0:
+            return prefix
+    pytest.fail("this machine lets tests mount nothing (needs root or user namespaces), "
+                "which CI has")
+
+
+def test_a_read_only_workspace_is_one_line_on_the_replayed_path_too(tmp_path: Path) -> None:
+    ws = tmp_path / "ws"
+    _cmake_program(ws / "src", "frozen", "",
+                   '#include <cstdio>\nint main() { std::puts("ok"); return 0; }\n')
+    _recorded_noop(ws)
+    prefix = _private_mounts(tmp_path / "probe")
+    env = _env(WSBUILD_TEST_PYTHON=sys.executable)
+    result = subprocess.run(
+        [*prefix, "--", "bash", "-c",
+         'mount --bind . . && mount -o remount,bind,ro . && cd "$PWD" '
+         '&& "$WSBUILD_TEST_PYTHON" -m wsbuild build'],
+        cwd=ws, env=env, capture_output=True, text=True, timeout=300, check=False)
+
+    text = result.stdout + result.stderr
+    assert result.returncode == 1, output(result)  # as the full run: the machine's failure
+    assert "Traceback" not in text and "bug" not in text, output(result)
+    errors = [line for line in text.splitlines() if line.startswith("wsbuild: error")]
+    assert len(errors) == 1 and "read-only" in errors[0], output(result)
+
+
+SLOW_CONFIGURE = """
+cmake_minimum_required(VERSION 3.16)
+project(slow NONE)
+file(APPEND "{marker}" "start\\n")
+execute_process(COMMAND sleep 2)
+file(APPEND "{marker}" "end\\n")
+install(FILES package.xml DESTINATION share/slow)
+"""
+
+
+def _wait_for(predicate, what: str, timeout: float = 60) -> None:  # type: ignore[no-untyped-def]
+    deadline = time.monotonic() + timeout
+    while not predicate():
+        assert time.monotonic() < deadline, f"timed out waiting for {what}"
+        time.sleep(0.05)
+
+
+def test_a_build_waiting_on_a_deleted_lock_never_runs_beside_another(tmp_path: Path) -> None:
+    """`wsbuild clean` deletes build/ (the lock file with it) while it holds the lock; a build
+    that was waiting then must wait for the build that took the new lock file."""
+    ws = tmp_path / "ws"
+    marker = tmp_path / "configures.log"
+    write_cmake(ws / "src", "slow", SLOW_CONFIGURE.format(marker=marker))
+    (ws / "build").mkdir(parents=True)
+    lock_path = ws / "build" / ".wsbuild.build.lock"
+    held = os.open(lock_path, os.O_RDWR | os.O_CREAT, 0o600)
+    fcntl.flock(held, fcntl.LOCK_EX)
+    waiting_log = tmp_path / "waiting.log"
+    env = _env()
+    with open(waiting_log, "w") as out:
+        waiting = subprocess.Popen([sys.executable, "-m", "wsbuild", "build"], cwd=ws,
+                                   env=env, stdout=out, stderr=subprocess.STDOUT)
+    try:
+        _wait_for(lambda: "waiting for it to finish" in waiting_log.read_text(),
+                  "the build to wait")
+        shutil.rmtree(ws / "build")  # what clean does, holding the lock
+        later = subprocess.Popen([sys.executable, "-m", "wsbuild", "build"], cwd=ws, env=env,
+                                 stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+        _wait_for(lambda: marker.exists() and "start" in marker.read_text(),
+                  "the later build to configure")
+        os.close(held)  # the old lock is free: the waiting build takes it
+        held = -1
+        later_out, _ = later.communicate(timeout=300)
+        assert later.wait() == 0, later_out
+        assert waiting.wait(timeout=300) == 0, waiting_log.read_text()
+    finally:
+        if held >= 0:
+            os.close(held)
+        for process in (waiting,):
+            if process.poll() is None:
+                process.kill()
+                process.wait()
+
+    lines = marker.read_text().split()
+    assert lines[:2] == ["start", "end"], f"two builds configured at once: {lines}"
