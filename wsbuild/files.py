@@ -85,7 +85,14 @@ def create_if_missing(path: Path, content: str = "") -> bool:
 def private_directory(path: Path) -> Path:
     """`path` made (with its parents) and kept readable by its owner only (0o700): what
     wsbuild keeps for itself there is nobody else's to read."""
-    path.mkdir(mode=0o700, parents=True, exist_ok=True)
-    if path.stat().st_mode & 0o077:
+    path.parent.mkdir(parents=True, exist_ok=True)
+    try:
+        os.mkdir(path, 0o700)
+    except FileExistsError:
+        pass
+    # lstat (and no Path.mkdir(exist_ok=True), which stats): only the directory's identity
+    # and mode matter here, so a no-op's record holds no more of it (its times change with
+    # every file made in it)
+    if os.lstat(path).st_mode & 0o077:
         path.chmod(0o700)
     return path
