@@ -18,6 +18,17 @@ REPO = Path(__file__).resolve().parent.parent
 # for the build a test means to run, and ~/.cache/wsbuild would fill up.
 os.environ["WSBUILD_CACHE"] = "off"
 
+# The inputs oracle (engine/recording.py): every wsbuild run the suite records also traces its
+# own file accesses and writes down those no declaration (wsbuild/inputs.py) covers. Set once
+# by the controlling process, inherited by xdist's workers and every wsbuild they start; a
+# non-empty file fails the run, naming the paths and the code that read them.
+if "WSBUILD_INPUTS_ORACLE" not in os.environ:
+    _oracle_dir = REPO / ".pytest_cache"
+    _oracle_dir.mkdir(exist_ok=True)
+    os.environ["WSBUILD_INPUTS_ORACLE"] = str(_oracle_dir / f"inputs-oracle-{os.getpid()}.txt")
+    Path(os.environ["WSBUILD_INPUTS_ORACLE"]).unlink(missing_ok=True)
+INPUTS_ORACLE = Path(os.environ["WSBUILD_INPUTS_ORACLE"])
+
 PACKAGE_XML = """<?xml version="1.0"?>
 <package format="3">
   <name>{name}</name>
@@ -248,10 +259,17 @@ def pytest_runtest_logreport(report: pytest.TestReport) -> None:
             _unexpected_skips.append(f"{report.nodeid}: {reason}")
 
 
+def _undeclared_inputs() -> list[str]:
+    try:
+        return INPUTS_ORACLE.read_text().splitlines()
+    except FileNotFoundError:
+        return []
+
+
 def pytest_sessionfinish(session: pytest.Session, exitstatus: int) -> None:
     if hasattr(session.config, "workerinput"):
         return  # an xdist worker: the controller counts and decides
-    if _unexpected_skips and exitstatus == 0:
+    if (_unexpected_skips or _undeclared_inputs()) and exitstatus == 0:
         session.exitstatus = pytest.ExitCode.TESTS_FAILED
 
 
@@ -260,5 +278,11 @@ def pytest_terminal_summary(terminalreporter: pytest.TerminalReporter) -> None:
         return
     for line in _unexpected_skips:
         terminalreporter.write_line(f"UNEXPECTED SKIP {line}")
+    undeclared = _undeclared_inputs()
+    for line in undeclared:
+        terminalreporter.write_line(f"UNDECLARED INPUT {line}")
+    terminalreporter.write_line(
+        f"{sum(1 for line in undeclared if not line.startswith('#'))} undeclared inputs of "
+        f"recorded runs (wsbuild/inputs.py; the oracle's file: {INPUTS_ORACLE})")
     terminalreporter.write_line(
         f"{len(_unexpected_skips)} unexpected skips (allowed: {'; '.join(ALLOWED_SKIPS)})")

@@ -30,6 +30,7 @@ SIDEWAYS: dict[tuple[str, str], str] = {
     ("builder", "runreport"): "every build writes its run report",
     ("runreport", "testing"): "a test run's report reads its results",
     ("verbs", "report"): "a verb hands the one reporter to the work it starts",
+    ("files", "inputs"): "a write that compares with what is there reads it as a declared input",
 }
 
 

@@ -4,7 +4,10 @@ from __future__ import annotations
 
 import itertools
 import os
+import stat
 from pathlib import Path
+
+from wsbuild import inputs
 
 #: numbers the temporary files of one process (with its pid: unique among writers)
 _UNIQUE = itertools.count()
@@ -62,9 +65,13 @@ def write_if_changed(path: Path, content: str, *, mode: int | None = None) -> bo
     `--symlink-install` never edits a file in the source tree.
     """
     data = content.encode()
-    if not path.is_symlink():
+    try:
+        link = stat.S_ISLNK(inputs.lstat(path).st_mode)
+    except OSError:
+        link = False
+    if not link:
         try:
-            if path.read_bytes() == data:
+            if inputs.read_bytes(path) == data:
                 return False
         except (FileNotFoundError, NotADirectoryError):
             pass
@@ -75,7 +82,11 @@ def write_if_changed(path: Path, content: str, *, mode: int | None = None) -> bo
 
 def create_if_missing(path: Path, content: str = "") -> bool:
     """Create `path` with `content` unless something (even a dangling symlink) is there."""
-    if os.path.lexists(path):
+    try:
+        inputs.lstat(path)
+    except OSError:
+        pass
+    else:
         return False
     path.parent.mkdir(parents=True, exist_ok=True)
     path.write_text(content)
@@ -93,6 +104,6 @@ def private_directory(path: Path) -> Path:
     # lstat (and no Path.mkdir(exist_ok=True), which stats): only the directory's identity
     # and mode matter here, so a no-op's record holds no more of it (its times change with
     # every file made in it)
-    if os.lstat(path).st_mode & 0o077:
+    if inputs.lstat(path).st_mode & 0o077:
         path.chmod(0o700)
     return path

@@ -1,34 +1,229 @@
-"""Inputs a run's answer depends on that it does not read itself: the directories a program
-it starts searches (pkg-config's search path), for whoever keeps the run's record.
+"""The inputs of a run that plans or only reads: every file, directory listing and program it
+consults goes through these functions, which do the access and declare it.
 
-The no-op replay (engine/replay.py) answers a command again only while every input of its
-last run is unchanged. The run's own reads are seen where they happen (engine/recording.py);
-what a subprocess reads is not, so the code that starts it declares it here. Declaring costs
-nothing when nobody listens (a run that is not recorded)."""
+The no-op replay (engine/replay.py) answers a command again only while every declared input
+of its last run compares equal, each in its own way:
+- `stat` / `lstat` / `exists` / `is_file` / `is_dir`: the path's stat signature as the run
+  saw it (type and mode, inode, size, modification and change time; absent is a signature);
+- `read_text` / `read_bytes` / `declare_file`: the file's stat signature at the run's end (a
+  file gone by then spoils the record);
+- `scandir` / `listdir` / `declare_directory`: the directory's entries, each by its lstat
+  signature, and through a symlink also its target's;
+- `which`: every candidate on the search path, as `stat` (a program installed earlier on
+  PATH changes the answer);
+the environment, the command line, the interpreter and wsbuild's version are compared by the
+record's key (engine/replay.py). What a program that wsbuild starts reads is declared by the
+code that starts it (`declare_directory` for pkg-config's search path). A path a run could
+not read (a symlink loop, no permission) spoils the record: that run is never replayed.
+
+Nothing listens unless a run is recorded: then these are plain os calls. Under
+`WSBUILD_INPUTS_ORACLE` (the test suite) engine/recording.py also traces the process's own
+file accesses and writes down any that no declaration covers: a test fails naming them."""
 
 from __future__ import annotations
 
-from collections.abc import Callable
+import os
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
 
-#: called with (absolute path, is a directory whose entries count)
-Listener = Callable[[str, bool], None]
+#: (absolute or relative path, kind, what the run saw: a stat signature, ABSENT or None)
+Listener = Callable[[str, str, "tuple[int, ...] | None"], None]
+STAT, LSTAT, FILE, LISTING, DECLARED, UNREADABLE = (
+    "stat", "lstat", "file", "listing", "declared", "unreadable")
+ABSENT: tuple[int, ...] = (0, 0, 0, 0, 0)
 _listeners: list[Listener] = []
 
 
-def declare_file(path: str) -> None:
-    """The run's answer depends on the file at `path` (or on its absence)."""
-    for listener in _listeners:
-        listener(path, False)
+def _notify(path: str | os.PathLike[str], kind: str, seen: tuple[int, ...] | None) -> None:
+    if _listeners:
+        name = os.fspath(path)
+        for listener in _listeners:
+            listener(name, kind, seen)
 
 
-def declare_directory(path: str) -> None:
+def _signature(st: os.stat_result) -> tuple[int, ...]:
+    return (st.st_mode, st.st_ino, st.st_size, st.st_mtime_ns, st.st_ctime_ns)
+
+
+def stat(path: str | os.PathLike[str], *, follow_symlinks: bool = True) -> os.stat_result:
+    """os.stat, declared."""
+    kind = STAT if follow_symlinks else LSTAT
+    try:
+        st = os.stat(path, follow_symlinks=follow_symlinks)
+    except (FileNotFoundError, NotADirectoryError):
+        _notify(path, kind, ABSENT)
+        raise
+    except OSError:
+        _notify(path, UNREADABLE, None)
+        raise
+    _notify(path, kind, _signature(st))
+    return st
+
+
+def lstat(path: str | os.PathLike[str]) -> os.stat_result:
+    return stat(path, follow_symlinks=False)
+
+
+def exists(path: str | os.PathLike[str]) -> bool:
+    try:
+        stat(path)
+    except OSError:
+        return False
+    return True
+
+
+def is_file(path: str | os.PathLike[str]) -> bool:
+    import stat as modes
+
+    try:
+        return modes.S_ISREG(stat(path).st_mode)
+    except OSError:
+        return False
+
+
+def is_dir(path: str | os.PathLike[str]) -> bool:
+    import stat as modes
+
+    try:
+        return modes.S_ISDIR(stat(path).st_mode)
+    except OSError:
+        return False
+
+
+def read_bytes(path: str | os.PathLike[str]) -> bytes:
+    """The file's content, declared (its signature is taken at the run's end)."""
+    try:
+        with open(path, "rb") as handle:
+            data = handle.read()
+    except (FileNotFoundError, NotADirectoryError):
+        _notify(path, STAT, ABSENT)
+        raise
+    except OSError:
+        _notify(path, UNREADABLE, None)
+        raise
+    _notify(path, FILE, None)
+    return data
+
+
+def read_text(path: str | os.PathLike[str], encoding: str = "utf-8",
+              errors: str = "strict") -> str:
+    return read_bytes(path).decode(encoding, errors)
+
+
+def scandir(path: str | os.PathLike[str]) -> list[os.DirEntry[str]]:
+    """The directory's entries (a list), declared as a listing."""
+    try:
+        with os.scandir(path) as entries:
+            listed = list(entries)
+    except (FileNotFoundError, NotADirectoryError):
+        _notify(path, STAT, ABSENT)
+        raise
+    except OSError:
+        _notify(path, UNREADABLE, None)
+        raise
+    _notify(path, LISTING, None)
+    return listed
+
+
+def listdir(path: str | os.PathLike[str]) -> list[str]:
+    return [entry.name for entry in scandir(path)]
+
+
+def which(name: str, path: str | None = None) -> str | None:
+    """shutil.which for a plain program name, every candidate declared."""
+    import stat as modes
+
+    if os.sep in name:
+        return name if is_file(name) and os.access(name, os.X_OK) else None
+    search = os.environ.get("PATH", os.defpath) if path is None else path
+    for directory in search.split(os.pathsep):
+        if not directory:
+            continue
+        candidate = os.path.join(directory, name)
+        try:
+            st = stat(candidate)
+        except OSError:
+            continue
+        if modes.S_ISREG(st.st_mode) and os.access(candidate, os.X_OK):
+            return candidate
+    return None
+
+
+def declare_file(path: str | os.PathLike[str]) -> None:
+    """The run's answer depends on the file at `path` (or on its absence), read by another
+    program."""
+    _notify(path, DECLARED, None)
+
+
+def declare_directory(path: str | os.PathLike[str]) -> None:
     """The run's answer depends on which entries the directory at `path` holds (and on each
-    entry's signature): a program searched it."""
-    for listener in _listeners:
-        listener(path, True)
+    entry's signature): another program searched it."""
+    _notify(path, LISTING, None)
+
+
+@contextmanager
+def listening(listener: Listener) -> Iterator[None]:
+    """Hear every declaration while inside."""
+    _listeners.append(listener)
+    try:
+        yield
+    finally:
+        _listeners.remove(listener)
 
 
 def listen(listener: Listener) -> Callable[[], None]:
     """Hear every declaration until the returned function is called."""
     _listeners.append(listener)
     return lambda: _listeners.remove(listener) if listener in _listeners else None
+
+
+def glob_dirs(directory: str | os.PathLike[str], pattern: str) -> list[str]:
+    """The subdirectories of `directory` whose names match `pattern` (fnmatch), sorted:
+    the listing and each match declared."""
+    import fnmatch
+
+    try:
+        names = listdir(directory)
+    except OSError:
+        return []
+    return sorted(os.path.join(directory, name) for name in names
+                  if fnmatch.fnmatchcase(name, pattern)
+                  and is_dir(os.path.join(directory, name)))
+
+
+def walk_files(top: str | os.PathLike[str]) -> list[str]:
+    """Every file under `top` (following symlinks to directories; hidden directories
+    skipped), sorted by directory then name: each listing declared."""
+    found: list[str] = []
+    stack = [os.fspath(top)]
+    while stack:
+        directory = stack.pop()
+        try:
+            entries = sorted(scandir(directory), key=lambda e: e.name)
+        except OSError:
+            continue
+        subdirectories = []
+        for entry in entries:
+            if is_dir(entry.path):
+                if not entry.name.startswith("."):
+                    subdirectories.append(entry.path)
+            else:
+                found.append(entry.path)
+        stack.extend(reversed(subdirectories))
+    return found
+
+
+def realpath(path: str | os.PathLike[str]) -> str:
+    """os.path.realpath, every component of the absolute path declared (by lstat: a
+    directory replaced by a symlink changes the answer)."""
+    absolute = os.path.abspath(path)
+    real = os.path.realpath(absolute)
+    for spelling in dict.fromkeys((absolute, real)):  # the path as given and as resolved
+        current = ""
+        for part in spelling.split(os.sep)[1:]:
+            current = f"{current}{os.sep}{part}"
+            try:
+                lstat(current)
+            except OSError:
+                break
+    return real

@@ -20,6 +20,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from wsbuild.files import atomic_write
+from wsbuild import inputs
 
 STATE_FILE = Path(".wsbuild") / "state.json"
 #: directories inside a package that never affect its build
@@ -56,7 +57,7 @@ def _walk(root: Path) -> Iterable[tuple[str, os.stat_result]]:
         rel_dir = stack.pop()
         directory = os.path.join(root, rel_dir) if rel_dir else str(root)
         try:
-            entries = list(os.scandir(directory))
+            entries = inputs.scandir(directory)
         except OSError:
             continue
         if rel_dir and any(e.name == "COLCON_IGNORE" for e in entries):
@@ -73,17 +74,17 @@ def _walk(root: Path) -> Iterable[tuple[str, os.stat_result]]:
                     continue
                 # os.stat, not entry.stat(): through a symlink to its target (what the build
                 # reads), and seen by whatever watches this process's reads
-                stat = os.stat(entry.path)
+                stat = inputs.stat(entry.path)
             except FileNotFoundError:
                 if entry.is_symlink():  # a dangling link: the build sees it missing
-                    yield rel + _DANGLING, os.lstat(entry.path)
+                    yield rel + _DANGLING, inputs.lstat(entry.path)
                 continue
             except OSError:  # a link loop, an unreadable file: never up to date
-                yield rel + _UNREADABLE, os.lstat(entry.path)
+                yield rel + _UNREADABLE, inputs.lstat(entry.path)
                 continue
             yield rel, stat
             if entry.is_symlink():  # where it points counts too (the target may be unchanged)
-                yield rel + _LINK, os.lstat(entry.path)
+                yield rel + _LINK, inputs.lstat(entry.path)
 
 
 def _hash_file(path: str) -> str:
@@ -155,7 +156,7 @@ class BuildState:
 
 def read_state(build_dir: Path) -> BuildState | None:
     try:
-        data = json.loads((build_dir / STATE_FILE).read_text())
+        data = json.loads(inputs.read_text(build_dir / STATE_FILE))
         return BuildState(
             key=data["key"],
             source=data["source"],
@@ -195,7 +196,7 @@ def stat_signature(path: str) -> tuple[int, ...]:
     """What a change to the file at `path` (through symlinks) changes: type and mode, inode,
     size, modification and change times; ABSENT when it cannot be stat'ed."""
     try:
-        st = os.stat(path)
+        st = inputs.stat(path)
     except OSError:
         return ABSENT
     return (st.st_mode, st.st_ino, st.st_size, st.st_mtime_ns, st.st_ctime_ns)
@@ -236,9 +237,8 @@ def damaged_install(install_base: Path, installed: Iterable[tuple[str, int]]) ->
         path = os.path.join(install_base, rel)
         try:
             if size == -1:
-                if not os.path.lexists(path):
-                    return rel
-            elif os.stat(path).st_size != size:
+                inputs.lstat(path)
+            elif inputs.stat(path).st_size != size:
                 return rel
         except OSError:
             return rel

@@ -13,6 +13,7 @@ from wsbuild.files import write_if_changed
 from wsbuild.events import Emit, Notice
 from wsbuild.underlay.environment import PreparedUnderlay
 from wsbuild.workspace.root import Workspace
+from wsbuild import inputs
 
 
 #: what the workspace's setup scripts were last written from (a no-op rewrites nothing)
@@ -39,22 +40,22 @@ def write_setup_scripts(ws: Workspace, merged: bool, underlay: PreparedUnderlay,
         underlays.append(ChainedUnderlay(prefix=underlay.venv, script_dir=None,
                                          prepend=venv_prepends(underlay.venv),
                                          set=((BOOTSTRAP_GUARD_VAR, "1"),)))
-    inputs = json.dumps({"merged": merged, "underlays": [repr(u) for u in underlays]})
+    wanted = json.dumps({"merged": merged, "underlays": [repr(u) for u in underlays]})
     memo = ws.build_base / SETUP_INPUTS
-    if not installed_changed and _read(memo) == inputs and all(
-            (ws.install_base / f"{name}.bash").is_file() for name in ("setup", "local_setup")):
+    if not installed_changed and _read(memo) == wanted and all(
+            inputs.is_file(ws.install_base / f"{name}.bash") for name in ("setup", "local_setup")):
         return
     write_workspace_scripts(ws.install_base, merged=merged, underlays=underlays)
     try:
         memo.parent.mkdir(parents=True, exist_ok=True)
-        memo.write_text(inputs)
+        memo.write_text(wanted)
     except OSError:
         pass  # next time they are written again
 
 
 def _read(path: Path) -> str | None:
     try:
-        return path.read_text()
+        return inputs.read_text(path)
     except OSError:
         return None
 

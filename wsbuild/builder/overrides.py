@@ -10,6 +10,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from wsbuild.errors import SelectionError
+from wsbuild import inputs
 
 #: package.xml tags whose package a built package needs at its run time or in its interface
 _DEPEND_TAGS = frozenset({"depend", "build_depend", "build_export_depend",
@@ -29,7 +30,7 @@ class Override:
 
 def _listdir(path: Path) -> list[str]:
     try:
-        return sorted(n for n in os.listdir(path) if not n.startswith("."))
+        return sorted(n for n in inputs.listdir(path) if not n.startswith("."))
     except OSError:
         return []
 

@@ -22,6 +22,7 @@ from wsbuild.builder.request import BuildRequest
 from wsbuild.errors import DependencyError
 from wsbuild.session import Session
 from wsbuild.workspace.selected import Selection
+from wsbuild import inputs as declared
 
 if TYPE_CHECKING:
     from wsbuild.cache.client import Found
@@ -232,7 +233,7 @@ def rebuild_reason(selection: Selection, request: BuildRequest, name: str,
     from wsbuild.builder.fingerprint import rebuild_reason as compare
 
     options = request.build
-    if (selection.workspace.build_base / name / BUILDING_MARKER).exists():
+    if declared.exists(selection.workspace.build_base / name / BUILDING_MARKER):
         return Reason("unfinished", "the previous build did not finish")
     if request.force or options.cmake_force_configure or options.cmake_clean_cache \
             or options.cmake_clean_first:

@@ -16,6 +16,7 @@ from pathlib import Path
 from wsbuild.builder.fingerprint import digest_of
 from wsbuild.workspace.model import Package
 from wsbuild.workspace.resolve import Resolver, unresolved_build_dependencies
+from wsbuild import inputs
 
 MEMO = Path(".wsbuild") / "resolved.json"
 
@@ -53,7 +54,7 @@ def _question(package: Package, workspace: Mapping[str, Package]) -> str:
 
 def _read(path: Path, environment: str) -> dict[str, tuple[str, tuple[str, ...]]]:
     try:
-        data = json.loads(path.read_text())
+        data = json.loads(inputs.read_text(path))
         if data.get("environment") != environment:
             return {}
         return {name: (str(q), tuple(str(d) for d in deps))

@@ -38,6 +38,7 @@ from contextlib import contextmanager
 from pathlib import Path
 from typing import Any, TextIO
 
+from wsbuild import inputs
 from wsbuild.engine.replay import (
     ABSENT,
     FOLLOW,
@@ -126,19 +127,28 @@ class Recorder:
         self.stderr = _Tee(sys.stderr)
         self._saved: list[tuple[object, str, object]] = []
         self._unlisten: Callable[[], None] | None = None
+        #: the test oracle (WSBUILD_INPUTS_ORACLE: a file): the process's own accesses are
+        #: traced too, and those no declaration covers are written there
+        self.oracle = os.environ.get(ORACLE_VARIABLE) or None
+        #: (absolute path, follows symlinks) -> the wsbuild code that accessed it (oracle)
+        self.traced: dict[tuple[str, bool], str] = {}
+        self.traced_listed: dict[str, str] = {}
 
-    def _declared(self, path: str, directory: bool) -> None:
-        """An input a subprocess reads (wsbuild/inputs.py): a directory's entries are
-        recorded as a listed directory's, a file as one opened."""
+    def _declared(self, path: str, kind: str, seen: tuple[int, ...] | None) -> None:
+        """An input declared through wsbuild/inputs.py."""
         if not self.active:
             return
         name = self._absolute(path)
         if name is None:
             return
-        if directory:
+        if kind == inputs.LISTING:
             self.listed.add(name)
+        elif kind == inputs.UNREADABLE:
+            self.spoiled = True  # what the run made of it (unreadable: missing?) is unknown
         else:
-            self.seen.setdefault((name, True), DECLARED)
+            follow = kind != inputs.LSTAT
+            saw = seen if seen is not None else OPENED if kind == inputs.FILE else DECLARED
+            self.seen.setdefault((name, follow), saw)
 
     def no_op(self, *, build_base: Path, log_base: Path, run_log: Path, seconds: float) -> None:
         """The build was a no-op that ended well; `seconds` as its summary shows them."""
@@ -176,7 +186,7 @@ class Recorder:
             self._saw(path, follow, ABSENT)
             raise
         except OSError:
-            self.spoiled = True  # what the run made of it (unreadable: missing?) is unknown
+            self._saw(path, follow, ABSENT)
             raise
         if type(result) is os.stat_result:
             self._saw(path, follow, (result.st_mode, result.st_ino, result.st_size,
@@ -186,24 +196,27 @@ class Recorder:
         return result
 
     def _saw(self, path: object, follow: bool, saw: tuple[int, ...]) -> None:
+        """The tracer (oracle only): the run's own access of `path`."""
         if not self.active:
             return
-        if type(path) is str and path[:1] == "/":
-            key = (path, follow)
-        else:
-            name = self._absolute(path)
-            if name is None:
-                return
-            key = (name, follow)
-        if key not in self.seen:
-            self.seen[key] = saw
+        name = self._absolute(path)
+        if name is not None and (name, follow) not in self.traced:
+            self.traced[(name, follow)] = _caller()
 
     def _note_listed(self, path: object) -> None:
         name = self._absolute(path) if self.active else None
-        if name is not None:
-            self.listed.add(name)
+        if name is not None and name not in self.traced_listed:
+            self.traced_listed[name] = _caller()
 
     def install(self) -> None:
+        self._unlisten = inputs.listen(self._declared)
+        sys.stdout, sys.stderr = self.stdout, self.stderr  # type: ignore[assignment]
+        self.active = True
+        if self.oracle:
+            self._trace()
+
+    def _trace(self) -> None:
+        """Wrap the process's file functions, noting every access (the oracle)."""
         watched, note_listed = self._watched, self._note_listed
         os_stat, scandir, listdir = os.stat, os.scandir, os.listdir
         os_open, readlink, file_open = os.open, os.readlink, builtins.open
@@ -218,11 +231,8 @@ class Recorder:
                 return os_stat(path, dir_fd=dir_fd, follow_symlinks=follow_symlinks)
             try:
                 st = os_stat(path, follow_symlinks=follow_symlinks)
-            except (FileNotFoundError, NotADirectoryError):
-                saw(path, follow_symlinks, ABSENT)
-                raise
             except OSError:
-                self.spoiled = True
+                saw(path, follow_symlinks, ABSENT)
                 raise
             saw(path, follow_symlinks,
                 (st.st_mode, st.st_ino, st.st_size, st.st_mtime_ns, st.st_ctime_ns))
@@ -260,11 +270,6 @@ class Recorder:
                                    (builtins, "open", watched_open), (io, "open", watched_open)):
             self._saved.append((owner, name, getattr(owner, name)))
             setattr(owner, name, value)
-        sys.stdout, sys.stderr = self.stdout, self.stderr  # type: ignore[assignment]
-        from wsbuild.inputs import listen
-
-        self._unlisten = listen(self._declared)
-        self.active = True
 
     def _uninstall(self) -> None:
         self.active = False
@@ -286,6 +291,40 @@ class Recorder:
             self._write(exit_code)
         except Exception:  # noqa: BLE001 - a record is never worth failing the run
             pass  # (a bug here shows as no record: tests/test_noop_replay.py)
+        if self.oracle and self.outcome is not None and exit_code == 0:
+            self._report_undeclared(self.oracle)
+
+    def _report_undeclared(self, oracle: str) -> None:
+        """The oracle: every access the run made itself that no declaration covers, appended
+        to the file `oracle` (one line each: path, how, the code that made it)."""
+        outputs = tuple(path + os.sep for path in ((self.outcome or {}).get("log_base", ""),
+                                                   str(RECORDS.absolute())) if path)
+        build_base = (self.outcome or {}).get("build_base", "")
+        lock = os.path.join(build_base, ".wsbuild.build.lock")
+        allowed = _interpreter_paths()
+        # realpath() of the interpreter (sysconfig, site) lstats each of its ancestors
+        interpreter_ancestors = {
+            spelling[:i + 1] for spelling in (sys.base_prefix + os.sep, sys.executable + os.sep,
+                                              os.path.realpath(sys.executable) + os.sep)
+            for i, c in enumerate(spelling) if c == os.sep} | _links_of(sys.executable)
+        declared = {path for path, _ in self.seen}
+        lines = []
+        for (path, follow), caller in sorted(self.traced.items()):
+            if path in declared or path in self.listed or path.rpartition("/")[0] in \
+                    self.listed or path == lock or path.startswith(allowed) or \
+                    (not follow and path + os.sep in interpreter_ancestors) or \
+                    (path + os.sep).startswith(outputs):
+                continue
+            lines.append(f"{path}\t{'stat' if follow else 'lstat'}\t{caller}\n")
+        for path, caller in sorted(self.traced_listed.items()):
+            if path in self.listed or path in declared or path.startswith(allowed) or \
+                    (path + os.sep).startswith(outputs):
+                continue
+            lines.append(f"{path}\tlisting\t{caller}\n")
+        if lines:
+            with open(oracle, "a", encoding="utf-8") as handle:
+                handle.write(f"# wsbuild {' '.join(sys.argv[1:])} in {self.cwd}\n")
+                handle.writelines(lines)
 
     def _write(self, exit_code: int) -> None:
         outcome = self.outcome
@@ -397,6 +436,45 @@ def _log_of(run_log: Path, log_base: str) -> dict[str, object] | None:
         report = report.replace(json.dumps(started), STARTED)
     return {"log_base": log_base, "up_to_date": up_to_date, "report": report,
             "timings": timings, "table": lines[:lines.index("")]}
+
+
+#: the environment variable naming the oracle's file (the test suite sets it)
+ORACLE_VARIABLE = "WSBUILD_INPUTS_ORACLE"
+
+
+def _caller() -> str:
+    """The wsbuild code that made an access (the oracle names it)."""
+    frame = sys._getframe(2)
+    while frame is not None:
+        name = frame.f_code.co_filename
+        if "/wsbuild/" in name and not name.endswith(("/inputs.py", "/recording.py")):
+            return f"{name.rpartition('/wsbuild/')[2]}:{frame.f_lineno} {frame.f_code.co_name}"
+        frame = frame.f_back
+    return "?"
+
+
+def _links_of(path: str) -> set[str]:
+    """The symlinks `path` resolves through, each with a trailing separator."""
+    found: set[str] = set()
+    while os.path.islink(path) and path + os.sep not in found:
+        found.add(path + os.sep)
+        path = os.path.join(os.path.dirname(path), os.readlink(path))
+    return found
+
+
+def _interpreter_paths() -> tuple[str, ...]:
+    """What the interpreter reads for itself (its standard library, its messages, the venv's
+    configuration) and wsbuild's own files: the record's key names the interpreter and
+    wsbuild's version instead."""
+    import sysconfig
+
+    paths = sysconfig.get_paths()
+    own = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+    found = {paths["stdlib"], paths["platstdlib"], os.path.join(sys.prefix, "pyvenv.cfg"),
+             own + os.sep}
+    if sys.base_prefix != sys.prefix:  # a venv's interpreter is installed apart from it
+        found.add(sys.base_prefix + os.sep)
+    return tuple(sorted(found))
 
 
 _active: Recorder | None = None

@@ -34,6 +34,7 @@ from wsbuild.engine.timing_files import (
     write_timing_files,
 )
 from wsbuild.files import atomic_write
+from wsbuild import inputs
 
 __all__ = ["TIMINGS_JSON", "TIMINGS_TEXT"]
 
@@ -43,7 +44,7 @@ DURATIONS_FILE = Path(".wsbuild") / "durations.json"
 def read_durations(build_base: Path) -> dict[str, float]:
     """Recorded durations (seconds) by package; empty when none or unreadable."""
     try:
-        data = json.loads((build_base / DURATIONS_FILE).read_text())
+        data = json.loads(inputs.read_text(build_base / DURATIONS_FILE))
     except (OSError, ValueError):
         return {}
     if not isinstance(data, dict):

@@ -9,6 +9,7 @@ from pathlib import Path, PurePosixPath
 from wsbuild.errors import CycleError, WorkspaceError
 from wsbuild.files import create_if_missing, write_if_changed
 from wsbuild.prefix.quoting import validate_package_name
+from wsbuild import inputs
 
 #: marker in the install base naming its layout (colcon_core.verb.check_and_mark_install_layout)
 INSTALL_LAYOUT_MARKER = ".colcon_install_layout"
@@ -31,7 +32,7 @@ def package_prefix(install_base: Path, package: str, *, merged: bool) -> Path:
 def is_installed(install_base: Path, package: str, *, merged: bool) -> bool:
     """Whether `package` is installed (its colcon package index entry exists)."""
     prefix = package_prefix(install_base, package, merged=merged)
-    return (prefix / PACKAGE_INDEX / package).exists()
+    return inputs.exists(prefix / PACKAGE_INDEX / package)
 
 
 def resolve_layout(install_base: Path, requested: bool | None, *, verb: str,
@@ -63,7 +64,7 @@ def resolve_layout(install_base: Path, requested: bool | None, *, verb: str,
 def read_install_layout(install_base: Path) -> str | None:
     """'isolated', 'merged', or None when the marker is missing."""
     try:
-        return (install_base / INSTALL_LAYOUT_MARKER).read_text().rstrip()
+        return inputs.read_text(install_base / INSTALL_LAYOUT_MARKER).rstrip()
     except (FileNotFoundError, NotADirectoryError):
         return None
 

@@ -13,6 +13,7 @@ from contextlib import contextmanager
 from pathlib import Path
 
 from wsbuild.files import atomic_write
+from wsbuild import inputs
 
 STAGE_DIR = ".wsbuild-stage"
 #: record, per package, of the files it put into a merged prefix
@@ -120,7 +121,7 @@ def recover_direct_install(prefix: Path, stage: Path) -> None:
 def recover_all(install_base: Path) -> None:
     """At the start of a build: restore installs a killed run left parked, drop stale stages."""
     stage_dir = install_base / STAGE_DIR
-    if not stage_dir.exists():
+    if not inputs.exists(stage_dir):
         return
     for parked in sorted(stage_dir.glob("*.previous")):
         name = parked.name[: -len(".previous")]

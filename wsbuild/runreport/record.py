@@ -19,6 +19,7 @@ from typing import TYPE_CHECKING
 from wsbuild.engine.cpu_sampler import CpuSample
 from wsbuild.engine.jobs import JobResult, Outcome
 from wsbuild.engine.timing_files import started_at
+from wsbuild import inputs
 
 if TYPE_CHECKING:
     from wsbuild.cache.settings import CacheSettings
@@ -85,7 +86,7 @@ def _generator(plan: Plan, results: Iterable[JobResult]) -> str:
     one built in this run (a file read or two: no subprocess, no import of the build types,
     which a no-op build never loads)."""
     cmake = [r.package for r in results
-             if (plan.workspace.build_base / r.package / "CMakeCache.txt").is_file()]
+             if inputs.is_file(plan.workspace.build_base / r.package / "CMakeCache.txt")]
     if not cmake:
         return "none (no CMake package)"
     built_now = _built_now(results)

@@ -17,6 +17,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from wsbuild.errors import UnderlayError
+from wsbuild import inputs
 
 #: Set (to any non-empty value) in a child's environment, it stops
 #: `ros_wheels_bootstrapper` from re-executing the interpreter.  Only set it together
@@ -39,13 +40,13 @@ class VenvPython:
     @property
     def has_headers(self) -> bool:
         """Whether `Python.h` is there (rosidl's Python extensions need it)."""
-        return (self.include_dir / "Python.h").is_file()
+        return inputs.is_file(self.include_dir / "Python.h")
 
 # ---------------------------------------------------------------------------- detection
 
 
 def is_ament_prefix(prefix: Path) -> bool:
-    return (prefix / RESOURCE_INDEX / "packages").is_dir()
+    return inputs.is_dir(prefix / RESOURCE_INDEX / "packages")
 
 
 def find_venv_underlay(environ: Mapping[str, str], executable: str) -> Path | None:
@@ -71,7 +72,8 @@ def find_venv_underlay(environ: Mapping[str, str], executable: str) -> Path | No
 
 
 def site_packages_dirs(prefix: Path) -> list[Path]:
-    return sorted(p for p in (prefix / "lib").glob("python3*/site-packages") if p.is_dir())
+    return [Path(d) / "site-packages" for d in inputs.glob_dirs(prefix / "lib", "python3*")
+            if inputs.is_dir(Path(d) / "site-packages")]
 
 
 def is_wheel_underlay(prefix: Path) -> bool:
@@ -125,7 +127,7 @@ _python_cache: dict[str, VenvPython] = {}
 def _venv_executable(prefix: Path) -> Path:
     for name in ("python3", "python"):
         candidate = prefix / "bin" / name
-        if candidate.exists():
+        if inputs.exists(candidate):
             return candidate
     raise UnderlayError(
         "the underlay has no Python interpreter",

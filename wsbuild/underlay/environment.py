@@ -33,6 +33,7 @@ from wsbuild.underlay.detect import (
 )
 from wsbuild.underlay.lint import prepare_lint
 from wsbuild.underlay.repair import repair_underlay, scan_underlay
+from wsbuild import inputs
 
 # ------------------------------------------------------------------- public: environment
 
@@ -65,7 +66,8 @@ def executable_dirs(prefix: Path) -> list[Path]:
     of vendor packages (uncrustify_vendor: ament_uncrustify runs the `uncrustify` found on
     PATH), which a sourced ROS install adds through their environment hooks."""
     prefix = Path(os.path.abspath(prefix))
-    return [prefix / "bin", *sorted(p for p in (prefix / "opt").glob("*/bin") if p.is_dir())]
+    return [prefix / "bin", *(Path(d) / "bin" for d in inputs.glob_dirs(prefix / "opt", "*")
+                              if inputs.is_dir(Path(d) / "bin"))]
 
 
 def cmake_prefixes(prefix: Path) -> list[Path]:

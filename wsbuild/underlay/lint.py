@@ -39,6 +39,7 @@ from pathlib import Path
 
 from wsbuild.errors import UnderlayError
 from wsbuild.underlay.repair import write_underlay_file
+from wsbuild import inputs
 
 #: Version written into the stand-ins (ament_lint's Jazzy version).
 LINT_AUTO_SHIM_VERSION = "0.17.3"
@@ -113,8 +114,8 @@ def find_cmake_package(name: str, prefixes: Iterable[Path],
         if name in _entries(os.path.join(base, "lib"), listed):
             candidates.append(prefix / "lib" / name / "cmake")
         for folder in candidates:
-            if (folder / f"{name}Config.cmake").is_file() \
-                    or (folder / f"{name}-config.cmake").is_file():
+            if inputs.is_file(folder / f"{name}Config.cmake") \
+                    or inputs.is_file(folder / f"{name}-config.cmake"):
                 return folder
     return None
 
@@ -124,7 +125,7 @@ def _entries(directory: str, listed: dict[str, frozenset[str]]) -> frozenset[str
     found = listed.get(directory)
     if found is None:
         try:
-            found = frozenset(os.listdir(directory))
+            found = frozenset(inputs.listdir(directory))
         except OSError:
             found = frozenset()
         listed[directory] = found
@@ -154,9 +155,9 @@ def prepare_lint(prefixes: Iterable[Path], path: str, directory: Path, *,
     listed: dict[str, frozenset[str]] = {}
     real = tuple(name for name, program in LINTERS.items()
                  if find_cmake_package(name, prefixes, listed) is not None
-                 and shutil.which(program, path=path) is not None)
+                 and inputs.which(program, path=path) is not None)
     driven = tuple(name for name in DRIVEN if name not in real
-                   and shutil.which(LINTERS[name], path=path) is not None)
+                   and inputs.which(LINTERS[name], path=path) is not None)
     stood_in = [name for name in ("ament_lint_auto", "ament_lint_common")
                 if find_cmake_package(name, prefixes, listed) is None]
     stood_in += [name for name in LINTERS if name not in real and name not in driven]
@@ -387,7 +388,7 @@ def write_lint_auto_shim(directory: Path) -> Path:
 
 def _write(path: Path, text: str) -> None:
     try:
-        if not path.is_file() or path.read_text(encoding="utf-8") != text:
+        if not inputs.is_file(path) or inputs.read_text(path) != text:
             path.parent.mkdir(parents=True, exist_ok=True)
             write_underlay_file(path, text)
     except OSError as exc:

@@ -35,6 +35,7 @@ from wsbuild.underlay.detect import (
     venv_python,
 )
 from wsbuild.underlay.repair_rules import QUICK_TOKENS, Edit, rules_for
+from wsbuild import inputs
 
 #: Where the repair stamp lives, relative to the venv prefix.
 MARKER_RELPATH = Path(".wsbuild") / "underlay.json"
@@ -142,9 +143,9 @@ def _stamp(prefix: Path) -> list[int]:
     values: list[int] = [RULES_VERSION]
     for path in [prefix / RESOURCE_INDEX / "packages", *site_packages_dirs(prefix)]:
         try:
-            values.append(path.stat().st_mtime_ns)
-            with os.scandir(path) as entries:  # mtimes can be coarse: count entries too
-                values.append(sum(1 for _ in entries))
+            values.append(inputs.stat(path).st_mtime_ns)
+            # mtimes can be coarse: count entries too
+            values.append(len(inputs.scandir(path)))
         except OSError:
             values.extend((-1, -1))
     return values
@@ -152,7 +153,7 @@ def _stamp(prefix: Path) -> list[int]:
 
 def _read_marker(prefix: Path) -> dict[str, object] | None:
     try:
-        data = json.loads((prefix / MARKER_RELPATH).read_text(encoding="utf-8"))
+        data = json.loads(inputs.read_text(prefix / MARKER_RELPATH))
     except (OSError, ValueError):
         return None
     return data if isinstance(data, dict) else None

@@ -28,6 +28,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from wsbuild.errors import WsbuildError
+from wsbuild import inputs
 
 #: the workspace's own defaults file, at its root
 WORKSPACE_FILE = "wsbuild.yaml"
@@ -100,9 +101,9 @@ def defaults_files(environ: Mapping[str, str], workspace_root: Path | None) -> l
         home = environ.get(HOME_VAR, "")
         user_home = Path(environ["HOME"]) if environ.get("HOME") else Path.home()
         base = Path(home).expanduser() if home else user_home / ".colcon"
-        if (base / "defaults.yaml").is_file():
+        if inputs.is_file(base / "defaults.yaml"):
             files.append(base / "defaults.yaml")
-    if workspace_root is not None and (workspace_root / WORKSPACE_FILE).is_file():
+    if workspace_root is not None and inputs.is_file(workspace_root / WORKSPACE_FILE):
         files.append(workspace_root / WORKSPACE_FILE)
     return files
 

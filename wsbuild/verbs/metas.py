@@ -18,6 +18,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from wsbuild.errors import WsbuildError
+from wsbuild import inputs
 
 META_FILE = "colcon.meta"
 USER_DIR = "metadata"
@@ -41,7 +42,7 @@ class Metadata:
 
     def for_package(self, name: str, path: Path) -> dict[str, object]:
         merged: dict[str, object] = {}
-        for values in (self.by_path.get(os.path.realpath(path), {}), self.by_name.get(name, {})):
+        for values in (self.by_path.get(inputs.realpath(path), {}), self.by_name.get(name, {})):
             for key, value in values.items():
                 _merge(merged, key, value)
         return merged
@@ -65,17 +66,15 @@ def metadata_files(args: argparse.Namespace, environ: Mapping[str, str], cwd: Pa
     files: list[Path] = []
     if not getattr(args, "ignore_user_meta", False):
         user = config_home(environ) / USER_DIR
-        for dirpath, dirnames, filenames in os.walk(user, followlinks=True):
-            dirnames[:] = sorted(d for d in dirnames if not d.startswith("."))
-            files += [Path(dirpath) / f for f in sorted(filenames) if f.endswith(".meta")]
+        files += [Path(f) for f in inputs.walk_files(user) if f.endswith(".meta")]
     metas = getattr(args, "metas", None)
     for meta in metas if metas is not None else [META_FILE]:
         path = cwd / meta
-        if path.is_dir():
+        if inputs.is_dir(path):
             path = path / META_FILE
-        if path.is_file():
+        if inputs.is_file(path):
             files.append(path)
-        elif metas is not None and not (cwd / meta).is_dir():
+        elif metas is not None and not inputs.is_dir(cwd / meta):
             raise MetadataError("--metas names a file that does not exist", path=path,
                                 hint="a colcon.meta file, or a directory holding one")
     return files

@@ -13,6 +13,7 @@ from pathlib import Path
 from wsbuild.errors import ManifestError, WorkspaceError
 from wsbuild.workspace.memo import ManifestMemo
 from wsbuild.workspace.model import Dependency, DepKind, Package
+from wsbuild import inputs
 
 IGNORE_MARKERS = ("COLCON_IGNORE", "AMENT_IGNORE", "CATKIN_IGNORE")
 _PYTHON_FILES = ("pyproject.toml", "setup.py", "setup.cfg")
@@ -29,11 +30,11 @@ def find_package_dirs(base_paths: Iterable[Path], skip: Collection[Path] = ()) -
     Skips ignore-marked, hidden, virtualenv and conda directories, and `skip` (the workspace's
     own build/install/log). Symlinks are followed, each real directory visited once.
     """
-    skip_real = {os.path.realpath(p) for p in skip}
+    skip_real = {inputs.realpath(p) for p in skip}
     seen: set[str] = set()
     found: list[Path] = []
     for base in base_paths:
-        _crawl(str(base), os.path.realpath(base), skip_real, seen, found)
+        _crawl(str(base), inputs.realpath(base), skip_real, seen, found)
     return found
 
 
@@ -43,7 +44,7 @@ def _crawl(path: str, real: str, skip: set[str], seen: set[str], found: list[Pat
         return
     seen.add(real)
     try:
-        entries = list(os.scandir(path))
+        entries = inputs.scandir(path)
     except (FileNotFoundError, NotADirectoryError, PermissionError):
         return
     names = {e.name for e in entries}
@@ -61,7 +62,7 @@ def _crawl(path: str, real: str, skip: set[str], seen: set[str], found: list[Pat
         except OSError:
             continue
         if is_dir:
-            child_real = os.path.realpath(entry.path) if is_link else f"{real}/{entry.name}"
+            child_real = inputs.realpath(entry.path) if is_link else f"{real}/{entry.name}"
             _crawl(entry.path, child_real, skip, seen, found)
 
 
@@ -99,7 +100,7 @@ def identify_package(
 ) -> Package | None:
     """Read one package directory: package.xml first, else CMake, else Python metadata."""
     manifest = path / "package.xml"
-    if manifest.exists():
+    if inputs.exists(manifest):
         key = memo.key(manifest, environ) if memo is not None else None
         remembered = memo.get(manifest, key) if memo is not None and key is not None else None
         if remembered is not None and remembered[0].build_type in known_build_types:

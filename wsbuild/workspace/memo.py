@@ -13,6 +13,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from wsbuild.workspace.model import Dependency, DepKind, Package, Person, VersionConstraint
+from wsbuild import inputs
 
 #: bump when the remembered form of a package changes
 FORMAT = 1
@@ -33,7 +34,7 @@ class ManifestMemo:
         if path is None:
             return cls(None)
         try:
-            data = json.loads(path.read_text())
+            data = json.loads(inputs.read_text(path))
             known = data["packages"] if data.get("format") == FORMAT else {}
         except (OSError, ValueError, KeyError, TypeError, AttributeError):
             known = {}
@@ -42,7 +43,7 @@ class ManifestMemo:
     def key(self, manifest: Path, environ: Mapping[str, str]) -> str | None:
         """What a read of `manifest` depends on; None when it cannot be read (parse it)."""
         try:
-            text = manifest.read_bytes()
+            text = inputs.read_bytes(manifest)
         except OSError:
             return None
         digest = hashlib.blake2b(text, digest_size=16)
@@ -50,7 +51,7 @@ class ManifestMemo:
             value = environ.get(name.decode())
             digest.update(b"\0" + name + b"=" + (value.encode() if value is not None else b"\1"))
         for beside in ("CMakeLists.txt", "setup.py"):
-            digest.update(b"1" if (manifest.parent / beside).is_file() else b"0")
+            digest.update(b"1" if inputs.is_file(manifest.parent / beside) else b"0")
         return digest.hexdigest()
 
     def get(self, manifest: Path, key: str) -> tuple[Package, list[str]] | None:

@@ -24,13 +24,13 @@ import functools
 import importlib.util
 import os
 import re
-import shutil
 import sys
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
 from wsbuild.workspace.model import DepKind, Package, Resolution, ResolvedDependency
+from wsbuild import inputs
 
 #: rosdep keys whose Python module name is not the key minus "python3-"
 _PYTHON_MODULES = {
@@ -124,7 +124,9 @@ class Resolver:
         extra = list(extra_prefixes)
         python_paths = _split_str(environ.get("PYTHONPATH", ""))
         for prefix in extra:
-            python_paths += sorted(str(p) for p in (prefix / "lib").glob("python3*/site-packages"))
+            python_paths += [os.path.join(d, "site-packages")
+                             for d in inputs.glob_dirs(prefix / "lib", "python3*")
+                             if inputs.is_dir(os.path.join(d, "site-packages"))]
         python_paths += [p for p in sys.path if p]
         return cls(
             ament_prefixes=_split(environ.get("AMENT_PREFIX_PATH", "")) + extra,
@@ -151,7 +153,7 @@ class Resolver:
         distribution = self._distribution(name)
         if distribution is not None:
             return Resolution.PYTHON, distribution
-        executable = shutil.which(name, path=self.path) if self.path else None
+        executable = inputs.which(name, path=self.path) if self.path else None
         if executable is not None:
             return Resolution.EXECUTABLE, executable
         module = self._pkg_config(name)
@@ -159,6 +161,9 @@ class Resolver:
             return Resolution.PKG_CONFIG, module
         if name.startswith("python3-"):
             module_name = _PYTHON_MODULES.get(name, name[len("python3-"):].replace("-", "_"))
+            for directory in sys.path:  # where the import system looks
+                if directory:
+                    inputs.declare_directory(os.path.abspath(directory))
             try:
                 spec = importlib.util.find_spec(module_name)
             except (ImportError, ValueError):
@@ -186,7 +191,7 @@ class Resolver:
                 prefix / "lib" / "cmake" / name.lower(),
             ):
                 for config in (f"{name}Config.cmake", f"{name.lower()}-config.cmake"):
-                    if (folder / config).is_file():
+                    if inputs.is_file(folder / config):
                         return folder / config
         return None
 
@@ -215,7 +220,7 @@ class Resolver:
     def _pkg_config_version(self, name: str) -> str:
         import subprocess
 
-        tool = shutil.which("pkg-config", path=self.path) or "pkg-config"
+        tool = inputs.which("pkg-config", path=self.path) or "pkg-config"
         env = dict(os.environ, PATH=self.path, PKG_CONFIG_PATH=self.pkg_config_path)
         try:
             done = subprocess.run([tool, "--modversion", name], env=env, capture_output=True,
@@ -231,7 +236,7 @@ class Resolver:
         changes its listing."""
         from wsbuild.inputs import declare_directory, declare_file
 
-        tool = shutil.which("pkg-config", path=self.path) if self.path else None
+        tool = inputs.which("pkg-config", path=self.path) if self.path else None
         if tool is not None:
             declare_file(tool)
         directories = _split_str(self.pkg_config_path)
@@ -239,7 +244,7 @@ class Resolver:
         if libdir is not None:
             directories += _split_str(libdir)
         elif tool is not None:
-            directories += _split_str(_pkg_config_default_path(os.path.realpath(tool)))
+            directories += _split_str(_pkg_config_default_path(inputs.realpath(tool)))
         directories = list(dict.fromkeys(directories))
         for directory in directories:
             declare_directory(directory)
@@ -247,7 +252,7 @@ class Resolver:
 
     def _list_pkg_config_modules(self) -> frozenset[str]:
         """Every module pkg-config knows, from one run (not one per dependency)."""
-        tool = shutil.which("pkg-config", path=self.path) if self.path else None
+        tool = inputs.which("pkg-config", path=self.path) if self.path else None
         self.pkg_config_search_path()
         if tool is None:
             return frozenset()
@@ -303,7 +308,7 @@ def _pkg_config_default_path(tool: str) -> str:
 def _mtime(directory: str) -> list[int]:
     """A directory's modification and change time and inode (0s when it does not exist)."""
     try:
-        st = os.stat(directory)
+        st = inputs.stat(directory)
     except OSError:
         return [0, 0, 0]
     return [st.st_mtime_ns, st.st_ctime_ns, st.st_ino]
@@ -319,7 +324,7 @@ def python_distributions(paths: Iterable[str], *, read_metadata: bool = False
     found: dict[str, str] = {}
     for path in paths:
         try:
-            entries = sorted(os.listdir(path))
+            entries = sorted(inputs.listdir(path))
         except OSError:
             continue
         for entry in entries:
@@ -336,6 +341,8 @@ def _distributions_from_metadata(paths: Iterable[str]) -> dict[str, str]:
     import importlib.metadata
 
     found: dict[str, str] = {}
+    for path in paths:  # each distribution's metadata directory is an entry there
+        inputs.declare_directory(path)
     for dist in importlib.metadata.distributions(path=list(paths)):
         try:
             name = dist.metadata["Name"]
@@ -351,7 +358,7 @@ def ament_index(prefixes: Iterable[Path]) -> dict[str, Path]:
     index: dict[str, Path] = {}
     for prefix in prefixes:
         try:
-            names = os.listdir(prefix / "share" / "ament_index" / "resource_index" / "packages")
+            names = inputs.listdir(prefix / "share" / "ament_index" / "resource_index" / "packages")
         except OSError:
             continue
         for name in names:

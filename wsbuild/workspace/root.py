@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from pathlib import Path
+from wsbuild import inputs
 
 #: files that make a directory a package (so it cannot be a workspace root)
 PACKAGE_MARKERS = ("package.xml", "CMakeLists.txt", "setup.py", "setup.cfg", "pyproject.toml")
@@ -38,17 +39,17 @@ class Workspace:
 
     def default_base_paths(self) -> list[Path]:
         src = self.root / "src"
-        return [src] if src.is_dir() else [self.root]
+        return [src] if inputs.is_dir(src) else [self.root]
 
 
 def _is_package_dir(path: Path) -> bool:
-    return any((path / marker).exists() for marker in PACKAGE_MARKERS)
+    return any(inputs.exists(path / marker) for marker in PACKAGE_MARKERS)
 
 
 def _is_workspace_dir(path: Path) -> bool:
-    if (path / BUILD_BASE / BUILD_MARKER).exists() or (
+    if inputs.exists(path / BUILD_BASE / BUILD_MARKER) or inputs.exists(
         path / INSTALL_BASE / ".colcon_install_layout"
-    ).exists():
+    ):
         return True
     return (path / "src").is_dir() and not _is_package_dir(path)
 
