@@ -1,32 +1,31 @@
 """The record of a run that lets the next run of the same command be replayed
 (engine/replay.py).
 
-`recording(argv)` watches a whole run of a replayed verb: it notes every path the run stats,
-opens, lists or reads a link of (by wrapping those functions of `os`, `io` and `builtins`) and
-keeps a copy of what the run prints. The run tells the `recorder()` what it was: a build
-whose plan is a no-op calls `no_op` (or `drop` as soon as its plan has work: the wrappers come
-off before any package is built), a verb that only reads calls `read_only` when it is done.
-At the end of such a run, exiting 0, the record is written: those paths and each listed
-directory's entries, each with its signature.
+`recording(argv)` holds a whole run of a replayed verb: it hears every input the run declares
+(wsbuild/inputs.py: the paths it stats, the files it reads, the directories it lists, the
+directories a program it starts searches) and keeps a copy of what the run prints. The run
+tells the `recorder()` what it was: a build whose plan is a no-op calls `no_op` (or `drop` as
+soon as its plan has work), a verb that only reads calls `read_only` when it is done. At the
+end of such a run, exiting 0, the record is written: the declared paths and each declared
+directory's entries, each with its signature. Nothing else: a read that was not declared is
+not in the record, which is why the test suite runs every recorded run under the oracle of
+engine/inputs_oracle.py, which traces the process's own accesses and names any undeclared one.
 
 A record is only written when it can be trusted:
 - It holds what the run saw of each path it stat'ed (a change after that read shows at the
-  next replay) and, for files it opened and the entries of directories it listed, their
-  signatures at its end (an opened file gone by then spoils it). Nothing it looked at may have
-  changed in the second before it started (the "racy" rule of git's index): a change in the
-  same timestamp tick as the read would not show in a later stat. Otherwise there is no
-  record, and the next run is full.
+  next replay) and, for files it read and the entries of directories it listed, their
+  signatures at its end (a file read and gone by then spoils it). Nothing it looked at may
+  have changed in the second before it started (the "racy" rule of git's index): a change in
+  the same timestamp tick as the read would not show in a later stat. A path it could not
+  read spoils it. Otherwise there is no record, and the next run is full.
 - The run's own outputs are not inputs: the log base, the workspace lock and the records.
-- Accesses relative to a directory descriptor (shutil.rmtree's) and from C code (lxml reading
-  package.xml) are not seen; the scan that finds those files lists their directory, and the
-  entries of every listed directory are recorded.
-- Options that do more than plan and build (`--install-deps` runs installers) or print what
-  differs from run to run (the CPU times of `--timings`) are never recorded.
+- Options that do more than plan and build (`--install-deps` runs installers), print what
+  differs from run to run (the CPU times of `--timings`) or select by test results (JUnit
+  files) are never recorded.
 """
 
 from __future__ import annotations
 
-import builtins
 import io
 import json
 import os
@@ -39,6 +38,7 @@ from pathlib import Path
 from typing import Any, TextIO
 
 from wsbuild import inputs
+from wsbuild.engine.inputs_oracle import InputsOracle
 from wsbuild.engine.replay import (
     ABSENT,
     FOLLOW,
@@ -54,7 +54,9 @@ from wsbuild.engine.replay import (
 
 #: a path changed this recently (ns) before the run started may have changed unseen
 RACY_NS = 1_000_000_000
-NOT_RECORDED = frozenset({"--install-deps", "--timings"})
+NOT_RECORDED = frozenset({"--install-deps", "--timings",
+                          # they read test results (JUnit files under build/): run in full
+                          "--packages-select-test-failures", "--packages-skip-test-passed"})
 #: what a no-op writes to its log directory (a replay writes the same)
 LOG_FILES = frozenset({"up_to_date.log", "report.json", "timings.json", "timings.txt"})
 
@@ -125,14 +127,10 @@ class Recorder:
         self.spoiled = False
         self.stdout = _Tee(sys.stdout)
         self.stderr = _Tee(sys.stderr)
-        self._saved: list[tuple[object, str, object]] = []
         self._unlisten: Callable[[], None] | None = None
-        #: the test oracle (WSBUILD_INPUTS_ORACLE: a file): the process's own accesses are
-        #: traced too, and those no declaration covers are written there
-        self.oracle = os.environ.get(ORACLE_VARIABLE) or None
-        #: (absolute path, follows symlinks) -> the wsbuild code that accessed it (oracle)
-        self.traced: dict[tuple[str, bool], str] = {}
-        self.traced_listed: dict[str, str] = {}
+        #: the test suite's oracle (engine/inputs_oracle.py), when WSBUILD_INPUTS_ORACLE names
+        #: its file: the process's own accesses traced, the undeclared ones written down
+        self.oracle = InputsOracle.from_environment(self.cwd)
 
     def _declared(self, path: str, kind: str, seen: tuple[int, ...] | None) -> None:
         """An input declared through wsbuild/inputs.py."""
@@ -177,108 +175,20 @@ class Recorder:
             path = os.fsdecode(path)
         return path if path[:1] == "/" else os.path.join(self.cwd, path)  # type: ignore[index]
 
-    def _watched(self, call: Callable[..., Any], path: Any, follow: bool,
-                 *args: Any, **kwargs: Any) -> Any:
-        """`call(path, ...)`, noting what it saw of `path` (the first time)."""
-        try:
-            result = call(path, *args, **kwargs)
-        except (FileNotFoundError, NotADirectoryError):
-            self._saw(path, follow, ABSENT)
-            raise
-        except OSError:
-            self._saw(path, follow, ABSENT)
-            raise
-        if type(result) is os.stat_result:
-            self._saw(path, follow, (result.st_mode, result.st_ino, result.st_size,
-                                     result.st_mtime_ns, result.st_ctime_ns))
-        else:
-            self._saw(path, follow, OPENED)
-        return result
-
-    def _saw(self, path: object, follow: bool, saw: tuple[int, ...]) -> None:
-        """The tracer (oracle only): the run's own access of `path`."""
-        if not self.active:
-            return
-        name = self._absolute(path)
-        if name is not None and (name, follow) not in self.traced:
-            self.traced[(name, follow)] = _caller()
-
-    def _note_listed(self, path: object) -> None:
-        name = self._absolute(path) if self.active else None
-        if name is not None and name not in self.traced_listed:
-            self.traced_listed[name] = _caller()
-
     def install(self) -> None:
         self._unlisten = inputs.listen(self._declared)
         sys.stdout, sys.stderr = self.stdout, self.stderr  # type: ignore[assignment]
         self.active = True
-        if self.oracle:
-            self._trace()
-
-    def _trace(self) -> None:
-        """Wrap the process's file functions, noting every access (the oracle)."""
-        watched, note_listed = self._watched, self._note_listed
-        os_stat, scandir, listdir = os.stat, os.scandir, os.listdir
-        os_open, readlink, file_open = os.open, os.readlink, builtins.open
-
-        saw = self._saw
-
-        # stat and lstat (stat without following symlinks) are called tens of thousands of
-        # times in a large workspace: no detour through _watched
-        def watched_stat(path: Any, *, dir_fd: Any = None,
-                         follow_symlinks: bool = True) -> os.stat_result:
-            if dir_fd is not None:
-                return os_stat(path, dir_fd=dir_fd, follow_symlinks=follow_symlinks)
-            try:
-                st = os_stat(path, follow_symlinks=follow_symlinks)
-            except OSError:
-                saw(path, follow_symlinks, ABSENT)
-                raise
-            saw(path, follow_symlinks,
-                (st.st_mode, st.st_ino, st.st_size, st.st_mtime_ns, st.st_ctime_ns))
-            return st
-
-        def watched_lstat(path: Any, *, dir_fd: Any = None) -> os.stat_result:
-            return watched_stat(path, dir_fd=dir_fd, follow_symlinks=False)
-
-        def watched_scandir(path: Any = ".") -> Any:
-            note_listed(path)
-            return scandir(path)
-
-        def watched_listdir(path: Any = ".") -> list[Any]:
-            note_listed(path)
-            return listdir(path)
-
-        def watched_os_open(path: Any, *args: Any, dir_fd: Any = None, **kwargs: Any) -> int:
-            if dir_fd is not None:
-                return os_open(path, *args, dir_fd=dir_fd, **kwargs)
-            return watched(os_open, path, True, *args, **kwargs)
-
-        def watched_readlink(path: Any, *, dir_fd: Any = None) -> Any:
-            if dir_fd is not None:
-                return readlink(path, dir_fd=dir_fd)
-            return watched(readlink, path, False)
-
-        def watched_open(file: Any, *args: Any, **kwargs: Any) -> Any:
-            return watched(file_open, file, True, *args, **kwargs)
-
-        for owner, name, value in ((os, "stat", watched_stat), (os, "lstat", watched_lstat),
-                                   (os, "scandir", watched_scandir),
-                                   (os, "listdir", watched_listdir),
-                                   (os, "open", watched_os_open),
-                                   (os, "readlink", watched_readlink),
-                                   (builtins, "open", watched_open), (io, "open", watched_open)):
-            self._saved.append((owner, name, getattr(owner, name)))
-            setattr(owner, name, value)
+        if self.oracle is not None:
+            self.oracle.install()
 
     def _uninstall(self) -> None:
         self.active = False
         if self._unlisten is not None:
             self._unlisten()
             self._unlisten = None
-        for owner, name, value in reversed(self._saved):
-            setattr(owner, name, value)
-        self._saved.clear()
+        if self.oracle is not None:
+            self.oracle.uninstall()
 
     def finish(self, exit_code: int) -> None:
         """At the end of the run: the record, if the run was a no-op that can be trusted."""
@@ -291,40 +201,10 @@ class Recorder:
             self._write(exit_code)
         except Exception:  # noqa: BLE001 - a record is never worth failing the run
             pass  # (a bug here shows as no record: tests/test_noop_replay.py)
-        if self.oracle and self.outcome is not None and exit_code == 0:
-            self._report_undeclared(self.oracle)
-
-    def _report_undeclared(self, oracle: str) -> None:
-        """The oracle: every access the run made itself that no declaration covers, appended
-        to the file `oracle` (one line each: path, how, the code that made it)."""
-        outputs = tuple(path + os.sep for path in ((self.outcome or {}).get("log_base", ""),
-                                                   str(RECORDS.absolute())) if path)
-        build_base = (self.outcome or {}).get("build_base", "")
-        lock = os.path.join(build_base, ".wsbuild.build.lock")
-        allowed = _interpreter_paths()
-        # realpath() of the interpreter (sysconfig, site) lstats each of its ancestors
-        interpreter_ancestors = {
-            spelling[:i + 1] for spelling in (sys.base_prefix + os.sep, sys.executable + os.sep,
-                                              os.path.realpath(sys.executable) + os.sep)
-            for i, c in enumerate(spelling) if c == os.sep} | _links_of(sys.executable)
-        declared = {path for path, _ in self.seen}
-        lines = []
-        for (path, follow), caller in sorted(self.traced.items()):
-            if path in declared or path in self.listed or path.rpartition("/")[0] in \
-                    self.listed or path == lock or path.startswith(allowed) or \
-                    (not follow and path + os.sep in interpreter_ancestors) or \
-                    (path + os.sep).startswith(outputs):
-                continue
-            lines.append(f"{path}\t{'stat' if follow else 'lstat'}\t{caller}\n")
-        for path, caller in sorted(self.traced_listed.items()):
-            if path in self.listed or path in declared or path.startswith(allowed) or \
-                    (path + os.sep).startswith(outputs):
-                continue
-            lines.append(f"{path}\tlisting\t{caller}\n")
-        if lines:
-            with open(oracle, "a", encoding="utf-8") as handle:
-                handle.write(f"# wsbuild {' '.join(sys.argv[1:])} in {self.cwd}\n")
-                handle.writelines(lines)
+        if self.oracle is not None and self.outcome is not None and exit_code == 0:
+            outputs = (self.outcome.get("log_base", ""), str(RECORDS.absolute()),
+                       os.path.join(self.outcome["build_base"], ".wsbuild.build.lock"))
+            self.oracle.report_undeclared(self.seen, self.listed, outputs)
 
     def _write(self, exit_code: int) -> None:
         outcome = self.outcome
@@ -436,45 +316,6 @@ def _log_of(run_log: Path, log_base: str) -> dict[str, object] | None:
         report = report.replace(json.dumps(started), STARTED)
     return {"log_base": log_base, "up_to_date": up_to_date, "report": report,
             "timings": timings, "table": lines[:lines.index("")]}
-
-
-#: the environment variable naming the oracle's file (the test suite sets it)
-ORACLE_VARIABLE = "WSBUILD_INPUTS_ORACLE"
-
-
-def _caller() -> str:
-    """The wsbuild code that made an access (the oracle names it)."""
-    frame = sys._getframe(2)
-    while frame is not None:
-        name = frame.f_code.co_filename
-        if "/wsbuild/" in name and not name.endswith(("/inputs.py", "/recording.py")):
-            return f"{name.rpartition('/wsbuild/')[2]}:{frame.f_lineno} {frame.f_code.co_name}"
-        frame = frame.f_back
-    return "?"
-
-
-def _links_of(path: str) -> set[str]:
-    """The symlinks `path` resolves through, each with a trailing separator."""
-    found: set[str] = set()
-    while os.path.islink(path) and path + os.sep not in found:
-        found.add(path + os.sep)
-        path = os.path.join(os.path.dirname(path), os.readlink(path))
-    return found
-
-
-def _interpreter_paths() -> tuple[str, ...]:
-    """What the interpreter reads for itself (its standard library, its messages, the venv's
-    configuration) and wsbuild's own files: the record's key names the interpreter and
-    wsbuild's version instead."""
-    import sysconfig
-
-    paths = sysconfig.get_paths()
-    own = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-    found = {paths["stdlib"], paths["platstdlib"], os.path.join(sys.prefix, "pyvenv.cfg"),
-             own + os.sep}
-    if sys.base_prefix != sys.prefix:  # a venv's interpreter is installed apart from it
-        found.add(sys.base_prefix + os.sep)
-    return tuple(sorted(found))
 
 
 _active: Recorder | None = None

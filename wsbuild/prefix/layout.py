@@ -103,21 +103,20 @@ def read_installed_packages(install_base: Path, *, merged: bool) -> dict[str, tu
     index_files: list[Path] = []
     if merged:
         index_dir = install_base / PACKAGE_INDEX
-        if index_dir.is_dir():
-            index_files = [
-                p for p in index_dir.iterdir() if not p.name.startswith(".") and p.is_file()
-            ]
-    elif install_base.is_dir():
-        for entry in install_base.iterdir():
-            if entry.name.startswith(".") or not entry.is_dir():
+        if inputs.is_dir(index_dir):
+            index_files = [Path(e.path) for e in inputs.scandir(index_dir)
+                           if not e.name.startswith(".") and inputs.is_file(e.path)]
+    elif inputs.is_dir(install_base):
+        for entry in inputs.scandir(install_base):
+            if entry.name.startswith(".") or not inputs.is_dir(entry.path):
                 continue
-            candidate = entry / PACKAGE_INDEX / entry.name
-            if candidate.is_file():
+            candidate = Path(entry.path) / PACKAGE_INDEX / entry.name
+            if inputs.is_file(candidate):
                 index_files.append(candidate)
     packages: dict[str, tuple[str, ...]] = {}
     for index_file in sorted(index_files):
         name = validate_package_name(index_file.name, path=index_file)
-        content = index_file.read_text().strip()
+        content = inputs.read_text(index_file).strip()
         packages[name] = tuple(sorted({d for d in content.split(os.pathsep) if d}))
     return packages
 

@@ -13,6 +13,7 @@ from __future__ import annotations
 import argparse
 from enum import Enum
 from pathlib import Path
+from wsbuild import inputs
 
 
 class Previous(Enum):
@@ -39,9 +40,9 @@ def previous_build(build_dir: Path) -> Previous | None:
     from wsbuild.builder.fingerprint import STATE_FILE
     from wsbuild.builder.plan import BUILDING_MARKER
 
-    if (build_dir / BUILDING_MARKER).exists():
+    if inputs.exists(build_dir / BUILDING_MARKER):
         return Previous.FAILED
-    if (build_dir / STATE_FILE).exists():
+    if inputs.exists(build_dir / STATE_FILE):
         return Previous.FINISHED
     return _colcon_result(build_dir, "build")
 
@@ -61,7 +62,7 @@ def previous_test(build_dir: Path) -> Previous | None:
 def _colcon_result(build_dir: Path, verb: str) -> Previous | None:
     path = build_dir / _COLCON_RESULT.format(verb=verb)
     try:
-        text = path.read_text(encoding="utf-8").strip()
+        text = inputs.read_text(path).strip()
     except OSError:
         return None
     if text == _COLCON_SIGINT:

@@ -74,10 +74,10 @@ class ManifestMemo:
         """Best effort, and only when something changed (a no-op writes nothing)."""
         if self.path is None or self._seen == self._known:
             return
-        from wsbuild.files import atomic_write
+        from wsbuild.files import atomic_write, private_directory
 
         try:
-            self.path.parent.mkdir(parents=True, exist_ok=True)
+            private_directory(self.path.parent)
             atomic_write(self.path, json.dumps({"format": FORMAT, "packages": self._seen},
                                                separators=(",", ":"), sort_keys=True))
         except OSError:
