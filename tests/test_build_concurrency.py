@@ -13,6 +13,7 @@ from pathlib import Path
 
 import pytest
 
+from conftest import sigint_at_default
 from test_build_helpers import build, clean_env, output, snapshot, write_cmake, wsbuild
 
 GATED_CMAKE = """\
@@ -65,7 +66,7 @@ def _start_build(ws: Path, *args: str, stdout: Path) -> subprocess.Popen[bytes]:
     with open(stdout, "wb") as handle:
         return subprocess.Popen([sys.executable, "-m", "wsbuild", "build", *args], cwd=ws,
                                 env=clean_env(), stdout=handle, stderr=subprocess.STDOUT,
-                                start_new_session=True)
+                                start_new_session=True, preexec_fn=sigint_at_default)
 
 
 def _stop(proc: subprocess.Popen[bytes]) -> None:
@@ -354,3 +355,21 @@ def test_ctrl_c_ends_the_build_steps_of_a_stopped_ninja(tmp_path: Path, marker: 
     assert alive_at_exit == [], f"survived Ctrl-C: {alive_at_exit} (step {step}, ninja {ninja})"
     # nothing here ignores SIGTERM: no need to wait out the grace period
     assert seconds < GRACE_SECONDS, f"stopped {seconds:.2f}s after Ctrl-C"
+
+
+def test_the_ctrl_c_tests_pass_when_the_suite_starts_with_sigint_ignored(tmp_path: Path) -> None:
+    """A suite started as a background job of a script inherits SIGINT ignored (and so would
+    every wsbuild it starts): the Ctrl-C tests start wsbuild with SIGINT at its default."""
+    ignoring = ["bash", "-c", 'trap "" INT; exec "$@"', "bash"]
+    env = {k: v for k, v in clean_env().items() if k != "PYTEST_ADDOPTS"}
+    probe = subprocess.run([*ignoring, sys.executable, "-c",
+                            "import signal; print(signal.getsignal(signal.SIGINT) == signal.SIG_IGN)"],
+                           env=env, capture_output=True, text=True, timeout=60)
+    assert probe.stdout.strip() == "True"  # the situation this test is about
+    test = "tests/test_build_concurrency.py::test_ctrl_c_stops_the_build_and_every_process_it_started"
+    suite = subprocess.run([*ignoring, sys.executable, "-m", "pytest", "-q", "-p",
+                            "no:cacheprovider", f"--basetemp={tmp_path / 'inner'}", test],
+                           cwd=Path(__file__).resolve().parent.parent, env=env,
+                           capture_output=True, text=True, timeout=300)
+    assert suite.returncode == 0, suite.stdout + suite.stderr
+    assert "1 passed" in suite.stdout, suite.stdout

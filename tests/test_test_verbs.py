@@ -14,7 +14,7 @@ from pathlib import Path
 
 import pytest
 
-from conftest import run_wsbuild, write_package
+from conftest import run_wsbuild, sigint_at_default, write_package
 from wsbuild.testing.junit import Counts, read_junit
 from wsbuild.underlay.detect import find_venv_underlay
 
@@ -243,7 +243,8 @@ def test_ctrl_c_stops_the_tests_and_exits_130(tmp_path: Path) -> None:
     built = run_wsbuild("build", cwd=tmp_path)
     assert built.returncode == 0, built.stdout + built.stderr
     process = subprocess.Popen(cli_command("test"), cwd=tmp_path, env=environment(),
-                               stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+                               stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                               preexec_fn=sigint_at_default)
     try:
         deadline = time.monotonic() + 60
         while not (marker.exists() and marker.read_text()) and time.monotonic() < deadline:
