@@ -362,11 +362,12 @@ def test_the_ctrl_c_tests_pass_when_the_suite_starts_with_sigint_ignored(tmp_pat
     every wsbuild it starts): the Ctrl-C tests start wsbuild with SIGINT at its default."""
     ignoring = ["bash", "-c", 'trap "" INT; exec "$@"', "bash"]
     env = {k: v for k, v in clean_env().items() if k != "PYTEST_ADDOPTS"}
-    probe = subprocess.run([*ignoring, sys.executable, "-c",
-                            "import signal; print(signal.getsignal(signal.SIGINT) == signal.SIG_IGN)"],
+    ignored = "import signal; print(signal.getsignal(signal.SIGINT) == signal.SIG_IGN)"
+    probe = subprocess.run([*ignoring, sys.executable, "-c", ignored],
                            env=env, capture_output=True, text=True, timeout=60)
     assert probe.stdout.strip() == "True"  # the situation this test is about
-    test = "tests/test_build_concurrency.py::test_ctrl_c_stops_the_build_and_every_process_it_started"
+    test = ("tests/test_build_concurrency.py::"
+            "test_ctrl_c_stops_the_build_and_every_process_it_started")
     suite = subprocess.run([*ignoring, sys.executable, "-m", "pytest", "-q", "-p",
                             "no:cacheprovider", f"--basetemp={tmp_path / 'inner'}", test],
                            cwd=Path(__file__).resolve().parent.parent, env=env,
