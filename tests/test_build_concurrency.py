@@ -269,7 +269,7 @@ def _generator_ws(tmp_path: Path, marker: str, *, ignore_sigterm: bool) -> tuple
     ws = tmp_path / "ws"
     pid_file = tmp_path / "step.pid"
     trap = "trap '' TERM\n" if ignore_sigterm else ""
-    body = f"{trap}echo $$ > '{pid_file}'\nexec sleep {_duration(marker)} # {marker}\n"
+    body = f"{trap}echo $$ > '{pid_file}'\nexec sleep {_duration(marker)}\n"
     write_cmake(ws / "src", "gen", STEP_CMAKE, files={"step.sh": body})
     return ws, pid_file
 
