@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import fcntl
 import os
+import signal
 import subprocess
 import sys
 from collections.abc import Callable, Mapping, Sequence
@@ -122,6 +123,14 @@ def make_workspace(tmp_path: Path) -> Callable[[Mapping[str, Spec]], Path]:
         return ws
 
     return make
+
+
+def sigint_at_default() -> None:
+    """`preexec_fn` of a process a test sends SIGINT (Ctrl-C) to: it starts with SIGINT at its
+    default action. A suite started with SIGINT ignored (a background job of a non-interactive
+    shell, `trap "" INT`) would hand that on through every exec: Python then installs no
+    KeyboardInterrupt handler and the process never sees the test's Ctrl-C."""
+    signal.signal(signal.SIGINT, signal.SIG_DFL)
 
 
 def run_wsbuild(*args: str, cwd: Path, env: Mapping[str, str] | None = None,

@@ -115,3 +115,57 @@ def distccd(tmp_path: Path) -> Iterator[Callable[..., Distccd]]:
     yield start
     for daemon in started:
         daemon.stop()
+
+
+class HangingAfterProbe:
+    """A build host that answers wsbuild's probe and then hangs: a loopback TCP listener that
+    passes its first connection through to a real distccd and accepts every later one without
+    ever answering (a host that went into swap, a stuck NFS mount)."""
+
+    def __init__(self, daemon: Distccd) -> None:
+        import threading
+
+        self.daemon = daemon
+        self.listener = socket.create_server(("127.0.0.1", 0))
+        self.port = self.listener.getsockname()[1]
+        self.hung: list[socket.socket] = []
+        self._threads: list[threading.Thread] = []
+        self._accepting = threading.Thread(target=self._accept, daemon=True)
+        self._accepting.start()
+
+    @property
+    def host(self) -> str:
+        return f"127.0.0.1:{self.port}"
+
+    def _accept(self) -> None:
+        import threading
+
+        first = True
+        while True:
+            try:
+                client, _ = self.listener.accept()
+            except OSError:  # closed by stop()
+                return
+            if first:
+                first = False
+                upstream = socket.create_connection(("127.0.0.1", self.daemon.port))
+                for source, sink in ((client, upstream), (upstream, client)):
+                    thread = threading.Thread(target=_pass, args=(source, sink), daemon=True)
+                    thread.start()
+                    self._threads.append(thread)
+            else:
+                self.hung.append(client)  # read nothing, answer nothing
+
+    def stop(self) -> None:
+        self.listener.close()
+        for connection in self.hung:
+            connection.close()
+
+
+def _pass(source: socket.socket, sink: socket.socket) -> None:
+    try:
+        while data := source.recv(65536):
+            sink.sendall(data)
+        sink.shutdown(socket.SHUT_WR)
+    except OSError:
+        pass

@@ -13,6 +13,7 @@ from pathlib import Path
 
 import pytest
 
+from conftest import sigint_at_default
 from test_build_helpers import build, clean_env, output, snapshot, write_cmake, wsbuild
 
 GATED_CMAKE = """\
@@ -65,7 +66,7 @@ def _start_build(ws: Path, *args: str, stdout: Path) -> subprocess.Popen[bytes]:
     with open(stdout, "wb") as handle:
         return subprocess.Popen([sys.executable, "-m", "wsbuild", "build", *args], cwd=ws,
                                 env=clean_env(), stdout=handle, stderr=subprocess.STDOUT,
-                                start_new_session=True)
+                                start_new_session=True, preexec_fn=sigint_at_default)
 
 
 def _stop(proc: subprocess.Popen[bytes]) -> None:
@@ -223,3 +224,153 @@ def test_ctrl_c_during_install_keeps_the_previous_install(tmp_path: Path, marker
 def test_ctrl_c_pressed_twice_still_stops_everything_and_keeps_the_install(
         tmp_path: Path, marker: str) -> None:
     _interrupt_install(tmp_path, marker, presses=2)
+
+
+# ------------------------------------------ Ctrl-C reaches every descendant (issue 32)
+
+STEP_CMAKE = """\
+cmake_minimum_required(VERSION 3.14)
+project(gen NONE)
+# a code generator: Ninja runs it in a process group of its own
+add_custom_command(OUTPUT ${CMAKE_CURRENT_BINARY_DIR}/generated.txt
+  COMMAND sh ${CMAKE_CURRENT_SOURCE_DIR}/step.sh ${CMAKE_CURRENT_BINARY_DIR}/generated.txt
+  DEPENDS ${CMAKE_CURRENT_SOURCE_DIR}/step.sh)
+add_custom_target(generate ALL DEPENDS ${CMAKE_CURRENT_BINARY_DIR}/generated.txt)
+"""
+
+
+def _state(pid: int) -> str | None:
+    """The /proc state letter of `pid` (None: gone)."""
+    try:
+        stat = Path(f"/proc/{pid}/stat").read_text()
+    except OSError:
+        return None
+    return stat.rpartition(")")[2].split()[0]
+
+
+def _alive(pid: int) -> bool:
+    return _state(pid) not in (None, "Z", "X")
+
+
+def _ninja_above(pid: int) -> int:
+    """The `ninja` process that runs build step `pid`."""
+    current = pid
+    while current > 1:
+        stat = Path(f"/proc/{current}/stat").read_text()
+        if Path(f"/proc/{current}/comm").read_text().strip() == "ninja":
+            return current
+        current = int(stat.rpartition(")")[2].split()[1])
+    raise AssertionError(f"no ninja above build step {pid}")
+
+
+def _generator_ws(tmp_path: Path, marker: str, *, ignore_sigterm: bool) -> tuple[Path, Path]:
+    """A package whose Ninja build step writes its pid to a file and sleeps (ignoring SIGTERM
+    if asked): (workspace, pid file)."""
+    ws = tmp_path / "ws"
+    pid_file = tmp_path / "step.pid"
+    trap = "trap '' TERM\n" if ignore_sigterm else ""
+    body = f"{trap}echo $$ > '{pid_file}'\nexec sleep {_duration(marker)}\n"
+    write_cmake(ws / "src", "gen", STEP_CMAKE, files={"step.sh": body})
+    return ws, pid_file
+
+
+def _step_started(tmp_path: Path, ws: Path, pid_file: Path) -> tuple[subprocess.Popen[bytes], int,
+                                                                        Path]:
+    log = tmp_path / "build.out"
+    proc = _start_build(ws, stdout=log)
+    _wait_for(lambda: pid_file.is_file() and pid_file.read_text().strip().isdigit(), 60,
+              "the build step to start", proc, log)
+    step = int(pid_file.read_text())
+    _wait_for(lambda: (Path(f"/proc/{step}/cmdline").read_bytes().startswith(b"sleep")
+                       if _alive(step) else False), 10, "the build step to sleep", proc, log)
+    return proc, step, log
+
+
+def _kill(*pids: int) -> None:
+    for pid in pids:
+        for sig in (signal.SIGCONT, signal.SIGKILL):
+            try:
+                os.kill(pid, sig)
+            except ProcessLookupError:
+                pass
+
+
+@pytest.mark.parametrize("presses", [1, 2])
+def test_ctrl_c_ends_a_ninja_build_step_that_ignores_sigterm(tmp_path: Path, marker: str,
+                                                             presses: int) -> None:
+    """Ninja gives each step its own process group and passes SIGTERM on to it; a step that
+    ignores it is killed when the grace period ends, or at once on a second Ctrl-C."""
+    from wsbuild.engine.process import GRACE_SECONDS
+
+    ws, pid_file = _generator_ws(tmp_path, marker, ignore_sigterm=True)
+    proc, step, log = _step_started(tmp_path, ws, pid_file)
+    ninja = _ninja_above(step)
+    assert os.getpgid(step) != os.getpgid(ninja)  # the case this test is about
+    try:
+        pressed = time.monotonic()
+        os.killpg(proc.pid, signal.SIGINT)
+        if presses == 2:
+            # wsbuild is stopping: Ninja got its SIGTERM and went; the step is still there
+            _wait_for(lambda: not _alive(ninja), GRACE_SECONDS, "ninja to stop", proc, log)
+            assert _alive(step)
+            pressed = time.monotonic()
+            os.killpg(proc.pid, signal.SIGINT)
+        returncode = proc.wait(timeout=30)
+        seconds = time.monotonic() - pressed
+        step_alive_at_exit = _alive(step)
+    finally:
+        _kill(step, ninja)
+        _stop(proc)
+    text = log.read_text()
+    assert returncode == 130, text
+    assert not step_alive_at_exit, "the build step that ignores SIGTERM survived Ctrl-C"
+    assert "aborted: gen" in text, text
+    if presses == 1:
+        assert GRACE_SECONDS <= seconds < GRACE_SECONDS + 5, f"stopped {seconds:.2f}s after Ctrl-C"
+    else:
+        assert seconds < GRACE_SECONDS / 2, f"stopped {seconds:.2f}s after the second Ctrl-C"
+
+
+def test_ctrl_c_ends_the_build_steps_of_a_stopped_ninja(tmp_path: Path, marker: str) -> None:
+    """A stopped (or swapped-out) Ninja cannot pass the signal on: wsbuild reaches its steps
+    itself, and ends Ninja too."""
+    from wsbuild.engine.process import GRACE_SECONDS
+
+    ws, pid_file = _generator_ws(tmp_path, marker, ignore_sigterm=False)
+    proc, step, log = _step_started(tmp_path, ws, pid_file)
+    ninja = _ninja_above(step)
+    try:
+        os.kill(ninja, signal.SIGSTOP)
+        _wait_for(lambda: _state(ninja) == "T", 10, "ninja to stop", proc, log)
+        pressed = time.monotonic()
+        os.killpg(proc.pid, signal.SIGINT)
+        returncode = proc.wait(timeout=30)
+        seconds = time.monotonic() - pressed
+        alive_at_exit = [pid for pid in (step, ninja) if _alive(pid)]
+    finally:
+        _kill(step, ninja)
+        _stop(proc)
+    text = log.read_text()
+    assert returncode == 130, text
+    assert alive_at_exit == [], f"survived Ctrl-C: {alive_at_exit} (step {step}, ninja {ninja})"
+    # nothing here ignores SIGTERM: no need to wait out the grace period
+    assert seconds < GRACE_SECONDS, f"stopped {seconds:.2f}s after Ctrl-C"
+
+
+def test_the_ctrl_c_tests_pass_when_the_suite_starts_with_sigint_ignored(tmp_path: Path) -> None:
+    """A suite started as a background job of a script inherits SIGINT ignored (and so would
+    every wsbuild it starts): the Ctrl-C tests start wsbuild with SIGINT at its default."""
+    ignoring = ["bash", "-c", 'trap "" INT; exec "$@"', "bash"]
+    env = {k: v for k, v in clean_env().items() if k != "PYTEST_ADDOPTS"}
+    ignored = "import signal; print(signal.getsignal(signal.SIGINT) == signal.SIG_IGN)"
+    probe = subprocess.run([*ignoring, sys.executable, "-c", ignored],
+                           env=env, capture_output=True, text=True, timeout=60)
+    assert probe.stdout.strip() == "True"  # the situation this test is about
+    test = ("tests/test_build_concurrency.py::"
+            "test_ctrl_c_stops_the_build_and_every_process_it_started")
+    suite = subprocess.run([*ignoring, sys.executable, "-m", "pytest", "-q", "-p",
+                            "no:cacheprovider", f"--basetemp={tmp_path / 'inner'}", test],
+                           cwd=Path(__file__).resolve().parent.parent, env=env,
+                           capture_output=True, text=True, timeout=300)
+    assert suite.returncode == 0, suite.stdout + suite.stderr
+    assert "1 passed" in suite.stdout, suite.stdout

@@ -9,16 +9,19 @@ from __future__ import annotations
 import hashlib
 import json
 import os
+import re
 import shutil
 import subprocess
 import time
 from collections.abc import Callable
 from pathlib import Path
 
-from distccd_server import Distccd, distccd, free_port  # noqa: F401 (fixture)
+from distccd_server import Distccd, HangingAfterProbe, distccd, free_port  # noqa: F401
 from test_build_basic import write_cpp_workspace
 from test_build_helpers import build, clean_env, output, requires_ros, wsbuild, write_cmake
-from wsbuild.builder.distribute import count_compile_jobs, distribute_spec, parse_hosts
+from wsbuild.builder.distribute import (IO_TIMEOUT_SECONDS, count_compile_jobs,
+                                        distribute_spec, parse_hosts,
+                                        remote_wait_bounds)
 from wsbuild.builder.request import cpu_count
 
 LIBD = """cmake_minimum_required(VERSION 3.14)
@@ -204,6 +207,38 @@ def test_a_host_lost_during_the_run_costs_one_warning_and_its_slots(
     assert jobs["lost"] == [f"{daemon.host}/4"]
     assert daemon.compiled() == []
     assert (ws / "install" / "appd" / "bin" / "appd").is_file()
+
+
+def test_a_host_that_hangs_after_the_probe_costs_one_bounded_wait(
+        tmp_path: Path, distccd: Callable[..., Distccd]) -> None:
+    """The host passes the probe, then takes compile jobs and never answers: the jobs in flight
+    wait IO_TIMEOUT_SECONDS (not distcc's 300 s) and compile here; no later job is sent."""
+    hanging = HangingAfterProbe(distccd())
+    ws = _workspace(tmp_path)
+    try:
+        done = build(ws, "--no-cache", "--compiler-cache", "none", "--distribute",
+                     f"{hanging.host}/4", env=_env(tmp_path))
+        sent = len(hanging.hung)
+    finally:
+        hanging.stop()
+    warnings = _warnings(done)
+    assert len(warnings) == 1, output(done)
+    assert f"{hanging.host}/4 failed: its slots left the job budget" in warnings[0]
+    log = (ws / "log" / "latest_build" / "distcc.log").read_text()
+    waited = re.findall(rf"failed to distribute (\S+) to {re.escape(hanging.host)}", log)
+    # libd's compiles were in flight together when the host hung; appd's came after: not sent
+    assert waited and {Path(w).name for w in waited} <= set(LIB_SOURCES), log
+    assert sent == len(waited)
+    elapsed = [float(s) for s in re.findall(r"elapsed compilation time ([\d.]+)s", log)]
+    assert len(elapsed) == len(SOURCES)
+    assert IO_TIMEOUT_SECONDS <= max(elapsed) < IO_TIMEOUT_SECONDS + 10, elapsed
+    assert (ws / "install" / "appd" / "bin" / "appd").is_file()
+
+
+def test_remote_waits_are_bounded_unless_the_user_bounded_them() -> None:
+    assert remote_wait_bounds({}) == {"DISTCC_IO_TIMEOUT": str(IO_TIMEOUT_SECONDS),
+                                      "DISTCC_BACKOFF_PERIOD": str(7 * 24 * 3600)}
+    assert remote_wait_bounds({"DISTCC_IO_TIMEOUT": "600", "DISTCC_BACKOFF_PERIOD": "0"}) == {}
 
 
 def test_a_withheld_share_of_the_budget_leaves_the_fifo() -> None:

@@ -18,7 +18,7 @@ import pytest
 import yaml
 from lxml import etree
 
-from conftest import run_wsbuild
+from conftest import run_wsbuild, sigint_at_default
 from wsbuild.errors import TemplateError, WsbuildError
 from wsbuild.create.licenses import LICENSES, canonical_license, is_spdx_expression
 from wsbuild.workspace.manifest import parse_manifest
@@ -548,7 +548,8 @@ def run_until(command: list[str], expected: str, *, cwd: Path, timeout: float = 
     """Start `command` in its own process group; return its output once `expected` appears
     (or the time is up, or it exits), always stopping the whole group."""
     process = subprocess.Popen(command, cwd=cwd, env=ros_env(), stdout=subprocess.PIPE,
-                               stderr=subprocess.STDOUT, start_new_session=True)
+                               stderr=subprocess.STDOUT, start_new_session=True,
+                               preexec_fn=sigint_at_default)
     assert process.stdout is not None
     fd = process.stdout.fileno()
     seen = b""

@@ -19,6 +19,7 @@ from pathlib import Path
 import pytest
 import yaml
 
+from conftest import sigint_at_default
 from wsbuild.underlay.detect import find_venv_underlay
 
 REPO = Path(__file__).resolve().parent.parent
@@ -113,7 +114,7 @@ class Running:
         self.command = command
         self.popen = subprocess.Popen(command, cwd=cwd, env=_environment(), text=True,
                                       stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
-                                      start_new_session=True)
+                                      start_new_session=True, preexec_fn=sigint_at_default)
         self.lines: list[str] = []
         self._eof = False
         self._changed = threading.Condition()

@@ -19,7 +19,7 @@ from pathlib import Path
 
 import pytest
 
-from conftest import run_wsbuild
+from conftest import run_wsbuild, sigint_at_default
 from wsbuild.underlay.detect import find_venv_underlay
 
 ROS = find_venv_underlay(os.environ, sys.executable)
@@ -58,7 +58,7 @@ def _start(ws: Path) -> subprocess.Popen[bytes]:
               f"exec {shlex.quote(str(ws / 'install/sig_pkg/lib/sig_pkg/talker'))}")
     return subprocess.Popen(["bash", "-c", script], cwd=ws, env=_environment(),
                             stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
-                            start_new_session=True)
+                            start_new_session=True, preexec_fn=sigint_at_default)
 
 
 def _wait_for(process: subprocess.Popen[bytes], text: str, timeout: float = 30) -> bytes:

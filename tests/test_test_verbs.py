@@ -14,7 +14,7 @@ from pathlib import Path
 
 import pytest
 
-from conftest import run_wsbuild, write_package
+from conftest import run_wsbuild, sigint_at_default, write_package
 from wsbuild.testing.junit import Counts, read_junit
 from wsbuild.underlay.detect import find_venv_underlay
 
@@ -179,6 +179,33 @@ def test_tool_arguments_may_start_with_a_dash(tested: Tested) -> None:
     assert "  1 package without tests: cm" in lines(result)
 
 
+def test_a_test_that_parses_sys_argv_sees_only_python_m_pytest(tmp_path: Path) -> None:
+    """wsbuild's pytest options go into PYTEST_ADDOPTS, as colcon's do (ros2cli's
+    test_direct.py parses the command line), after the user's own PYTEST_ADDOPTS."""
+    _tests(write_package(tmp_path / "src", "argv"), "test_argv.py",
+           "import argparse\nimport sys\n\n"
+           "def test_parses_its_command_line():\n"
+           "    assert sys.argv[1:] == []\n"
+           "    argparse.ArgumentParser().parse_args()\n\n"
+           "def test_left_out_by_the_user():\n"
+           "    assert False, 'the user deselected this one'\n")
+    built = run_wsbuild("build", cwd=tmp_path)
+    assert built.returncode == 0, built.stdout + built.stderr
+    result = subprocess.run(cli_command("test"), cwd=tmp_path, capture_output=True, text=True,
+                            env=dict(environment(), PYTEST_ADDOPTS="-k 'not left_out'"),
+                            timeout=300)
+    assert result.returncode == 0, result.stdout + result.stderr
+    junit = tmp_path / "build" / "argv" / "test_results" / "argv" / "pytest.xml"
+    assert read_junit(junit).counts == Counts(tests=1)
+    # --pytest-args come last: they win over the user's PYTEST_ADDOPTS
+    result = subprocess.run(cli_command("test", "--pytest-args", "-k", "left_out"), cwd=tmp_path,
+                            capture_output=True, text=True,
+                            env=dict(environment(), PYTEST_ADDOPTS="-k 'not left_out'"),
+                            timeout=300)
+    assert result.returncode == 1, result.stdout + result.stderr
+    assert read_junit(junit).counts == Counts(tests=1, failures=1)
+
+
 def test_retest_options_exclude_each_other(tested: Tested) -> None:
     root, _ = tested
     result = cli("test", "--retest-until-fail", "1", "--retest-until-pass", "1", cwd=root)
@@ -216,7 +243,8 @@ def test_ctrl_c_stops_the_tests_and_exits_130(tmp_path: Path) -> None:
     built = run_wsbuild("build", cwd=tmp_path)
     assert built.returncode == 0, built.stdout + built.stderr
     process = subprocess.Popen(cli_command("test"), cwd=tmp_path, env=environment(),
-                               stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+                               stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                               preexec_fn=sigint_at_default)
     try:
         deadline = time.monotonic() + 60
         while not (marker.exists() and marker.read_text()) and time.monotonic() < deadline:

@@ -243,7 +243,7 @@ def _pkg_parser(tree: _Tree, name: str) -> None:
 
 
 def _underlay_parser(tree: _Tree, name: str) -> None:
-    from wsbuild.verbs.underlay import UNDERLAY_DOC
+    from wsbuild.verbs.underlay import UNDERLAY_DOC, add_check_arguments
 
     verbs = tree.subparsers
     sub = verbs.add_parser("underlay", help="check or repair the ROS underlay in the virtualenv",
@@ -251,6 +251,7 @@ def _underlay_parser(tree: _Tree, name: str) -> None:
     actions = sub.add_subparsers(dest="action", metavar="ACTION")
     actions.required = True
     check = actions.add_parser("check", help="report problems without changing anything")
+    add_check_arguments(check)
     check.set_defaults(func="wsbuild.verbs.underlay:run_check")
     repair = actions.add_parser("repair", help="fix the wheels' hard-coded paths in place")
     repair.set_defaults(func="wsbuild.verbs.underlay:run_repair")

@@ -29,6 +29,11 @@ One job budget that knows the hosts:
   the budget; with no host left the run builds locally with the local budget. A host lost
   during the run makes distcc compile locally, within `--localslots`, and leaves the budget
   too: a thread follows distcc's log and withholds that host's slots from the jobserver.
+- every remote wait is bounded: a host that takes a job and then never answers keeps a compile
+  waiting `DISTCC_IO_TIMEOUT` seconds (wsbuild's `IO_TIMEOUT_SECONDS` unless the user set it;
+  distcc's own default is 300), after which distcc compiles it here and, with
+  `DISTCC_BACKOFF_PERIOD` set to the length of any run (in the run's own `DISTCC_DIR`),
+  never sends that host another job in this run.
 
 distcc's client log (`DISTCC_LOG`, `log/<run>/distcc.log`) says where each compile ran: the
 run's counts come from it.
@@ -58,6 +63,12 @@ REMOTE_SLOTS = 4
 LOCALHOST_SLOTS = 2
 #: a probe compile that takes longer counts as a host that does not answer
 PROBE_SECONDS = 20.0
+#: how long a compile waits for a host that stopped answering before distcc compiles it here
+#: (DISTCC_IO_TIMEOUT, unless the user set it): above what one file takes on a build host
+IO_TIMEOUT_SECONDS = 30
+#: distcc leaves a host that failed a job alone this long (DISTCC_BACKOFF_PERIOD, unless the
+#: user set it): longer than any run, so a host is dropped after its first failure
+BACKOFF_SECONDS = 7 * 24 * 3600
 #: the environment variable the gate reads the local jobserver's FIFO from
 GATE_FIFO_VAR = "WSBUILD_LOCAL_JOBS"
 #: the environment variable that hands the gate's CMake file to build_types/cmake.py
@@ -277,7 +288,16 @@ def open_distribution(spec: str, environ: Mapping[str, str], *, cores: int, run_
         GATE_FIFO_VAR: str(distribution._local_jobs.fifo),
         GATE_CMAKE_VAR: str(distribution.gate_cmake),
     })
+    distribution.environ.update(remote_wait_bounds(environ))
     return distribution
+
+
+def remote_wait_bounds(environ: Mapping[str, str]) -> dict[str, str]:
+    """distcc's variables that bound a wait for a host that took a job and then hangs, those
+    the user did not set: one wait of `IO_TIMEOUT_SECONDS`, then the host is left alone."""
+    bounds = {"DISTCC_IO_TIMEOUT": str(IO_TIMEOUT_SECONDS),
+              "DISTCC_BACKOFF_PERIOD": str(BACKOFF_SECONDS)}
+    return {name: value for name, value in bounds.items() if not environ.get(name, "").strip()}
 
 
 def probe_hosts(distcc: Path, hosts: Sequence[Host], environ: Mapping[str, str],

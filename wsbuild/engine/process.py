@@ -1,12 +1,15 @@
-"""Run one command: its own process group, output streamed to log files and to a line callback."""
+"""Run one command: its own process group, output streamed to log files and to a line callback;
+Ctrl-C ends every process wsbuild started and every process those started in turn."""
 
 from __future__ import annotations
 
+import ctypes
 import os
 import selectors
 import shlex
 import signal
 import subprocess
+import sys
 import threading
 import time
 from collections import deque
@@ -14,44 +17,139 @@ from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
-#: how long terminated process groups get before SIGKILL
-_GRACE_SECONDS = 3.0
+#: how long the processes of a cancelled run get to stop after SIGTERM before SIGKILL
+GRACE_SECONDS = 3.0
+#: how long SIGKILL is repeated on what is left (a process forking while it is swept)
+_KILL_SECONDS = 2.0
+#: how often the sweep looks again
+_POLL_SECONDS = 0.05
+#: prctl(2) option: orphaned descendants are reparented to this process instead of init
+_PR_SET_CHILD_SUBREAPER = 36
 
 
 class ProcessRegistry:
-    """Every child process group wsbuild started, so Ctrl-C can end all of them."""
+    """Every child process group wsbuild started, so Ctrl-C can end all of them, and with
+    them every descendant, whatever process group or session it moved to."""
 
     def __init__(self) -> None:
         self._lock = threading.Lock()
         self._running: dict[int, subprocess.Popen[bytes]] = {}
         self.cancelled = threading.Event()
+        #: a second Ctrl-C: SIGKILL at once instead of waiting out the grace period
+        self.hurried = threading.Event()
 
     def add(self, proc: subprocess.Popen[bytes]) -> None:
         with self._lock:
             self._running[proc.pid] = proc
         if self.cancelled.is_set():
-            _signal_group(proc.pid, signal.SIGTERM)
+            _signal_group(proc.pid, signal.SIGKILL if self.hurried.is_set() else signal.SIGTERM)
 
     def remove(self, proc: subprocess.Popen[bytes]) -> None:
         with self._lock:
             self._running.pop(proc.pid, None)
 
+    def hurry(self) -> None:
+        """Cut the grace period of `terminate_all` short (safe to call from a signal handler)."""
+        self.hurried.set()
+
+    def _leaders_exited(self, pgids: Sequence[int]) -> bool:
+        """Whether the processes that lead `pgids` exited (where /proc is missing, the only
+        sign left that a group stopped)."""
+        with self._lock:
+            procs = [self._running[pgid] for pgid in pgids if pgid in self._running]
+        return all(proc.poll() is not None for proc in procs)
+
     def terminate_all(self) -> None:
-        """SIGTERM every process group, then SIGKILL what is left after a grace period."""
+        """SIGTERM every process group and every descendant (SIGCONT too: a stopped process
+        cannot act on SIGTERM), then SIGKILL what is still alive after `GRACE_SECONDS`, or at
+        once after `hurry()`. Returns when no descendant is alive, at most `_KILL_SECONDS`
+        after the SIGKILL."""
         self.cancelled.set()
         with self._lock:
-            procs = list(self._running.values())
-        for proc in procs:
-            _signal_group(proc.pid, signal.SIGTERM)
-        deadline = time.monotonic() + _GRACE_SECONDS
-        for proc in procs:
-            try:
-                proc.wait(timeout=max(0.0, deadline - time.monotonic()))
-            except subprocess.TimeoutExpired:
-                pass
-        for proc in procs:
-            # the group may outlive its leader: kill it regardless
-            _signal_group(proc.pid, signal.SIGKILL)
+            groups = list(self._running)
+        for pgid in groups:
+            _signal_group(pgid, signal.SIGTERM)
+        warned: set[int] = set()
+        deadline = time.monotonic() + GRACE_SECONDS
+        while not self.hurried.is_set() and time.monotonic() < deadline:
+            alive = set(living_descendants())
+            for pid in sorted(alive - warned):
+                _signal_process(pid, signal.SIGTERM)
+                _signal_process(pid, signal.SIGCONT)
+            warned |= alive
+            if not alive and self._leaders_exited(groups):
+                return
+            time.sleep(_POLL_SECONDS)
+        with self._lock:
+            groups = sorted(set(groups) | set(self._running))
+        deadline = time.monotonic() + _KILL_SECONDS
+        while True:
+            for pgid in groups:
+                # the group may outlive its leader: kill it regardless
+                _signal_group(pgid, signal.SIGKILL)
+            alive = living_descendants()
+            for pid in alive:
+                _signal_process(pid, signal.SIGKILL)
+            if not alive or time.monotonic() >= deadline:
+                return
+            time.sleep(_POLL_SECONDS / 5)
+
+
+def adopt_orphans() -> bool:
+    """Make this process the child subreaper of everything it starts (Linux): a descendant
+    whose parent exits (a daemon, a build step its Ninja left behind) is reparented to wsbuild
+    instead of init, so `living_descendants()` still finds it. False where the system has no
+    such thing; Ctrl-C then reaches only descendants whose parents are still alive."""
+    if not sys.platform.startswith("linux"):
+        return False
+    try:
+        libc = ctypes.CDLL(None, use_errno=True)
+        return libc.prctl(_PR_SET_CHILD_SUBREAPER, 1, 0, 0, 0) == 0
+    except (OSError, AttributeError):
+        return False
+
+
+def living_descendants(root: int | None = None) -> list[int]:
+    """The processes below `root` (default: this one) that have not exited, from /proc
+    (empty where there is none). A zombie counts as exited: it holds nothing but its pid."""
+    root = os.getpid() if root is None else root
+    children: dict[int, list[int]] = {}
+    exited: set[int] = set()
+    try:
+        entries = os.listdir("/proc")
+    except OSError:
+        return []
+    for entry in entries:
+        if not entry.isdigit():
+            continue
+        try:
+            with open(f"/proc/{entry}/stat", "rb") as handle:
+                stat = handle.read()
+        except OSError:  # gone meanwhile
+            continue
+        # "pid (comm) state ppid ...": comm may hold spaces and parentheses
+        fields = stat.rpartition(b")")[2].split()
+        if len(fields) < 2:
+            continue
+        pid = int(entry)
+        children.setdefault(int(fields[1]), []).append(pid)
+        if fields[0] in (b"Z", b"X"):
+            exited.add(pid)
+    found: list[int] = []
+    stack = list(children.get(root, ()))
+    while stack:
+        pid = stack.pop()
+        if pid not in exited:
+            found.append(pid)
+        stack.extend(children.get(pid, ()))
+    return sorted(found)
+
+
+def _signal_process(pid: int, sig: int) -> None:
+    try:
+        os.kill(pid, sig)
+    except (ProcessLookupError, PermissionError):
+        pass
 
 
 def _signal_group(pgid: int, sig: int) -> None:

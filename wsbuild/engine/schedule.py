@@ -21,7 +21,7 @@ from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import replace
 from enum import Enum
 
-from wsbuild.engine.process import REGISTRY, ProcessRegistry
+from wsbuild.engine.process import REGISTRY, ProcessRegistry, adopt_orphans
 from wsbuild.engine.jobs import JobEvent, JobFinished, JobStarted
 from wsbuild.engine.jobs import JobResult, Outcome
 
@@ -55,7 +55,10 @@ def run_jobs(
 
     A failed job (outcome FAILED) affects the others as `policy` says.
     Ctrl-C (KeyboardInterrupt in the calling thread) terminates every child process group and
-    reports running jobs as interrupted, then raises RunInterrupted.
+    every descendant of this process (`ProcessRegistry.terminate_all`; the calling process
+    becomes their child subreaper, so one that left its parent is still found), reports
+    running jobs as interrupted, then raises RunInterrupted. A second Ctrl-C while they stop
+    kills what is left at once.
 
     Over 80 lines because the loop, its Ctrl-C path and the closures they share hold one
     run's state (waiting, ready, running, results): split, they would pass it all around.
@@ -68,6 +71,7 @@ def run_jobs(
     running: dict[str, float] = {}
     failed_any = False
     workers = max(1, workers)
+    adopt_orphans()
 
     def worker(name: str) -> None:
         start = time.monotonic()
@@ -147,9 +151,9 @@ def run_jobs(
                 if policy is FailurePolicy.SKIP_DEPENDENTS:
                     skip_dependents(result.package)
     except KeyboardInterrupt:
-        # another Ctrl-C must not cut this short: process groups would be left running and
-        # jobs abandoned half-way through swapping their install into place
-        previous_handler = signal.signal(signal.SIGINT, signal.SIG_IGN)
+        # another Ctrl-C must not cut this short (jobs would be abandoned half-way through
+        # swapping their install into place): it only stops the waiting for SIGTERM to work
+        previous_handler = signal.signal(signal.SIGINT, lambda _sig, _frame: registry.hurry())
         try:
             registry.terminate_all()
             deadline = time.monotonic() + 10

@@ -24,6 +24,7 @@ from __future__ import annotations
 import json
 import os
 import re
+import shlex
 import shutil
 import signal
 import sys
@@ -346,18 +347,21 @@ class _Tester:
 
     def _pytest(self, name: str, env: Mapping[str, str], target: Path,
                 log_dir: Path) -> PackageTests:
-        """`python -m pytest` in the source directory, as colcon-core's pytest step runs it."""
+        """`python -m pytest` in the source directory, as colcon-core's pytest step runs it:
+        the options in `PYTEST_ADDOPTS`, so a test that parses `sys.argv` sees only
+        `python -m pytest`."""
         build_dir = self.plan.workspace.build_base / name
         junit = target / "pytest.xml"
-        command = [
-            self.request.python_executable, "-m", "pytest", "--tb=short",
-            f"--junit-xml={junit}", f"--junit-prefix={name}",
+        options = [
+            "--tb=short", f"--junit-xml={junit}", f"--junit-prefix={name}",
             "-o", f"cache_dir={build_dir / '.pytest_cache'}",
             # one module that cannot be imported never hides the package's other tests
             "--continue-on-collection-errors", "-p", "wsbuild.testing.missing_linters",
             *(["--wsbuild-strict-linters"] if self.request.strict_linters else []),
-            *self.request.pytest_args,
         ]
+        command = [self.request.python_executable, "-m", "pytest"]
+        env = dict(env, PYTEST_ADDOPTS=pytest_addopts(options, env.get("PYTEST_ADDOPTS", ""),
+                                                      self.request.pytest_args))
         colcon_result = build_dir / "pytest.xml"
         if colcon_result != junit and colcon_result.is_file():
             # colcon's result of this very suite: left in place it would be counted as current
@@ -500,6 +504,13 @@ def _cmake_config(build_dir: Path) -> str:
     match = re.search(r"^CMAKE_BUILD_TYPE:[A-Z]*=(.*)$", text, re.MULTILINE)
     value = match.group(1).strip() if match else ""
     return value if value in ("Debug", "MinSizeRel", "RelWithDebInfo") else "Release"
+
+
+def pytest_addopts(own: Sequence[str], users: str, passed: Sequence[str]) -> str:
+    """`PYTEST_ADDOPTS` for a package's pytest: wsbuild's options, then the user's own
+    `PYTEST_ADDOPTS`, then `--pytest-args` (pytest lets a later option win)."""
+    parts = [shlex.join(own), users.strip(), shlex.join(passed)]
+    return " ".join(part for part in parts if part)
 
 
 def _publish(result: ResultFile, target: Path) -> ResultFile:

@@ -11,6 +11,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from wsbuild.errors import WsbuildError
+from wsbuild.files import atomic_write
 
 MIXIN_DOC = """Manage colcon-mixin's named option sets (`--mixin NAME` of build, test, …).
 
@@ -70,13 +71,18 @@ def mixin_files(directory: Path) -> list[Path]:
 
 def read_mixin_file(path: Path) -> list[Mixin]:
     """The mixins of one file: `{verb: {name: {option: value}}}` (JSON or YAML)."""
-    import yaml
-
     try:
         text = path.read_text(encoding="utf-8")
-        loader = yaml.SafeLoader(text)
     except (OSError, UnicodeDecodeError) as exc:
         raise MixinError(f"cannot read the mixin file: {exc}", path=path) from None
+    return parse_mixins(text, path)
+
+
+def parse_mixins(text: str, path: Path) -> list[Mixin]:
+    """The mixins of the text of mixin file `path` (named in errors and in each Mixin)."""
+    import yaml
+
+    loader = yaml.SafeLoader(text)
     try:
         root = loader.get_single_node()
         if root is None:
@@ -254,10 +260,21 @@ def fetch(url: str, timeout: float = 10.0) -> str:
         raise MixinError(f"cannot fetch '{url}': {reason}") from None
 
 
-def index_entries(index_url: str, text: str) -> list[str]:
-    """The mixin file URLs of a repository index (`mixin: [file, …]`), made absolute."""
+def as_url(location: str) -> str:
+    """An index location as a URL (a plain path is a file:// URL)."""
+    return location if "://" in location else Path(location).absolute().as_uri()
+
+
+def index_entries(index_url: str, text: str) -> dict[str, str]:
+    """The mixin files of a repository index (`mixin: [file, …]`): file name → URL, each
+    entry resolved against the index's own URL. Every entry must name a `.mixin` file, and an
+    index served over http(s) only files of its own origin (no local path, no file:// URL,
+    no other server)."""
+    from urllib.parse import unquote, urljoin, urlsplit
+
     import yaml
 
+    index_url = as_url(index_url)
     try:
         data = yaml.safe_load(text)
     except yaml.YAMLError as exc:
@@ -265,34 +282,76 @@ def index_entries(index_url: str, text: str) -> list[str]:
     if not isinstance(data, dict) or not isinstance(data.get("mixin"), list):
         raise MixinError(f"the index at '{index_url}' has no 'mixin' list",
                          hint="an index is 'mixin: [build-type.mixin, ...]'")
-    base = index_url.rsplit("/", 1)[0]
-    return [entry if "://" in entry or os.path.isabs(entry) else f"{base}/{entry}"
-            for entry in map(str, data["mixin"])]
+    origin = _origin(index_url)
+    files: dict[str, str] = {}
+    for entry in data["mixin"]:
+        url = urljoin(index_url, str(entry).strip())
+        basename = unquote(urlsplit(url).path.rpartition("/")[2])
+        if not isinstance(entry, str) or not _is_mixin_file_name(basename):
+            raise MixinError(f"the index at '{index_url}' names '{entry}', which is not a "
+                             "mixin file", hint="each entry is a file name ending in .mixin, "
+                                                "e.g. build-type.mixin")
+        if origin is not None and _origin(url) != origin:
+            raise MixinError(f"the index at '{index_url}' names '{entry}', which is not on its "
+                             f"own server ({origin[0]}://{origin[1]}:{origin[2]})",
+                             hint="an index served over http(s) may name only files of its "
+                                  "own origin")
+        if basename in files:
+            raise MixinError(f"the index at '{index_url}' names two mixin files '{basename}'")
+        files[basename] = url
+    return files
+
+
+def _is_mixin_file_name(name: str) -> bool:
+    return (name.endswith(".mixin") and not name.startswith(".")
+            and not any(c in name for c in "/\\\0"))
+
+
+def _origin(url: str) -> tuple[str, str, int] | None:
+    """(scheme, host, port) of an http(s) URL; None for a local (file://) one."""
+    from urllib.parse import urlsplit
+
+    parts = urlsplit(url)
+    scheme = parts.scheme.lower()
+    if scheme not in ("http", "https"):
+        return None
+    try:
+        port = parts.port or (443 if scheme == "https" else 80)
+    except ValueError:  # a port that is not a number: no origin matches it
+        port = -1
+    return scheme, (parts.hostname or "").lower(), port
 
 
 def update_repository(environ: Mapping[str, str], name: str, index_url: str,
-                      say: Callable[[str], None]) -> None:
-    """Fetch the index and its mixin files into $COLCON_HOME/mixin/<name>/ (stale ones go)."""
-    urls = index_entries(index_url, fetch(index_url))
+                      say: Callable[[str], None]) -> list[MixinError]:
+    """Fetch the index and its mixin files into $COLCON_HOME/mixin/<name>/ (stale ones go).
+    A file that is not a valid mixin file is refused, its last good copy kept: the refusals
+    are returned. A malformed index changes nothing (MixinError)."""
+    files = index_entries(index_url, fetch(index_url))
     target = config_home(environ) / MIXIN_DIR / name
-    contents: dict[str, str] = {}
-    for url in urls:
-        basename = url.rsplit("/", 1)[-1]
-        if basename in contents:
-            raise MixinError(f"the index at '{index_url}' names two mixin files '{basename}'")
-        contents[basename] = fetch(url)
+    contents = {basename: fetch(url) for basename, url in files.items()}
     target.mkdir(parents=True, exist_ok=True)
+    refused: list[MixinError] = []
     for basename, text in contents.items():
         path = target / basename
+        try:
+            parse_mixins(text, path)
+        except MixinError as exc:
+            where = f"line {exc.line}: " if exc.line else ""
+            kept = "kept the last good copy" if path.is_file() else "not installed"
+            refused.append(MixinError(f"refused {basename} from '{files[basename]}': "
+                                      f"{where}{exc.message} ({kept})"))
+            say(f"  ! {basename}")
+            continue
         old = path.read_text(encoding="utf-8") if path.is_file() else None
         if old != text:
-            path.write_text(text, encoding="utf-8")
+            atomic_write(path, text)
         say(f"  {'+' if old is None else '.' if old == text else '*'} {basename}")
-        read_mixin_file(path)  # a broken file is an error now, not at the next build
     for stale in sorted(target.glob("*.mixin")):
         if stale.name not in contents:
             stale.unlink()
             say(f"  - {stale.name}")
+    return refused
 
 
 # ------------------------------------------------------------------------- the verb's actions
@@ -357,10 +416,12 @@ def run_update(args: argparse.Namespace) -> int:
             continue
         print(f"fetching {name}: {url}")
         try:
-            update_repository(os.environ, name, url, print)
+            refused = update_repository(os.environ, name, url, print)
         except MixinError as exc:
+            refused = [exc]
+        for exc in refused:
             print(f"wsbuild: error: {exc}", flush=True)
-            failed += 1
+        failed += bool(refused)
     return 1 if failed else 0
 
 

@@ -15,7 +15,18 @@ The ros-jazzy-* wheels export CMake files naming their build machine's paths
 rewrites those lines to this virtualenv's paths, touching nothing outside it;
 `wsbuild build` does the same automatically before building. `check` also lists ROS
 packages the wheels' metadata forgot, with the pip command that installs them.
+
+`check` sums up (`--verbose`: every line) and exits 0 when there is nothing to do, 1 when
+there is (a repair, a package to install), 2 when there is no underlay.
 """
+
+#: `underlay check`'s exit code when the underlay needs a repair or a package
+NEEDS_WORK = 1
+
+
+def add_check_arguments(check: argparse.ArgumentParser) -> None:
+    check.add_argument("-v", "--verbose", action="store_true",
+                       help="list every line repair would change and every missing package")
 
 
 def _venv() -> "os.PathLike[str]":
@@ -31,26 +42,40 @@ def _venv() -> "os.PathLike[str]":
 
 
 def run_check(args: argparse.Namespace) -> int:
-    """Report what `repair` would change, and ROS packages the wheels forgot to depend on."""
+    """Report what `repair` would change, and ROS packages the wheels forgot to depend on:
+    a summary, or every line with --verbose. Exit 0: nothing to do; NEEDS_WORK otherwise."""
     from wsbuild.underlay.missing import missing_packages
     from wsbuild.underlay.repair import scan_underlay
+    from wsbuild.words import plural
 
     venv = _venv()
     problems = scan_underlay(venv, use_cache=False)
     missing = missing_packages(venv)
     print(f"ROS underlay: {venv}")
-    for problem in problems:
-        kind = "repairable" if problem.repairable else "needs you"
-        print(f"  {problem.path}:{problem.line}: [{kind}] {problem.text}\n    fix: {problem.fix}")
-    for item in missing:
-        print(f"  missing: {item.name} (needed by {', '.join(item.required_by)}): "
-              f"pip install {item.requirement}")
     if not problems and not missing:
         print("  no problems found")
         return 0
-    if problems and all(p.repairable for p in problems) and not missing:
-        print("run 'wsbuild underlay repair' (wsbuild build also does it automatically)")
-    return 2
+    repairable = [p for p in problems if p.repairable]
+    verbose = bool(getattr(args, "verbose", False))
+    for problem in problems if verbose else [p for p in problems if not p.repairable]:
+        kind = "repairable" if problem.repairable else "needs you"
+        print(f"  {problem.path}:{problem.line}: [{kind}] {problem.text}\n    fix: {problem.fix}")
+    if verbose:
+        for item in missing:
+            print(f"  missing: {item.name} (needed by {', '.join(item.required_by)}): "
+                  f"pip install {item.requirement}")
+    if repairable:
+        files = len({p.path for p in repairable})
+        print(f"  the wheels' build-machine paths: {plural(len(repairable), 'line')} in "
+              f"{plural(files, 'file')} (wsbuild underlay repair rewrites them; wsbuild build "
+              "does it by itself)")
+    if missing:
+        requirements = " ".join(item.requirement for item in missing)
+        print(f"  ROS packages the underlay's CMake files need but nothing installed: "
+              f"{len(missing)} (pip install {requirements})")
+    if not verbose:
+        print("every line: wsbuild underlay check --verbose")
+    return NEEDS_WORK
 
 
 def run_repair(args: argparse.Namespace) -> int:
