@@ -11,7 +11,7 @@ import sys
 import threading
 import time
 from collections.abc import Iterable, Sequence
-from dataclasses import dataclass
+from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import TextIO
 
@@ -24,6 +24,7 @@ from wsbuild.events import (
     RunFinished,
     StepStarted,
     Summary,
+    event_to_data,
 )
 from wsbuild.engine.jobs import JobResult, Outcome
 from wsbuild.engine.progress import Progress
@@ -33,14 +34,30 @@ from wsbuild.words import plural
 BAR_WIDTH = 20
 
 
+def _shown(kind: str, data: object) -> None:
+    """Tell the recorder of this run (if any) what the reporter showed: a no-op's replay
+    (engine/replay.py) shows the same through the same functions."""
+    from wsbuild.engine.recording import recorder
+
+    watcher = recorder()
+    if watcher is not None:
+        watcher.shown(kind, data)
+
+
 def print_warnings(warnings: Iterable[str], stream: TextIO | None = None) -> None:
     """Warnings found before a run starts (discovery, result files), one line each on stderr."""
+    warnings = list(warnings)
+    if stream is None:
+        _shown("warnings", warnings)
     for warning in warnings:
         print(f"wsbuild: warning: {warning}", file=stream or sys.stderr)
 
 
 def print_notes(notes: Iterable[str], stream: TextIO | None = None) -> None:
     """Notes on how a command line was understood (an option ignored, and why), on stderr."""
+    notes = list(notes)
+    if stream is None:
+        _shown("notes", notes)
     for note in notes:
         print(f"wsbuild: note: {note}", file=stream or sys.stderr)
 
@@ -112,8 +129,11 @@ class Reporter:
         self._start = time.monotonic()
         self._ticker: threading.Thread | None = None
         self._stop = threading.Event()
+        if stream is None:
+            _shown("reporter", {"verb": verb, "console": asdict(self.console)})
 
     def __call__(self, event: Event) -> None:
+        _shown("event", event_to_data(event))
         with self._lock:
             self._clear_status()
             self._handle(event)
@@ -136,6 +156,7 @@ class Reporter:
 
     def package_list(self, packages: Sequence[tuple[str, str]]) -> None:
         """console_package_list+: the packages (name, build type) in the order they run."""
+        _shown("package_list", [list(p) for p in packages])
         if self.console.package_list and packages:
             with self._lock:
                 self._write("Topological order")

@@ -45,7 +45,7 @@ from wsbuild.engine.replay import (
     IDENTITY,
     RECORDS,
     RUN_LOG,
-    SECONDS,
+    replaced,
     STARTED,
     key_of,
     record_path,
@@ -127,6 +127,8 @@ class Recorder:
         self.spoiled = False
         self.stdout = _Tee(sys.stdout)
         self.stderr = _Tee(sys.stderr)
+        #: what the reporter showed, in order (a build's record draws it again)
+        self._shown: list[list[object]] = []
         self._unlisten: Callable[[], None] | None = None
         #: the test suite's oracle (engine/inputs_oracle.py), when WSBUILD_INPUTS_ORACLE names
         #: its file: the process's own accesses traced, the undeclared ones written down
@@ -153,6 +155,12 @@ class Recorder:
         self.outcome = {"build_base": str(build_base), "log_base": str(log_base),
                         "run_log": str(run_log), "seconds": f"{seconds:.2f}"}
 
+    def shown(self, kind: str, data: object) -> None:
+        """What the reporter showed (report.py): a build's replay shows it again through the
+        reporter (`kind`: reporter, event, package_list, warnings, notes)."""
+        if self.active:
+            self._shown.append([kind, data])
+
     def read_only(self, *, build_base: Path) -> None:
         """The run only read, and printed all it did."""
         self.outcome = {"build_base": str(build_base)}
@@ -163,6 +171,7 @@ class Recorder:
         self.stdout.keep = self.stderr.keep = False
         self.stdout.parts.clear()
         self.stderr.parts.clear()
+        self._shown.clear()
         self._uninstall()
 
     def _absolute(self, path: object) -> str | None:
@@ -214,14 +223,18 @@ class Recorder:
         if os.path.abspath(RECORDS.parent.parent) != outcome["build_base"]:
             return  # a replay looks for the record under ./build only
         inputs = self._paths(outcome)
-        stdout, stderr = self._text(self.stdout, outcome), self._text(self.stderr, outcome)
-        log = _log_of(Path(outcome["run_log"]), outcome["log_base"]) \
-            if "run_log" in outcome else None
-        if inputs is None or stdout is None or stderr is None or \
-                log is None and "run_log" in outcome:
+        if "run_log" in outcome:  # a build: what its reporter showed, drawn again
+            log = _log_of(Path(outcome["run_log"]), outcome["log_base"])
+            stdout = stderr = ""
+            shown = replaced(self._shown, outcome["run_log"], RUN_LOG)
+        else:  # list, graph, info: what they printed
+            log = shown = None
+            stdout, stderr = "".join(self.stdout.parts), "".join(self.stderr.parts)
+        if inputs is None or log is None and "run_log" in outcome:
             return
         record = {"key": self.key, "build_base": outcome["build_base"], "paths": inputs[0],
-                  "digest": inputs[1], "stdout": stdout, "stderr": stderr, "log": log}
+                  "digest": inputs[1], "stdout": stdout, "stderr": stderr, "shown": shown,
+                  "log": log}
         from wsbuild.files import atomic_write, private_directory
 
         try:
@@ -278,18 +291,6 @@ class Recorder:
         # the digest of these very signatures (in replay.digest's order): stat'ing again could
         # see a change made after the checks above
         return paths, hash(tuple(sig for e in grouped.values() for _, _, sig in e))
-
-    def _text(self, tee: _Tee, outcome: dict[str, str]) -> str | None:
-        """What the run printed, its summary's seconds and its log directory made blanks."""
-        text = "".join(tee.parts)
-        if "run_log" not in outcome:
-            return text
-        if tee is self.stdout:
-            seconds = f"[{outcome['seconds']}s]"
-            if text.count(seconds) != 1:
-                return None
-            text = text.replace(seconds, f"[{SECONDS}s]")
-        return text.replace(outcome["run_log"], RUN_LOG)
 
 
 def _log_of(run_log: Path, log_base: str) -> dict[str, object] | None:

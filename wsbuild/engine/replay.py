@@ -1,16 +1,19 @@
 """A command whose inputs did not change, answered from the record of its last run.
 
 `wsbuild build` when its plan finds every package up to date, and `list`, `graph` and `info`,
-which only read, record while they run every path they look at (stat, open, directory listing)
-and keep those paths' stat signatures with the command line, the working directory, the
-environment, the terminal, what they printed and (a build) what they wrote to its log
-directory: `build/.wsbuild/noop/<verb>.json` (engine/recording.py).
+which only read, record while they run every input they declare (wsbuild/inputs.py: the paths
+they stat, the files they read, the directories they or the programs they start search) and
+keep those paths' stat signatures with digests of the command line and the environment (never
+their values), the working directory, the terminal, what they showed and (a build) what they
+wrote to its log directory: `build/.wsbuild/noop/<verb>.json`, readable by its owner only
+(engine/recording.py).
 
 The next run of the same command line, in the same directory, environment and terminal, stats
 those paths again (`replay`, here; a build first takes the workspace lock). When every one is
-as recorded, the full run would read the same files and so print the same: the run prints what
-the recorded one printed (a build: with its own time, and a log directory with the same files
-and its own times), without parsing, scanning or planning anything. Anything else (a path
+as recorded, the full run would read the same files and so show the same: a build's reporter
+(report.py) draws the events the recorded one drew, with this run's time, and the run writes a
+log directory with the same files and its own times; `list`, `graph` and `info` print what the
+recorded run printed — without parsing, scanning or planning anything. Anything else (a path
 changed, another build holding the lock, no record) goes down the full path, which records
 anew. This module imports nothing a replay does not use.
 """
@@ -33,11 +36,10 @@ if TYPE_CHECKING:
 RECORDS = Path("build") / ".wsbuild" / "noop"
 #: the verbs that are replayed: build (a no-op), and those that only read
 VERBS = frozenset({"build", "list", "graph", "info"})
-FORMAT = 7
+FORMAT = 8
 #: set by the shell for each command, meaningless to a build
 VOLATILE = frozenset({"_", "OLDPWD", "SHLVL"})
-#: what a record keeps in place of the summary's seconds and of the run's log directory
-SECONDS = "\0seconds\0"
+#: what a record keeps in place of the run's log directory
 RUN_LOG = "\0run_log\0"
 #: report.json's start time, as the record keeps it (a JSON string)
 STARTED = '"@@wsbuild-started@@"'
@@ -147,11 +149,15 @@ def replay(argv: Sequence[str]) -> int | None:
     if record["log"] is None:  # a verb that only reads
         if not _unchanged(record):
             return None
-        _print(record, {})
+        _print(record)
         return 0
     from wsbuild.engine.lock import workspace_lock
     from wsbuild.errors import WorkspaceError
 
+    try:
+        shown = _decoded(record["shown"])
+    except (TypeError, ValueError, KeyError):
+        return None  # not a record this version wrote
     lock = workspace_lock(Path(record["build_base"]), wait=False, on_wait=lambda _: None)
     try:
         lock.__enter__()
@@ -164,10 +170,66 @@ def replay(argv: Sequence[str]) -> int | None:
             run_log = _write_log(record["log"], started)
         except OSError:
             return None  # the full run says what is wrong (a full disk, a read-only log/)
-        _print(record, {SECONDS: f"{time.monotonic() - started:.2f}", RUN_LOG: str(run_log)})
+        _draw(replaced(shown, RUN_LOG, str(run_log)), started)
         return 0
     finally:
         lock.__exit__(None, None, None)
+
+
+def replaced(data: Any, old: str, new: str) -> Any:
+    """`data` (JSON values) with `old` replaced by `new` in every string."""
+    if isinstance(data, str):
+        return data.replace(old, new)
+    if isinstance(data, list):
+        return [replaced(item, old, new) for item in data]
+    if isinstance(data, dict):
+        return {key: replaced(value, old, new) for key, value in data.items()}
+    return data
+
+
+def _decoded(shown: list[list[Any]]) -> list[tuple[str, Any]]:
+    """The recorded build's reporter calls, their events decoded (ValueError: not a record
+    this version can draw)."""
+    from wsbuild.events import event_from_data
+
+    calls = []
+    for kind, data in shown:
+        if kind not in ("reporter", "event", "package_list", "warnings", "notes"):
+            raise ValueError(kind)
+        calls.append((kind, event_from_data(data) if kind == "event" else data))
+    return calls
+
+
+def _draw(shown: list[tuple[str, Any]], started: float) -> None:
+    """What the recorded build showed, drawn again by the reporter (report.py) the same way,
+    with this run's time in its summary. A reader that went away (`| head -1`) is no error,
+    as in cli.py."""
+    from dataclasses import replace
+
+    from wsbuild.events import RunFinished
+    from wsbuild.report import Console, Reporter, print_notes, print_warnings
+
+    reporter = None
+    try:
+        for kind, data in shown:
+            if kind == "warnings":
+                print_warnings(data)
+            elif kind == "notes":
+                print_notes(data)
+            elif kind == "reporter":
+                reporter = Reporter(verb=data["verb"], console=Console(**data["console"]))
+            elif kind == "package_list" and reporter is not None:
+                reporter.package_list([tuple(item) for item in data])
+            elif kind == "event" and reporter is not None:
+                event = data
+                if isinstance(event, RunFinished):
+                    event = replace(event, seconds=time.monotonic() - started)
+                reporter(event)
+        if reporter is not None:
+            reporter.stop()
+        sys.stdout.flush()
+    except BrokenPipeError:
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
 
 
 def _unchanged(record: dict[str, Any]) -> bool:
@@ -177,12 +239,10 @@ def _unchanged(record: dict[str, Any]) -> bool:
         return False
 
 
-def _print(record: dict[str, Any], blanks: dict[str, str]) -> None:
-    """What the recorded run printed, its blanks filled in. A reader that went away
-    (`wsbuild list | head -1`) is no error, as in cli.py."""
+def _print(record: dict[str, Any]) -> None:
+    """What the recorded run printed. A reader that went away (`wsbuild list | head -1`) is
+    no error, as in cli.py."""
     for stream, text in ((sys.stdout, record["stdout"]), (sys.stderr, record["stderr"])):
-        for blank, value in blanks.items():
-            text = text.replace(blank, value)
         try:
             stream.write(text)
             stream.flush()
@@ -202,7 +262,8 @@ def _read_record(argv: Sequence[str]) -> dict[str, Any] | None:
     log = record.get("log")
     shapes = ((record.get("paths"), list), (record.get("digest"), int),
               (record.get("stdout"), str), (record.get("stderr"), str),
-              (record.get("build_base"), str), (log, (dict, type(None))))
+              (record.get("build_base"), str), (log, (dict, type(None))),
+              (record.get("shown"), (list, type(None))))
     if not all(isinstance(value, kind) for value, kind in shapes):
         return None
     if log is not None and not (isinstance(log.get("timings"), dict)
