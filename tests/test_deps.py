@@ -139,7 +139,7 @@ def test_missing_wheel_and_python_key_are_listed_planned_installed_and_built(
     assert freeze(venv) == before
     command = line_with(planned.stdout, "$ ")
     assert command.split("$ ", 1)[1] == (f"{venv}/bin/python3 -m pip install -c {LOCK} "
-                                         "tabulate ros-jazzy-sensor-msgs")
+                                         "-- tabulate ros-jazzy-sensor-msgs")
     assert "sensor_msgs -> ros-jazzy-sensor-msgs  (ROS wheel" in planned.stdout
 
     installed = deps(venv, "deps", "install", "-y", "--constraint", str(LOCK), cwd=needy)

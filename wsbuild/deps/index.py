@@ -11,6 +11,8 @@ from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 from pathlib import Path
 
+from wsbuild.deps.names import invalid_name, valid_pip_requirement
+
 #: the longest one question to the index may take (pip retries a dead network itself)
 QUERY_TIMEOUT = 120.0
 
@@ -46,8 +48,10 @@ def error_line(output: str) -> str:
 
 
 def query_one(python: Path, name: str, environ: Mapping[str, str]) -> IndexAnswer:
-    """`pip index versions NAME`: one request for the project's page on the index."""
-    command = [*pip_command(python), "index", "versions", name]
+    """`pip index versions -- NAME`: one request for the project's page on the index."""
+    if not valid_pip_requirement(name):
+        return IndexAnswer(name, False, invalid_name("pip", name))
+    command = [*pip_command(python), "index", "versions", "--", name]
     try:
         done = subprocess.run(command, capture_output=True, text=True, check=False,
                               env=pip_environment(environ), timeout=QUERY_TIMEOUT)

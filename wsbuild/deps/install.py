@@ -50,7 +50,7 @@ def pip_install_command(python: Path, packages: Sequence[str],
     command = [*pip_command(python), "install"]
     if constraint is not None:
         command += ["-c", str(constraint)]
-    return command + list(packages)
+    return [*command, "--", *packages]
 
 
 def apt_privilege(run: Run = subprocess.run) -> list[str] | None:
@@ -69,9 +69,9 @@ def apt_privilege(run: Run = subprocess.run) -> list[str] | None:
 
 
 def apt_install_command(packages: Sequence[str], prefix: Sequence[str] | None) -> list[str]:
-    """`apt-get install -y …`, behind `sudo` when not root (the printed form uses plain sudo)."""
+    """`apt-get install -y … -- PACKAGES`, behind `sudo` when not root (the printed form uses plain sudo)."""
     head = list(prefix) if prefix is not None else ["sudo"]
-    return [*head, "apt-get", "install", "-y", "--no-install-recommends", *packages]
+    return [*head, "apt-get", "install", "-y", "--no-install-recommends", "--", *packages]
 
 
 def installer_command(installer: Installer, steps: Sequence[Step], *, python: Path,

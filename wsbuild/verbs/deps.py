@@ -21,7 +21,8 @@ DEPS_DOC = """Check or install the dependencies of the packages that nothing pro
 
 Every package.xml key of the selected packages (build, run and test types; the workspace's
 own packages left out) is looked up as `wsbuild build` does. For each one not found, the
-first source that can install it: a ros-<distro>-<name> wheel, rosdep's rule for this OS
+first source that can install it: a ros-<distro>-<name> wheel, the PyPI project of a ROS
+package from wsbuild's table (osrf_pycommon -> osrf-pycommon), rosdep's rule for this OS
 (when rosdep and its cache exist), or a python3-* key's PyPI distribution. pip installs
 into the virtualenv underlay; apt-get runs only with -y, as root or with sudo -n, and is
 printed as a command otherwise.
