@@ -1,20 +1,35 @@
 """What the package index pip uses holds: asked through the underlay venv's own pip, so that
 its configuration (index URL, find-links, proxies, certificates) applies as it will for the
-install."""
+install. Definite answers (there, or "no matching distribution") are remembered for a day in
+the user's cache, per name asked (a `ros-<distro>-*` name carries its distro) and per index
+settings, so that a second look at an unchanged workspace asks nothing; `--refresh` asks
+again."""
 
 from __future__ import annotations
 
+import hashlib
+import json
 import os
 import subprocess
+import time
 from collections.abc import Iterable, Mapping
 from concurrent.futures import ThreadPoolExecutor
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
+
+from wsbuild.files import atomic_write
 
 from wsbuild.deps.names import invalid_name, valid_pip_requirement
 
 #: the longest one question to the index may take (pip retries a dead network itself)
 QUERY_TIMEOUT = 120.0
+#: how long a remembered answer holds
+ANSWER_TTL = 24 * 3600.0
+#: the settings that decide which index pip asks: answers are remembered per combination
+_INDEX_SETTINGS = ("PIP_INDEX_URL", "PIP_EXTRA_INDEX_URL", "PIP_FIND_LINKS", "PIP_NO_INDEX",
+                   "PIP_CONFIG_FILE")
+#: pip's answer for a name the index does not have (a definite answer, so it is remembered)
+_NOT_FOUND = "ERROR: No matching distribution found"
 
 
 @dataclass(frozen=True, slots=True)
@@ -65,13 +80,78 @@ def query_one(python: Path, name: str, environ: Mapping[str, str]) -> IndexAnswe
     return IndexAnswer(name, False, error_line(done.stderr + done.stdout))
 
 
+@dataclass(slots=True)
+class AnswerMemory:
+    """The index's definite answers, remembered in one JSON file: {scope: {name: [exists,
+    detail, time]}}; a scope is one interpreter with one set of index settings."""
+
+    path: Path
+    scope: str
+    now: float = field(default_factory=time.time)
+    ttl: float = ANSWER_TTL
+
+    @classmethod
+    def for_index(cls, python: Path, environ: Mapping[str, str]) -> AnswerMemory:
+        base = environ.get("XDG_CACHE_HOME") or str(Path.home() / ".cache")
+        settings = [str(python), *(f"{k}={environ.get(k, '')}" for k in _INDEX_SETTINGS)]
+        scope = hashlib.sha256("\n".join(settings).encode()).hexdigest()[:16]
+        return cls(Path(base) / "wsbuild" / "deps" / "index-answers.json", scope)
+
+    def _read(self) -> dict[str, dict[str, list[object]]]:
+        try:
+            data = json.loads(self.path.read_text(encoding="utf-8"))
+        except (OSError, ValueError):
+            return {}
+        return data if isinstance(data, dict) else {}
+
+    def recall(self, names: Iterable[str]) -> dict[str, IndexAnswer]:
+        """The remembered, unexpired answers for `names`."""
+        known = self._read().get(self.scope, {})
+        found: dict[str, IndexAnswer] = {}
+        for name in names:
+            entry = known.get(name) if isinstance(known, dict) else None
+            if (isinstance(entry, list) and len(entry) == 3 and isinstance(entry[2], (int, float))
+                    and 0 <= self.now - entry[2] < self.ttl):
+                found[name] = IndexAnswer(name, bool(entry[0]), str(entry[1]))
+        return found
+
+    def remember(self, answers: Iterable[IndexAnswer]) -> None:
+        """Keep the definite ones (there, or not on the index); never fails the look."""
+        definite = [a for a in answers if a.exists or a.detail.startswith(_NOT_FOUND)]
+        if not definite:
+            return
+        data = self._read()
+        scope = data.setdefault(self.scope, {})
+        for answer in definite:
+            scope[answer.name] = [answer.exists, answer.detail, self.now]
+        for other in list(data):  # drop what has expired everywhere
+            entries = data[other] if isinstance(data[other], dict) else {}
+            data[other] = {n: e for n, e in entries.items()
+                           if isinstance(e, list) and len(e) == 3
+                           and isinstance(e[2], (int, float)) and self.now - e[2] < self.ttl}
+        try:
+            self.path.parent.mkdir(parents=True, exist_ok=True)
+            atomic_write(self.path, json.dumps(data, sort_keys=True, indent=0) + "\n")
+        except OSError:
+            pass  # an unwritable cache only costs the next look its questions
+
+
 def query(python: Path, names: Iterable[str], environ: Mapping[str, str] | None = None,
+          *, memory: AnswerMemory | None = None, refresh: bool = False,
           ) -> dict[str, IndexAnswer]:
-    """Ask the index about each name, a few at a time (each is one small HTTP request)."""
+    """Ask the index about each name, a few at a time (each is one small HTTP request);
+    with `memory`, names answered within its expiry are not asked again (unless `refresh`)."""
     unique = sorted(set(names))
     env = dict(os.environ if environ is None else environ)
     if not unique:
         return {}
-    with ThreadPoolExecutor(max_workers=min(8, len(unique))) as pool:
-        answers = pool.map(lambda n: query_one(python, n, env), unique)
-        return {answer.name: answer for answer in answers}
+    known = {} if memory is None or refresh else memory.recall(unique)
+    ask = [n for n in unique if n not in known]
+    if not ask:
+        return known
+    with ThreadPoolExecutor(max_workers=min(8, len(ask))) as pool:
+        asked = {answer.name: answer
+                 for answer in pool.map(lambda n: query_one(python, n, env), ask)}
+    if memory is not None:
+        memory.remember(asked.values())
+    return {**known, **asked}

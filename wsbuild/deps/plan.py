@@ -46,6 +46,7 @@ class Source(Enum):
     PYPI_PROJECT = "ROS package on PyPI"
     ROSDEP = "rosdep"
     PYTHON = "Python key by convention"
+    ROS_PYTEST = "the ROS tests' pytest"
 
 
 class Installer(Enum):
@@ -86,10 +87,12 @@ class DepsPlan:
     stood_in: tuple[Need, ...] = ()
     #: keys the build's lookup does not find but whose rosdep rule is installed
     by_rosdep: tuple[Need, ...] = ()
+    #: the pytest the packages' tests need, when it is not installed (test_tools.py)
+    test_tools: tuple[Step, ...] = ()
 
     @property
     def missing(self) -> int:
-        return len(self.steps) + len(self.unresolved)
+        return len(self.steps) + len(self.unresolved) + len(self.test_tools)
 
     def by_installer(self) -> dict[Installer, list[Step]]:
         """The steps grouped by installer, pip first."""

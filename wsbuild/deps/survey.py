@@ -4,8 +4,8 @@ from __future__ import annotations
 
 import importlib
 import sys
-from collections.abc import Iterable, Mapping
-from dataclasses import dataclass
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 from wsbuild.deps import index
@@ -13,6 +13,7 @@ from wsbuild.deps.index import IndexAnswer
 from wsbuild.deps.needs import collect_needs
 from wsbuild.deps.plan import DepsPlan, Planner, python_candidates, wheel_candidates
 from wsbuild.deps.rosdep import load_rosdep
+from wsbuild.deps.test_tools import ros_pytest_step
 from wsbuild.underlay.environment import PreparedUnderlay
 from wsbuild.errors import UnderlayError
 from wsbuild.underlay.detect import ros_distro, venv_python
@@ -33,9 +34,9 @@ class Survey:
     rosdep_status: str
 
 
-def survey(packages: Iterable[Package], workspace: Mapping[str, Package],
+def survey(packages: Sequence[Package], workspace: Mapping[str, Package],
            kinds: frozenset[DepKind], *, environ: Mapping[str, str], shim_dir: Path,
-           skip: frozenset[str] = frozenset()) -> Survey:
+           skip: frozenset[str] = frozenset(), refresh: bool = False) -> Survey:
     """Resolve the keys of `packages` as the build would and plan a source for each missing one."""
     importlib.invalidate_caches()  # distributions installed since the last look
     underlay = prepare_underlay(environ, executable=sys.executable, repair=False,
@@ -57,14 +58,19 @@ def survey(packages: Iterable[Package], workspace: Mapping[str, Package],
     wheels = wheel_candidates(distro, needs)
     known = {name: IndexAnswer(name, True) for name in wheels if _known_wheel(distro, name)}
     answers = index.query(python, [n for n in wheels if n not in known]
-                          + python_candidates(needs), environ)
+                          + python_candidates(needs), environ,
+                          memory=index.AnswerMemory.for_index(python, environ), refresh=refresh)
     installed = frozenset(python_distributions(resolver.python_paths))
     planner = Planner(distro=distro, wheels={**answers, **known}, pythons=answers,
                       rosdep=rosdep, rosdep_status=rosdep_status,
                       system_site_packages=_system_site_packages(venv),
                       stand_ins=_provided_by_wsbuild(underlay),
                       installed=frozenset(normalize_distribution(n) for n in installed))
-    return Survey(planner.plan(needs), venv, python, distro, rosdep_status)
+    plan = planner.plan(needs)
+    pytest_step = ros_pytest_step(packages, python, kinds)
+    if pytest_step is not None:
+        plan = replace(plan, test_tools=(pytest_step,))
+    return Survey(plan, venv, python, distro, rosdep_status)
 
 
 def _provided_by_wsbuild(underlay: PreparedUnderlay) -> frozenset[str]:

@@ -25,12 +25,14 @@ first source that can install it: a ros-<distro>-<name> wheel, the PyPI project 
 package from wsbuild's table (osrf_pycommon -> osrf-pycommon), rosdep's rule for this OS
 (when rosdep and its cache exist), or a python3-* key's PyPI distribution. pip installs
 into the virtualenv underlay; apt-get runs only with -y, as root or with sudo -n, and is
-printed as a command otherwise.
+printed as a command otherwise. Every pip install is constrained by the lock file wsbuild
+ships for the underlay's ROS distro (every wheel of the underlay pinned), unless
+--constraint names another.
 
 examples:
   wsbuild deps                      # what is missing, and from where it would come
   wsbuild deps install --dry-run    # the plan: one command per installer, nothing changed
-  wsbuild deps install -y --constraint requirements/ros-jazzy.lock.txt
+  wsbuild deps install -y --constraint my-constraints.txt
 
 exit codes: 0 nothing missing (check) or everything installed (install), 1 something is
 missing or could not be installed, 2 usage or workspace error
@@ -48,9 +50,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--types", metavar="T,T", default=None,
                         help="dependency types: build, run, test, doc (default: build,run,test)")
     parser.add_argument("--constraint", metavar="FILE", type=Path,
-                        help="pip constraints file for every pip install, e.g. a lock file")
+                        help="pip constraints file for every pip install (default: the lock "
+                             "file wsbuild ships for the underlay's ROS distro)")
     parser.add_argument("--skip-keys", nargs="+", default=[], metavar="KEY",
                         help="keys to leave alone (as rosdep's --skip-keys)")
+    parser.add_argument("--refresh", action="store_true",
+                        help="ask the package index again instead of using its answers "
+                             "remembered for a day")
 
 
 def run_deps(args: argparse.Namespace) -> int:
@@ -64,7 +70,7 @@ def run_deps(args: argparse.Namespace) -> int:
         print("\n".join(check_lines(found)))
         return 1 if found.plan.missing else 0
     print("\n".join(plan_lines(found, constraint=args.constraint, dry_run=args.dry_run)))
-    if args.dry_run or not found.plan.steps:
+    if args.dry_run or not (found.plan.steps or found.plan.test_tools):
         return 1 if found.plan.unresolved else 0
     return _install(args, loaded, found)
 
@@ -74,12 +80,12 @@ def install_for_build(args: argparse.Namespace, loaded: Loaded) -> None:
     What cannot be installed is reported and the build goes on (it warns about build
     dependencies itself)."""
     deps_args = argparse.Namespace(**vars(args))
-    deps_args.assume_yes, deps_args.constraint = True, getattr(args, "constraint", None)
-    deps_args.types, deps_args.skip_keys = None, []
+    deps_args.assume_yes, deps_args.constraint = True, None
+    deps_args.types, deps_args.skip_keys, deps_args.refresh = None, [], False
     found = _survey(deps_args, loaded)
-    if not found.plan.steps:
+    if not (found.plan.steps or found.plan.test_tools):
         return
-    print("\n".join(plan_lines(found, constraint=None, dry_run=False)))
+    print("\n".join(plan_lines(found, constraint=deps_args.constraint, dry_run=False)))
     _install(deps_args, loaded, found)
 
 
@@ -90,16 +96,19 @@ def _survey(args: argparse.Namespace, loaded: Loaded) -> Survey:
     from wsbuild.deps.survey import survey
     from wsbuild.errors import WsbuildError
 
+    from wsbuild.underlay.constraints import distro_constraints
+
     if args.constraint is not None and not args.constraint.is_file():
         raise WsbuildError("the constraints file does not exist", path=args.constraint,
-                           hint="give pip's constraints file, e.g. "
-                                "--constraint requirements/ros-jazzy.lock.txt")
+                           hint="give an existing pip constraints file, or leave --constraint "
+                                "out to use the one wsbuild ships for the underlay's ROS distro")
     constraint = args.constraint.absolute() if args.constraint is not None else None
-    args.constraint = constraint
     packages = [loaded.packages[name] for name in loaded.selected]
-    return survey(packages, loaded.packages, parse_types(args.types), environ=os.environ,
-                  shim_dir=loaded.workspace.build_base / ".wsbuild" / "lint_shim",
-                  skip=frozenset(args.skip_keys))
+    found = survey(packages, loaded.packages, parse_types(args.types), environ=os.environ,
+                   shim_dir=loaded.workspace.build_base / ".wsbuild" / "lint_shim",
+                   skip=frozenset(args.skip_keys), refresh=getattr(args, "refresh", False))
+    args.constraint = constraint or distro_constraints(found.distro)
+    return found
 
 
 def _install(args: argparse.Namespace, loaded: Loaded, found: Survey) -> int:
@@ -148,10 +157,13 @@ def check_lines(found: Survey) -> list[str]:
     for step in plan.steps:
         lines.append(f"  missing: {_needed(step.need)} -> {step.source.value}: "
                      f"{step.installer.value} {' '.join(step.packages)}")
+    for step in plan.test_tools:
+        lines.append(f"  missing: {step.need.key} for the tests of {step.need.users()} -> "
+                     f"{step.source.value}: pip into {_ros_pytest_dir(found)}")
     lines += _tail_lines(plan)
     if plan.missing:
         lines.append(f"{plan.missing} key(s) missing: wsbuild deps install -y installs "
-                     f"{len(plan.steps)} of them")
+                     f"{len(plan.steps) + len(plan.test_tools)} of them")
     else:
         lines.append("nothing is missing")
     return lines
@@ -177,9 +189,23 @@ def plan_lines(found: Survey, *, constraint: Path | None, dry_run: bool) -> list
         command = installer_command(installer, steps, python=found.python,
                                     constraint=constraint, apt_prefix=prefix)
         lines.append(f"  $ {shlex.join(command)}")
-    if not groups:
+    if plan.test_tools:
+        from wsbuild.deps.test_tools import ros_pytest_command
+
+        lines.append(f"{plan.test_tools[0].source.value} (into {_ros_pytest_dir(found)}, "
+                     "where wsbuild test looks for it):")
+        lines += [f"  {s.need.key}  (needed by the tests of {s.need.users()})"
+                  for s in plan.test_tools]
+        lines.append(f"  $ {shlex.join(ros_pytest_command(found.python))}")
+    if not groups and not plan.test_tools:
         lines.append("nothing to install")
     return lines + _tail_lines(plan)
+
+
+def _ros_pytest_dir(found: Survey) -> Path:
+    from wsbuild.underlay.constraints import ros_pytest_dir
+
+    return ros_pytest_dir(str(found.python))
 
 
 def _tail_lines(plan: DepsPlan) -> list[str]:
