@@ -114,3 +114,4 @@ def test_the_table_maps_ros_names_to_valid_pypi_names() -> None:
     for key, project in ROS_PACKAGES_ON_PYPI.items():
         assert key.replace("_", "").isalnum() and key.islower(), key
         assert valid_pip_requirement(project) and not any(c in project for c in "<>=@ ;"), project
+

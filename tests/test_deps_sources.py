@@ -37,7 +37,8 @@ def venv(tmp_path_factory: pytest.TempPathFactory) -> Path:
 
 
 def venv_env(venv: Path, **extra: str) -> dict[str, str]:
-    """A fresh terminal with `venv` activated."""
+    """A fresh terminal with `venv` activated (the index's answers remembered beside it)."""
+    extra.setdefault("XDG_CACHE_HOME", str(venv.parent / "cache"))
     return clean_env(VIRTUAL_ENV=str(venv), PATH=f"{venv / 'bin'}{os.pathsep}{os.environ['PATH']}",
                      **extra)
 
@@ -80,9 +81,54 @@ def test_osrf_pycommon_is_installed_from_its_pypi_project_and_an_option_like_key
     assert installed.returncode == 1, output(installed)  # python3--h stays unresolved
     assert "installed: osrf_pycommon (osrf-pycommon)" in installed.stdout, output(installed)
     assert "Usage:" not in installed.stdout + installed.stderr  # pip never printed its help
-    assert f"$ {venv}/bin/python3 -m pip install -- osrf-pycommon" in installed.stdout
+    # constrained by the lock file wsbuild ships for Jazzy, the names after `--`
+    assert (f"$ {venv}/bin/python3 -m pip install -c {LOCK} -- osrf-pycommon"
+            in installed.stdout), output(installed)
     assert imports(venv, "osrf_pycommon.process_utils")
 
     again = wsbuild(venv, "deps", "--skip-keys", "python3--h", cwd=ws)
     assert again.returncode == 0, output(again)
     assert "nothing is missing" in again.stdout
+
+
+def test_index_answers_are_remembered_until_refresh(venv: Path, tmp_path: Path) -> None:
+    ws = tmp_path / "ws"
+    write_package(ws / "src", "described", "ament_python", [],
+                  kinds={"exec_depend": ["urdfdom_py"]})
+    cache = tmp_path / "cache"
+    first = wsbuild(venv, "deps", cwd=ws, env=venv_env(venv, XDG_CACHE_HOME=str(cache)))
+    assert first.returncode == 1, output(first)
+    wanted = "missing: urdfdom_py (needed by described: exec_depend) -> ROS package on PyPI: pip urdfdom-py"
+    assert wanted in first.stdout, output(first)
+    assert (cache / "wsbuild" / "deps" / "index-answers.json").is_file()
+
+    # pip can no longer reach the index (a proxy nobody listens on): the answers come from memory
+    offline = venv_env(venv, XDG_CACHE_HOME=str(cache), PIP_PROXY="http://127.0.0.1:9",
+                       PIP_RETRIES="0")
+    second = wsbuild(venv, "deps", cwd=ws, env=offline)
+    assert second.stdout == first.stdout, output(second)
+
+    refreshed = wsbuild(venv, "deps", "--refresh", cwd=ws, env=offline)
+    assert refreshed.returncode == 1, output(refreshed)
+    assert "no PyPI project urdfdom-py" in line_with(refreshed.stdout, "unresolved: urdfdom_py (")
+
+
+def test_the_ros_tests_pytest_comes_with_the_dependencies(venv: Path, tmp_path: Path) -> None:
+    ws = tmp_path / "ws"
+    package = write_package(ws / "src", "tested", "ament_python", [])
+    (package / "test").mkdir()
+    (package / "test" / "test_one.py").write_text("def test_one():\n    assert True\n")
+    target = venv / "ros-pytest"
+    assert not target.exists()
+
+    check = wsbuild(venv, "deps", cwd=ws)
+    assert check.returncode == 1, output(check)
+    assert (f"missing: pytest==7.4.4 for the tests of tested -> the ROS tests' pytest: pip into "
+            f"{target}") in check.stdout
+    # tests not wanted: not missing
+    assert wsbuild(venv, "deps", "--types", "build,run", cwd=ws).returncode == 0
+
+    installed = wsbuild(venv, "deps", "install", "-y", cwd=ws)
+    assert installed.returncode == 0, output(installed)
+    assert (target / "pytest-7.4.4.dist-info").is_dir()
+    assert "nothing is missing" in wsbuild(venv, "deps", cwd=ws).stdout

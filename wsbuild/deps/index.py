@@ -1,9 +1,9 @@
 """What the package index pip uses holds: asked through the underlay venv's own pip, so that
 its configuration (index URL, find-links, proxies, certificates) applies as it will for the
-install. Definite answers (there, or "no matching distribution") are remembered for a day in
-the user's cache, per name asked (a `ros-<distro>-*` name carries its distro) and per index
-settings, so that a second look at an unchanged workspace asks nothing; `--refresh` asks
-again."""
+install. The index's answers (not a timeout or a failing network) are remembered in the user's
+cache, a day when the index has the name and an hour when not, per name asked (a
+`ros-<distro>-*` name carries its distro) and per index settings, so that a second look at an
+unchanged workspace asks nothing; `--refresh` asks again."""
 
 from __future__ import annotations
 
@@ -23,13 +23,16 @@ from wsbuild.deps.names import invalid_name, valid_pip_requirement
 
 #: the longest one question to the index may take (pip retries a dead network itself)
 QUERY_TIMEOUT = 120.0
-#: how long a remembered answer holds
+#: how long a remembered answer holds: a day when the index has the name, an hour when not
+#: (pip cannot always tell a network it did not reach from an index without the name)
 ANSWER_TTL = 24 * 3600.0
+MISSING_TTL = 3600.0
+#: pip's words for a network it did not reach: such an answer is not remembered
+_NETWORK_TROUBLE = ("Retrying", "Could not fetch", "ConnectionError", "ProxyError", "SSLError",
+                    "timed out", "Max retries")
 #: the settings that decide which index pip asks: answers are remembered per combination
 _INDEX_SETTINGS = ("PIP_INDEX_URL", "PIP_EXTRA_INDEX_URL", "PIP_FIND_LINKS", "PIP_NO_INDEX",
                    "PIP_CONFIG_FILE")
-#: pip's answer for a name the index does not have (a definite answer, so it is remembered)
-_NOT_FOUND = "ERROR: No matching distribution found"
 
 
 @dataclass(frozen=True, slots=True)
@@ -39,6 +42,8 @@ class IndexAnswer:
     name: str
     exists: bool
     detail: str = ""
+    #: whether the index itself gave it (not a timeout or a network failure pip reported)
+    definite: bool = True
 
 
 def pip_command(python: Path) -> list[str]:
@@ -72,12 +77,15 @@ def query_one(python: Path, name: str, environ: Mapping[str, str]) -> IndexAnswe
                               env=pip_environment(environ), timeout=QUERY_TIMEOUT)
     except subprocess.TimeoutExpired:
         return IndexAnswer(name, False,
-                           f"the package index did not answer in {QUERY_TIMEOUT:.0f} s")
+                           f"the package index did not answer in {QUERY_TIMEOUT:.0f} s",
+                           definite=False)
     except OSError as exc:
-        return IndexAnswer(name, False, f"cannot run pip: {exc.strerror or exc}")
+        return IndexAnswer(name, False, f"cannot run pip: {exc.strerror or exc}", definite=False)
     if done.returncode == 0:
         return IndexAnswer(name, True)
-    return IndexAnswer(name, False, error_line(done.stderr + done.stdout))
+    text = done.stderr + done.stdout
+    return IndexAnswer(name, False, error_line(text),
+                       definite=not any(word in text for word in _NETWORK_TROUBLE))
 
 
 @dataclass(slots=True)
@@ -88,7 +96,12 @@ class AnswerMemory:
     path: Path
     scope: str
     now: float = field(default_factory=time.time)
-    ttl: float = ANSWER_TTL
+
+    def _fresh(self, entry: object) -> bool:
+        if not (isinstance(entry, list) and len(entry) == 3
+                and isinstance(entry[2], (int, float))):
+            return False
+        return 0 <= self.now - entry[2] < (ANSWER_TTL if entry[0] else MISSING_TTL)
 
     @classmethod
     def for_index(cls, python: Path, environ: Mapping[str, str]) -> AnswerMemory:
@@ -110,14 +123,16 @@ class AnswerMemory:
         found: dict[str, IndexAnswer] = {}
         for name in names:
             entry = known.get(name) if isinstance(known, dict) else None
-            if (isinstance(entry, list) and len(entry) == 3 and isinstance(entry[2], (int, float))
-                    and 0 <= self.now - entry[2] < self.ttl):
-                found[name] = IndexAnswer(name, bool(entry[0]), str(entry[1]))
+            if self._fresh(entry):
+                exists, detail = bool(entry[0]), str(entry[1])  # type: ignore[index]
+                if not exists:
+                    detail += " (remembered; --refresh asks the index again)"
+                found[name] = IndexAnswer(name, exists, detail)
         return found
 
     def remember(self, answers: Iterable[IndexAnswer]) -> None:
         """Keep the definite ones (there, or not on the index); never fails the look."""
-        definite = [a for a in answers if a.exists or a.detail.startswith(_NOT_FOUND)]
+        definite = [a for a in answers if a.definite]
         if not definite:
             return
         data = self._read()
@@ -126,9 +141,7 @@ class AnswerMemory:
             scope[answer.name] = [answer.exists, answer.detail, self.now]
         for other in list(data):  # drop what has expired everywhere
             entries = data[other] if isinstance(data[other], dict) else {}
-            data[other] = {n: e for n, e in entries.items()
-                           if isinstance(e, list) and len(e) == 3
-                           and isinstance(e[2], (int, float)) and self.now - e[2] < self.ttl}
+            data[other] = {n: e for n, e in entries.items() if self._fresh(e)}
         try:
             self.path.parent.mkdir(parents=True, exist_ok=True)
             atomic_write(self.path, json.dumps(data, sort_keys=True, indent=0) + "\n")
