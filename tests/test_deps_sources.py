@@ -1,17 +1,22 @@
 """`wsbuild deps` with real pip against the package index, in a small virtualenv of its own
-(wsbuild and one ROS wheel, `ros-jazzy-ament-package`, which makes it a Jazzy underlay): a ROS
-package PyPI carries under its own project gets installed and imports; a key that looks like an
-option reaches no installer."""
+(wsbuild with rosdistro and vcstool, and one ROS wheel, `ros-jazzy-ament-package`, which makes
+it a Jazzy underlay): a ROS package PyPI carries under its own project gets installed and
+imports; a key that looks like an option reaches no installer; the index's answers are
+remembered; the ROS tests' pytest comes with the dependencies; `--from-source` fetches from
+local git repositories named by a local index in REP 153's format."""
 
 from __future__ import annotations
 
 import os
 import subprocess
 import sys
+import textwrap
 from collections.abc import Mapping
 from pathlib import Path
 
 import pytest
+
+import yaml
 
 from conftest import REPO, write_package
 from test_build_helpers import clean_env, output
@@ -30,7 +35,8 @@ def venv(tmp_path_factory: pytest.TempPathFactory) -> Path:
                           capture_output=True, text=True, check=False)
     assert made.returncode == 0, made.stderr
     pip = subprocess.run([str(path / "bin" / "python"), "-m", "pip", "install", "-q",
-                          "-c", str(LOCK), "-e", str(REPO), "ros-jazzy-ament-package"],
+                          "-c", str(LOCK), "-e", str(REPO), "ros-jazzy-ament-package",
+                          "rosdistro", "vcstool"],
                          env=env, capture_output=True, text=True, timeout=900, check=False)
     assert pip.returncode == 0, pip.stderr[-2000:]
     return path
@@ -132,3 +138,130 @@ def test_the_ros_tests_pytest_comes_with_the_dependencies(venv: Path, tmp_path: 
     assert installed.returncode == 0, output(installed)
     assert (target / "pytest-7.4.4.dist-info").is_dir()
     assert "nothing is missing" in wsbuild(venv, "deps", cwd=ws).stdout
+
+
+# ------------------------------------------------------------------------- from source
+
+
+def git_repository(path: Path, packages: dict[str, list[str]], branch: str = "jazzy") -> str:
+    """A git repository holding ament_python packages {name: exec_depends}; its file:// URL."""
+    for name, exec_depends in packages.items():
+        write_package(path, name, "ament_python", [], kinds={"exec_depend": exec_depends})
+    git = ["git", "-c", "user.name=upstream", "-c", "user.email=upstream@example.invalid"]
+    for command in (["init", "-q", "-b", branch], ["add", "-A"], ["commit", "-q", "-m", "v1"]):
+        subprocess.run([*git, *command], cwd=path, check=True, capture_output=True)
+    return path.as_uri()
+
+
+def rosdistro_index(root: Path, repositories: dict[str, tuple[str, list[str]]]) -> Path:
+    """An index-v4.yaml with a Jazzy distribution.yaml (format 2, as ros/rosdistro writes
+    them) releasing {repository: (source URL, packages)}."""
+    (root / "jazzy").mkdir(parents=True)
+    (root / "index-v4.yaml").write_text(textwrap.dedent("""\
+        %YAML 1.1
+        # ROS index file
+        # see REP 153: http://ros.org/reps/rep-0153.html
+        ---
+        distributions:
+          jazzy:
+            distribution: [jazzy/distribution.yaml]
+            distribution_cache: http://127.0.0.1:9/jazzy-cache.yaml.gz
+            distribution_status: active
+            distribution_type: ros2
+            python_version: 3
+        type: index
+        version: 4
+        """))
+    entries = {
+        name: {
+            "release": {"packages": packages,
+                        "tags": {"release": "release/jazzy/{package}/{version}"},
+                        "url": f"https://example.invalid/{name}-release.git",
+                        "version": "1.0.0-1"},
+            "source": {"type": "git", "url": url, "version": "jazzy"},
+            "status": "developed",
+        }
+        for name, (url, packages) in repositories.items()
+    }
+    distribution = {"release_platforms": {"rhel": ["9"], "ubuntu": ["noble"]},
+                    "repositories": entries, "type": "distribution", "version": 2}
+    (root / "jazzy" / "distribution.yaml").write_text(
+        "%YAML 1.1\n# ROS distribution file\n# see REP 143: "
+        "http://ros.org/reps/rep-0143.html\n---\n" + yaml.safe_dump(distribution))
+    return root / "index-v4.yaml"
+
+
+def test_from_source_fetches_what_no_installer_has_and_its_dependencies_in_turn(
+        venv: Path, tmp_path: Path) -> None:
+    upstream = tmp_path / "upstream"
+    # a repository of two packages (like ros2/launch), the first needing a package of a second
+    # repository and a key PyPI carries; a third repository nobody needs
+    core = git_repository(upstream / "wsb_launch_core",
+                          {"wsb_launch": ["wsb_launch_dep", "urdfdom_py"],
+                           "wsb_launch_xml": ["wsb_launch"]})
+    dep = git_repository(upstream / "wsb_dep_repo", {"wsb_launch_dep": []})
+    unused = git_repository(upstream / "wsb_unused", {"wsb_unused": []})
+    index = rosdistro_index(tmp_path / "rosdistro", {
+        "wsb_launch_core": (core, ["wsb_launch", "wsb_launch_xml"]),
+        "wsb_dep_repo": (dep, ["wsb_launch_dep"]),
+        "wsb_unused": (unused, ["wsb_unused"]),
+    })
+    ws = tmp_path / "ws"
+    write_package(ws / "src", "my_app", "ament_python", [],
+                  kinds={"exec_depend": ["wsb_launch", "wsb_nowhere"]})
+    env = venv_env(venv, ROSDISTRO_INDEX_URL=index.as_uri())
+
+    check = wsbuild(venv, "deps", cwd=ws, env=env)
+    assert check.returncode == 1, output(check)
+    assert f"sources: index {index.as_uri()}" in check.stdout.splitlines()[0]
+    available = line_with(check.stdout, "available from source: wsb_launch (needed by my_app)")
+    assert f"-> repository wsb_launch_core ({core} jazzy)" in available
+    nowhere = line_with(check.stdout, "unresolved: wsb_nowhere (")
+    assert "from source: not released in the jazzy index" in nowhere
+    # without --from-source, install fetches nothing and says how
+    held = wsbuild(venv, "deps", "install", "-y", "--skip-keys", "wsb_nowhere", cwd=ws, env=env)
+    assert held.returncode == 1 and not (ws / "src" / "wsb_launch_core").exists(), output(held)
+    assert "wsbuild deps install --from-source fetches them" in held.stderr
+
+    fetched = wsbuild(venv, "deps", "install", "-y", "--from-source", "--skip-keys",
+                      "wsb_nowhere", cwd=ws, env=env)
+    assert fetched.returncode == 0, output(fetched)
+    assert "installed: urdfdom_py (urdfdom-py)" in fetched.stdout
+    assert "nothing is missing" in fetched.stdout
+    for name in ("wsb_launch_core", "wsb_dep_repo"):  # the second one for wsb_launch's own key
+        assert (ws / "src" / name / ".git").is_dir(), output(fetched)
+    assert not (ws / "src" / "wsb_unused").exists()
+    assert imports(venv, "urdf_parser_py")  # wsb_launch's key from PyPI, in the same run
+    repos = yaml.safe_load((ws / "from-source.repos").read_text())
+    assert repos == {"repositories": {
+        "wsb_dep_repo": {"type": "git", "url": dep, "version": "jazzy"},
+        "wsb_launch_core": {"type": "git", "url": core, "version": "jazzy"},
+    }}
+    # the .repos file is what vcstool's import takes: it fetches the same into another workspace
+    again = tmp_path / "again"
+    (again / "src").mkdir(parents=True)
+    imported = subprocess.run(
+        [str(venv / "bin" / "vcs-import"), "--input", str(ws / "from-source.repos"), "src"],
+        cwd=again, env=env, capture_output=True, text=True, check=False)
+    assert imported.returncode == 0, output(imported)
+    assert sorted(p.name for p in (again / "src").iterdir()) == ["wsb_dep_repo",
+                                                                 "wsb_launch_core"]
+
+    built = wsbuild(venv, "build", cwd=ws, env=env)
+    assert built.returncode == 0, output(built)
+    ran = wsbuild(venv, "run", "wsb_launch", "wsb_launch_main", cwd=ws, env=env)
+    assert ran.returncode == 0 and "hello from wsb_launch" in ran.stdout, output(ran)
+    assert wsbuild(venv, "deps", "--skip-keys", "wsb_nowhere", cwd=ws, env=env).returncode == 0
+
+
+def test_a_source_entry_that_is_no_git_url_is_never_cloned(venv: Path, tmp_path: Path) -> None:
+    index = rosdistro_index(tmp_path / "rosdistro", {
+        "wsb_odd": ("--upload-pack=touch /tmp/pwned", ["wsb_odd"])})
+    ws = tmp_path / "ws"
+    write_package(ws / "src", "my_app", "ament_python", [], kinds={"exec_depend": ["wsb_odd"]})
+    env = venv_env(venv, ROSDISTRO_INDEX_URL=index.as_uri())
+    result = wsbuild(venv, "deps", "install", "-y", "--from-source", cwd=ws, env=env)
+    assert result.returncode == 1, output(result)
+    assert ("from source: the source URL '--upload-pack=touch /tmp/pwned' is not a git URL"
+            in line_with(result.stdout, "unresolved: wsb_odd ("))
+    assert sorted(p.name for p in (ws / "src").iterdir()) == ["my_app"]

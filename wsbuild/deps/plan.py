@@ -27,6 +27,7 @@ from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 from enum import Enum
 
+from wsbuild.deps.from_source import FromSource
 from wsbuild.deps.index import IndexAnswer
 from wsbuild.deps.names import invalid_name, valid_debian_package, valid_pip_requirement
 from wsbuild.deps.needs import Need
@@ -89,10 +90,13 @@ class DepsPlan:
     by_rosdep: tuple[Need, ...] = ()
     #: the pytest the packages' tests need, when it is not installed (test_tools.py)
     test_tools: tuple[Step, ...] = ()
+    #: keys no installer provides that the distro's index releases from source
+    from_source: tuple[FromSource, ...] = ()
 
     @property
     def missing(self) -> int:
-        return len(self.steps) + len(self.unresolved) + len(self.test_tools)
+        return (len(self.steps) + len(self.unresolved) + len(self.test_tools)
+                + len(self.from_source))
 
     def by_installer(self) -> dict[Installer, list[Step]]:
         """The steps grouped by installer, pip first."""

@@ -11,7 +11,15 @@ from pathlib import Path
 from wsbuild.deps import index
 from wsbuild.deps.index import IndexAnswer
 from wsbuild.deps.needs import collect_needs
-from wsbuild.deps.plan import DepsPlan, Planner, python_candidates, wheel_candidates
+from wsbuild.deps.from_source import FromSource, load_distro_sources
+from wsbuild.deps.plan import (
+    DepsPlan,
+    Planner,
+    Unresolved,
+    python_candidates,
+    wheel_candidates,
+    wheel_name,
+)
 from wsbuild.deps.rosdep import load_rosdep
 from wsbuild.deps.test_tools import ros_pytest_step
 from wsbuild.underlay.environment import PreparedUnderlay
@@ -32,6 +40,8 @@ class Survey:
     python: Path
     distro: str
     rosdep_status: str
+    #: where the keys available from source were looked up ("" when no key needed it)
+    sources_status: str = ""
 
 
 def survey(packages: Sequence[Package], workspace: Mapping[str, Package],
@@ -70,7 +80,33 @@ def survey(packages: Sequence[Package], workspace: Mapping[str, Package],
     pytest_step = ros_pytest_step(packages, python, kinds)
     if pytest_step is not None:
         plan = replace(plan, test_tools=(pytest_step,))
-    return Survey(plan, venv, python, distro, rosdep_status)
+    plan, sources_status = _from_source(plan, distro)
+    return Survey(plan, venv, python, distro, rosdep_status, sources_status)
+
+
+def _from_source(plan: DepsPlan, distro: str) -> tuple[DepsPlan, str]:
+    """The unresolved ROS package keys the distro's index releases from a source repository
+    move to `from_source`; the others say what the index answered."""
+    ros_keys = [u for u in plan.unresolved if wheel_name(distro, u.need.key) is not None]
+    if not ros_keys:
+        return plan, ""
+    sources, status = load_distro_sources(distro)
+    unresolved: list[Unresolved] = []
+    from_source: list[FromSource] = []
+    for item in plan.unresolved:
+        if item not in ros_keys:
+            unresolved.append(item)
+            continue
+        repository = sources.repository_of(item.need.key) if sources is not None else None
+        problem = repository.problem() if repository is not None else ""
+        if repository is not None and not problem:
+            from_source.append(FromSource(item.need.key, item.need.needed_by, repository))
+            continue
+        why = (problem if repository is not None
+               else f"not released in the {distro} index" if sources is not None
+               else status)
+        unresolved.append(replace(item, why=f"{item.why}; from source: {why}"))
+    return replace(plan, unresolved=tuple(unresolved), from_source=tuple(from_source)), status
 
 
 def _provided_by_wsbuild(underlay: PreparedUnderlay) -> frozenset[str]:

@@ -19,20 +19,19 @@ if TYPE_CHECKING:
 
 DEPS_DOC = """Check or install the dependencies of the packages that nothing provides.
 
-Every package.xml key of the selected packages (build, run and test types; the workspace's
-own packages left out) is looked up as `wsbuild build` does. For each one not found, the
-first source that can install it: a ros-<distro>-<name> wheel, the PyPI project of a ROS
-package from wsbuild's table (osrf_pycommon -> osrf-pycommon), rosdep's rule for this OS
-(when rosdep and its cache exist), or a python3-* key's PyPI distribution. pip installs
-into the virtualenv underlay; apt-get runs only with -y, as root or with sudo -n, and is
-printed as a command otherwise. Every pip install is constrained by the lock file wsbuild
-ships for the underlay's ROS distro (every wheel of the underlay pinned), unless
---constraint names another.
+Every package.xml key of the selected packages (build, run and test types) is looked up as
+`wsbuild build` does. Each one not found comes from the first source that has it: a
+ros-<distro>-<name> wheel, a ROS package's own PyPI project (wsbuild's table), rosdep's rule
+(when rosdep and its cache exist), a python3-* key's PyPI distribution; else, with
+--from-source, the source repository the distro's index names (rosdistro;
+ROSDISTRO_INDEX_URL), cloned into src/ and listed in from-source.repos. pip installs into the
+virtualenv underlay, constrained by the lock file wsbuild ships for its distro; apt-get runs
+only with -y, as root or with sudo -n, and is printed as a command otherwise.
 
 examples:
   wsbuild deps                      # what is missing, and from where it would come
   wsbuild deps install --dry-run    # the plan: one command per installer, nothing changed
-  wsbuild deps install -y --constraint my-constraints.txt
+  wsbuild deps install -y --from-source   # also launch_ros & co. from their repositories
 
 exit codes: 0 nothing missing (check) or everything installed (install), 1 something is
 missing or could not be installed, 2 usage or workspace error
@@ -54,6 +53,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              "file wsbuild ships for the underlay's ROS distro)")
     parser.add_argument("--skip-keys", nargs="+", default=[], metavar="KEY",
                         help="keys to leave alone (as rosdep's --skip-keys)")
+    parser.add_argument("--from-source", action="store_true",
+                        help="install: clone the packages no installer provides from the "
+                             "source repositories the distro's index names (rosdistro; "
+                             "ROSDISTRO_INDEX_URL), their own dependencies in turn, and list "
+                             "them in from-source.repos")
     parser.add_argument("--refresh", action="store_true",
                         help="ask the package index again instead of using its answers "
                              "remembered for a day")
@@ -65,14 +69,63 @@ def run_deps(args: argparse.Namespace) -> int:
     from wsbuild.verbs.load import load
 
     loaded = load(args, warn=print_warnings)
-    found = _survey(args, loaded)
+    names = list(loaded.selected)
+    found = _survey(args, loaded, names)
     if args.action == "check" and not args.dry_run:
         print("\n".join(check_lines(found)))
         return 1 if found.plan.missing else 0
+    if args.from_source and not args.dry_run and found.plan.from_source:
+        loaded, names, found = _fetch_sources(args, loaded, names, found)
     print("\n".join(plan_lines(found, constraint=args.constraint, dry_run=args.dry_run)))
     if args.dry_run or not (found.plan.steps or found.plan.test_tools):
-        return 1 if found.plan.unresolved else 0
-    return _install(args, loaded, found)
+        if found.plan.from_source and not args.dry_run:
+            _from_source_error(found)
+        return 1 if found.plan.unresolved or found.plan.from_source else 0
+    return _install(args, loaded, found, names)
+
+
+def _fetch_sources(args: argparse.Namespace, loaded: Loaded, names: list[str],
+                   found: Survey) -> tuple[Loaded, list[str], Survey]:
+    """`--from-source`: clone the repositories of the keys available from source, look at
+    the packages they bring, and again for their own keys, until nothing new is wanted."""
+    import os
+
+    from wsbuild.deps.from_source import REPOS_FILE, import_repositories, write_repos_file
+    from wsbuild.report import print_warnings
+    from wsbuild.verbs.load import load
+
+    root = loaded.workspace.root
+    repos_file, src = root / REPOS_FILE, root / "src"
+    fetched: set[str] = set()
+    while True:
+        new = {f.repository.name: f.repository for f in found.plan.from_source
+               if f.repository.name not in fetched}
+        if not new:
+            return loaded, names, found
+        write_repos_file(repos_file, new.values())
+        src.mkdir(exist_ok=True)
+        for name in sorted(new):
+            repository = new[name]
+            print(f"from source: {name} ({repository.url} {repository.version}) into "
+                  f"{src / name}")
+        ok, message = import_repositories(repos_file, src, os.environ)
+        if not ok:
+            print(f"wsbuild: error: vcs import of {repos_file} failed: {message}",
+                  file=sys.stderr)
+            return loaded, names, found
+        fetched |= set(new)
+        wanted = [f.key for f in found.plan.from_source]
+        loaded = load(args, warn=print_warnings)
+        names = [n for n in names if n in loaded.packages]
+        names += [k for k in wanted if k in loaded.packages and k not in names]
+        found = _survey(args, loaded, names)
+        print(f"from source: {len(fetched)} repositories in {repos_file.name} "
+              f"(vcs-import src < {repos_file.name} fetches them again)")
+
+
+def _from_source_error(found: Survey) -> None:
+    print(f"wsbuild: error: {len(found.plan.from_source)} key(s) available from source (listed "
+          "above): wsbuild deps install --from-source fetches them into src/", file=sys.stderr)
 
 
 def install_for_build(args: argparse.Namespace, loaded: Loaded) -> None:
@@ -89,7 +142,8 @@ def install_for_build(args: argparse.Namespace, loaded: Loaded) -> None:
     _install(deps_args, loaded, found)
 
 
-def _survey(args: argparse.Namespace, loaded: Loaded) -> Survey:
+def _survey(args: argparse.Namespace, loaded: Loaded, names: list[str] | None = None,
+            ) -> Survey:
     import os
 
     from wsbuild.deps.needs import parse_types
@@ -103,7 +157,8 @@ def _survey(args: argparse.Namespace, loaded: Loaded) -> Survey:
                            hint="give an existing pip constraints file, or leave --constraint "
                                 "out to use the one wsbuild ships for the underlay's ROS distro")
     constraint = args.constraint.absolute() if args.constraint is not None else None
-    packages = [loaded.packages[name] for name in loaded.selected]
+    packages = [loaded.packages[name]
+                for name in (loaded.selected if names is None else names)]
     found = survey(packages, loaded.packages, parse_types(args.types), environ=os.environ,
                    shim_dir=loaded.workspace.build_base / ".wsbuild" / "lint_shim",
                    skip=frozenset(args.skip_keys), refresh=getattr(args, "refresh", False))
@@ -111,7 +166,8 @@ def _survey(args: argparse.Namespace, loaded: Loaded) -> Survey:
     return found
 
 
-def _install(args: argparse.Namespace, loaded: Loaded, found: Survey) -> int:
+def _install(args: argparse.Namespace, loaded: Loaded, found: Survey,
+             names: list[str] | None = None) -> int:
     import os
 
     from wsbuild.deps.install import install
@@ -124,14 +180,17 @@ def _install(args: argparse.Namespace, loaded: Loaded, found: Survey) -> int:
     for outcome in report.failed:
         print(f"wsbuild: error: {outcome.step.need.key}: {outcome.step.installer.value} "
               f"{' '.join(outcome.step.packages)} failed: {outcome.message}", file=sys.stderr)
-    after = _survey(args, loaded)
+    after = _survey(args, loaded, names)
     still = {s.need.key for s in after.plan.steps} | {u.need.key for u in after.plan.unresolved}
     ok = {o.step.need.key for o in report.outcomes if o.ok}
     for key in sorted(ok & still):
         print(f"wsbuild: error: {key}: installed, but still not found by the build's lookup "
               f"(see wsbuild deps check)", file=sys.stderr)
-    if report.failed or found.plan.unresolved or ok & still:
-        count = len(report.failed) + len(found.plan.unresolved) + len(ok & still)
+    if found.plan.from_source:
+        _from_source_error(found)
+    if report.failed or found.plan.unresolved or ok & still or found.plan.from_source:
+        count = (len(report.failed) + len(found.plan.unresolved) + len(ok & still)
+                 + len(found.plan.from_source))
         print(f"wsbuild: error: {count} key(s) not installed (listed above): install them by "
               "hand, or leave them alone with --skip-keys KEY", file=sys.stderr)
         return 1
@@ -146,8 +205,9 @@ def _needed(need: Need) -> str:
 
 def _header(found: Survey) -> list[str]:
     plan = found.plan
+    sources = f"; sources: {found.sources_status}" if found.sources_status else ""
     return [f"{len(plan.needs)} key(s) of the selected packages; underlay {found.venv} "
-            f"(ROS {found.distro}); rosdep: {found.rosdep_status}"]
+            f"(ROS {found.distro}); rosdep: {found.rosdep_status}{sources}"]
 
 
 def check_lines(found: Survey) -> list[str]:
@@ -162,8 +222,10 @@ def check_lines(found: Survey) -> list[str]:
                      f"{step.source.value}: pip into {_ros_pytest_dir(found)}")
     lines += _tail_lines(plan)
     if plan.missing:
+        fetch = (f", and with --from-source fetches {len(plan.from_source)}"
+                 if plan.from_source else "")
         lines.append(f"{plan.missing} key(s) missing: wsbuild deps install -y installs "
-                     f"{len(plan.steps) + len(plan.test_tools)} of them")
+                     f"{len(plan.steps) + len(plan.test_tools)} of them{fetch}")
     else:
         lines.append("nothing is missing")
     return lines
@@ -210,6 +272,12 @@ def _ros_pytest_dir(found: Survey) -> Path:
 
 def _tail_lines(plan: DepsPlan) -> list[str]:
     lines = []
+    for item in plan.from_source:
+        repository = item.repository
+        lines.append(f"  available from source: {item.key} (needed by "
+                     f"{', '.join(item.needed_by)}) -> repository {repository.name} "
+                     f"({repository.url} {repository.version}): wsbuild deps install "
+                     "--from-source")
     for item in plan.unresolved:
         lines.append(f"  unresolved: {_needed(item.need)}: {item.why}")
     if plan.stood_in:
