@@ -6,6 +6,8 @@ cloned with vcstool's `vcs-import`."""
 
 from __future__ import annotations
 
+import hashlib
+import json
 import re
 import shutil
 import subprocess
@@ -22,6 +24,8 @@ from wsbuild.files import atomic_write
 
 #: the `.repos` file `deps install --from-source` writes and extends, in the workspace root
 REPOS_FILE = "from-source.repos"
+#: how long what an http(s) index said is kept
+SOURCES_TTL = 24 * 3600.0
 #: the longest one `vcs import` may take
 IMPORT_TIMEOUT = 1800.0
 #: a repository name of the index, used as the folder under src/
@@ -102,24 +106,78 @@ def sources_from_distribution(distro: str, index_url: str, distribution: Any) ->
     return DistroSources(distro, index_url, repositories, owners)
 
 
-def load_distro_sources(distro: str) -> tuple[DistroSources | None, str]:
+def load_distro_sources(distro: str, *, cache_dir: Path | None = None, now: float = 0.0,
+                        refresh: bool = False) -> tuple[DistroSources | None, str]:
     """The distro's source repositories from its index, and a line saying where they came
-    from; (None, why not) without rosdistro or a readable index."""
+    from; (None, why not) without rosdistro or a readable index. With `cache_dir`, what an
+    http(s) index said is kept for a day (a local index is read each time)."""
     try:
         import rosdistro  # type: ignore[import-untyped]
     except ImportError:
         return None, "rosdistro is not installed (pip install rosdistro)"
-    url = rosdistro.get_index_url()
+    url = str(rosdistro.get_index_url())
+    remembered = _remembered_file(cache_dir, url, distro)
+    if remembered is not None and not refresh:
+        sources = _read_remembered(remembered, distro, url, now)
+        if sources is not None:
+            return sources, f"index {url} (remembered; --refresh reads it again)"
     try:
         index = rosdistro.get_index(url)
         if distro not in index.distributions:
             return None, f"the index {url} has no distribution {distro!r}"
         distribution = rosdistro.get_distribution_file(index, distro)
     except Exception as exc:  # rosdistro raises URLError, YAML, assertion and its own errors
-        first = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
-        return None, (f"cannot read the index {url}: {first} (ROSDISTRO_INDEX_URL may name a "
-                      "local copy)")
-    return sources_from_distribution(distro, url, distribution), f"index {url}"
+        return None, (f"cannot read the index {url}: {_reason(exc)} (ROSDISTRO_INDEX_URL may "
+                      "name a local copy)")
+    sources = sources_from_distribution(distro, url, distribution)
+    if remembered is not None:
+        _remember(remembered, sources, now)
+    return sources, f"index {url}"
+
+
+def _reason(exc: BaseException) -> str:
+    """The innermost reason of a (nested) URLError, without the URL rosdistro appends."""
+    reason: object = exc
+    while isinstance(getattr(reason, "reason", None), BaseException):
+        reason = reason.reason  # type: ignore[attr-defined]
+    text = str(getattr(reason, "strerror", None) or reason).splitlines()
+    first = text[0] if text else type(exc).__name__
+    first = first.split(" (http")[0].split(" (file:")[0]
+    while first.startswith("<urlopen error "):
+        first = first[len("<urlopen error "):].removesuffix(">")
+    return first.rstrip(">")
+
+
+def _remembered_file(cache_dir: Path | None, url: str, distro: str) -> Path | None:
+    if cache_dir is None or not url.startswith(("http://", "https://")):
+        return None
+    digest = hashlib.sha256(f"{url}\n{distro}".encode()).hexdigest()[:16]
+    return cache_dir / f"sources-{distro}-{digest}.json"
+
+
+def _read_remembered(path: Path, distro: str, url: str, now: float) -> DistroSources | None:
+    try:
+        data = json.loads(path.read_text(encoding="utf-8"))
+        if not 0 <= now - float(data["time"]) < SOURCES_TTL:
+            return None
+        repositories = {name: SourceRepository(name, *entry[:3], tuple(entry[3]))
+                        for name, entry in data["repositories"].items()}
+    except (OSError, ValueError, KeyError, TypeError):
+        return None
+    owners = {package: name for name, repository in repositories.items()
+              for package in repository.packages}
+    return DistroSources(distro, url, repositories, owners)
+
+
+def _remember(path: Path, sources: DistroSources, now: float) -> None:
+    data = {"time": now, "repositories": {
+        name: [r.type, r.url, r.version, list(r.packages)]
+        for name, r in sorted(sources.repositories.items())}}
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        atomic_write(path, json.dumps(data, sort_keys=True) + "\n")
+    except OSError:
+        pass  # an unwritable cache only costs the next look a download
 
 
 def write_repos_file(path: Path, repositories: Iterable[SourceRepository]) -> dict[str, Any]:

@@ -80,17 +80,20 @@ def survey(packages: Sequence[Package], workspace: Mapping[str, Package],
     pytest_step = ros_pytest_step(packages, python, kinds)
     if pytest_step is not None:
         plan = replace(plan, test_tools=(pytest_step,))
-    plan, sources_status = _from_source(plan, distro)
+    memory = index.AnswerMemory.for_index(python, environ)
+    plan, sources_status = _from_source(plan, distro, memory.path.parent, memory.now, refresh)
     return Survey(plan, venv, python, distro, rosdep_status, sources_status)
 
 
-def _from_source(plan: DepsPlan, distro: str) -> tuple[DepsPlan, str]:
+def _from_source(plan: DepsPlan, distro: str, cache_dir: Path, now: float,
+                 refresh: bool) -> tuple[DepsPlan, str]:
     """The unresolved ROS package keys the distro's index releases from a source repository
     move to `from_source`; the others say what the index answered."""
     ros_keys = [u for u in plan.unresolved if wheel_name(distro, u.need.key) is not None]
     if not ros_keys:
         return plan, ""
-    sources, status = load_distro_sources(distro)
+    sources, status = load_distro_sources(distro, cache_dir=cache_dir, now=now,
+                                          refresh=refresh)
     unresolved: list[Unresolved] = []
     from_source: list[FromSource] = []
     for item in plan.unresolved:
@@ -104,7 +107,7 @@ def _from_source(plan: DepsPlan, distro: str) -> tuple[DepsPlan, str]:
             continue
         why = (problem if repository is not None
                else f"not released in the {distro} index" if sources is not None
-               else status)
+               else "the index could not be read (see the first line)")
         unresolved.append(replace(item, why=f"{item.why}; from source: {why}"))
     return replace(plan, unresolved=tuple(unresolved), from_source=tuple(from_source)), status
 
