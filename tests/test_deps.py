@@ -287,7 +287,7 @@ def test_rosdep_rules_install_pip_entries_and_apt_only_with_yes(
     assert held.returncode == 1, output(held)
     error = line_with(held.stderr, "wsbuild: error: wsbuild-test-hello")
     assert "apt-get runs only with -y" in error
-    assert error.endswith("run it yourself: apt-get install -y --no-install-recommends hello")
+    assert error.endswith("run it yourself: apt-get install -y --no-install-recommends -- hello")
     assert not _installed("hello")
     assert any(line.lower().startswith("termcolor==") for line in freeze(venv))
 
