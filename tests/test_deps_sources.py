@@ -227,6 +227,10 @@ def test_from_source_fetches_what_no_installer_has_and_its_dependencies_in_turn(
                       "wsb_nowhere", cwd=ws, env=env)
     assert fetched.returncode == 0, output(fetched)
     assert "installed: urdfdom_py (urdfdom-py)" in fetched.stdout
+    # wsb_launch_xml came with wsb_launch's repository, but nothing needs it
+    assert ("from source: the fetched repositories also hold 1 package(s) nothing here needs: "
+            "wsb_launch_xml (wsbuild build --packages-up-to YOUR_PACKAGES leaves them out)"
+            in fetched.stdout)
     assert "nothing is missing" in fetched.stdout
     for name in ("wsb_launch_core", "wsb_dep_repo"):  # the second one for wsb_launch's own key
         assert (ws / "src" / name / ".git").is_dir(), output(fetched)

@@ -101,6 +101,7 @@ def _fetch_sources(args: argparse.Namespace, loaded: Loaded, names: list[str],
         new = {f.repository.name: f.repository for f in found.plan.from_source
                if f.repository.name not in fetched}
         if not new:
+            _unneeded_note(loaded, names, [src / name for name in sorted(fetched)])
             return loaded, names, found
         write_repos_file(repos_file, new.values())
         src.mkdir(exist_ok=True)
@@ -121,6 +122,17 @@ def _fetch_sources(args: argparse.Namespace, loaded: Loaded, names: list[str],
         found = _survey(args, loaded, names)
         print(f"from source: {len(fetched)} repositories in {repos_file.name} "
               f"(vcs-import src < {repos_file.name} fetches them again)")
+
+
+def _unneeded_note(loaded: Loaded, names: list[str], folders: list[Path]) -> None:
+    """Name the packages of the fetched repositories nothing needed: `build` builds them too
+    (over the underlay's wheels of the same name) unless the selection leaves them out."""
+    extra = sorted(name for name, package in loaded.packages.items()
+                   if name not in names and any(package.path.is_relative_to(f) for f in folders))
+    if extra:
+        print(f"from source: the fetched repositories also hold {len(extra)} package(s) "
+              f"nothing here needs: {', '.join(extra)} (wsbuild build --packages-up-to "
+              "YOUR_PACKAGES leaves them out)")
 
 
 def _from_source_error(found: Survey) -> None:
