@@ -104,7 +104,8 @@ def test_index_answers_are_remembered_until_refresh(venv: Path, tmp_path: Path) 
     cache = tmp_path / "cache"
     first = wsbuild(venv, "deps", cwd=ws, env=venv_env(venv, XDG_CACHE_HOME=str(cache)))
     assert first.returncode == 1, output(first)
-    wanted = "missing: urdfdom_py (needed by described: exec_depend) -> ROS package on PyPI: pip urdfdom-py"
+    wanted = ("missing: urdfdom_py (needed by described: exec_depend) -> ROS package on PyPI: "
+              "pip urdfdom-py")
     assert wanted in first.stdout, output(first)
     assert (cache / "wsbuild" / "deps" / "index-answers.json").is_file()
 

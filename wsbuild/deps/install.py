@@ -71,7 +71,8 @@ def apt_privilege(run: Run = subprocess.run) -> list[str] | None:
 
 
 def apt_install_command(packages: Sequence[str], prefix: Sequence[str] | None) -> list[str]:
-    """`apt-get install -y … -- PACKAGES`, behind `sudo` when not root (the printed form uses plain sudo)."""
+    """`apt-get install -y … -- PACKAGES`, behind `sudo` when not root (the printed form uses
+    plain sudo)."""
     head = list(prefix) if prefix is not None else ["sudo"]
     return [*head, "apt-get", "install", "-y", "--no-install-recommends", "--", *packages]
 

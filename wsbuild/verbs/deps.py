@@ -111,7 +111,7 @@ def _fetch_sources(args: argparse.Namespace, loaded: Loaded, names: list[str],
                   f"{src / name}")
         ok, message = import_repositories(repos_file, src, os.environ)
         if not ok:
-            print(f"wsbuild: error: vcs import of {repos_file} failed: {message}",
+            print(f"wsbuild: error: vcs-import of {repos_file} failed: {message}",
                   file=sys.stderr)
             return loaded, names, found
         fetched |= set(new)
