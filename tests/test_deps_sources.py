@@ -219,6 +219,8 @@ def test_from_source_fetches_what_no_installer_has_and_its_dependencies_in_turn(
     assert f"-> repository wsb_launch_core ({core} jazzy)" in available
     nowhere = line_with(check.stdout, "unresolved: wsb_nowhere (")
     assert "from source: not released in the jazzy index" in nowhere
+    planned = wsbuild(venv, "deps", "install", "--dry-run", cwd=ws, env=env)
+    assert f"  wsb_launch_core: {core} jazzy  (for wsb_launch)" in planned.stdout, output(planned)
     # without --from-source, install fetches nothing and says how
     held = wsbuild(venv, "deps", "install", "-y", "--skip-keys", "wsb_nowhere", cwd=ws, env=env)
     assert held.returncode == 1 and not (ws / "src" / "wsb_launch_core").exists(), output(held)

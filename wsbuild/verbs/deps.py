@@ -271,7 +271,17 @@ def plan_lines(found: Survey, *, constraint: Path | None, dry_run: bool) -> list
         lines += [f"  {s.need.key}  (needed by the tests of {s.need.users()})"
                   for s in plan.test_tools]
         lines.append(f"  $ {shlex.join(ros_pytest_command(found.python))}")
-    if not groups and not plan.test_tools:
+    if plan.from_source:
+        from wsbuild.deps.from_source import REPOS_FILE
+
+        repositories = {f.repository.name: f.repository for f in plan.from_source}
+        lines.append(f"from source (with --from-source: cloned into src/, listed in "
+                     f"{REPOS_FILE}, their own keys in turn):")
+        for name, repository in sorted(repositories.items()):
+            keys = ", ".join(sorted(f.key for f in plan.from_source
+                                    if f.repository.name == name))
+            lines.append(f"  {name}: {repository.url} {repository.version}  (for {keys})")
+    if not groups and not plan.test_tools and not plan.from_source:
         lines.append("nothing to install")
     return lines + _tail_lines(plan)
 
