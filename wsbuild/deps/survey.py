@@ -54,13 +54,15 @@ def survey(packages: Sequence[Package], workspace: Mapping[str, Package],
     if underlay.venv is None:
         raise UnderlayError(
             "wsbuild deps installs into a virtualenv ROS underlay, and none is active",
-            hint="run the virtualenv's wsbuild (or activate it) after pip install 'wsbuild[ros]'")
+            hint="install wsbuild with its ros extra into a virtualenv (README: Installing) "
+                 "and run that virtualenv's wsbuild, or activate it")
     venv = underlay.venv
     distro = ros_distro(venv) or environ.get("ROS_DISTRO", "")
     if not distro:
         raise UnderlayError("cannot tell the ROS distribution: no ros-<distro>-* wheel in the "
                             "virtualenv and ROS_DISTRO is not set", path=venv,
-                            hint="pip install 'wsbuild[ros]', or set ROS_DISTRO=jazzy")
+                            hint="install wsbuild with its ros extra into this virtualenv, "
+                                 "or set ROS_DISTRO=jazzy")
     resolver = Resolver.from_environment(underlay.environ, [venv])
     needs = collect_needs(packages, workspace, resolver, kinds, skip)
     python = venv_python(venv).executable
