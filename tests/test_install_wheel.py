@@ -56,13 +56,20 @@ def timed(times: dict[str, float], step: str, command: list[str], *, cwd: Path,
     return done
 
 
+@pytest.fixture(scope="module")
+def dist(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """`python -m build` of a copy of the checkout: the sdist, and the wheel built from it."""
+    source = copy_checkout(tmp_path_factory.mktemp("wsbuild-src"))
+    out = tmp_path_factory.mktemp("dist")
+    built = run([sys.executable, "-m", "build", "--outdir", str(out), "."], cwd=source,
+                env=clean_env())
+    assert built.returncode == 0, output(built)
+    return out
+
+
 def test_the_wheel_installs_and_runs_pkg_create_build_and_test_outside_the_checkout(
-        tmp_path: Path) -> None:
+        dist: Path, tmp_path: Path) -> None:
     times: dict[str, float] = {}
-    source = copy_checkout(tmp_path / "wsbuild-src")
-    dist = tmp_path / "dist"
-    timed(times, "python -m build", [sys.executable, "-m", "build", "--outdir", str(dist), "."],
-          cwd=source, env=clean_env())
     (sdist,) = dist.glob("wsbuild-*.tar.gz")
     (wheel,) = dist.glob("wsbuild-*-py3-none-any.whl")
 
@@ -134,3 +141,25 @@ def test_the_wheel_installs_and_runs_pkg_create_build_and_test_outside_the_check
     result = run([wsbuild, "test-result"], cwd=ws, env=env)
     assert result.returncode == 0, output(result)
     print("\n".join(f"{step}: {seconds:.1f} s" for step, seconds in times.items()))
+
+
+def test_pipx_installs_the_wheel_and_its_venv_is_the_underlay(dist: Path, tmp_path: Path) -> None:
+    (wheel,) = dist.glob("wsbuild-*-py3-none-any.whl")
+    home, bin_dir = tmp_path / "pipx", tmp_path / "bin"
+    env = clean_env(PIPX_HOME=str(home), PIPX_BIN_DIR=str(bin_dir),
+                    XDG_CACHE_HOME=str(tmp_path / "cache"),
+                    PATH=f"{bin_dir}{os.pathsep}{os.environ['PATH']}")
+    env.pop("VIRTUAL_ENV", None)
+    env.pop("PYTHONPATH", None)
+    pipx = run([sys.executable, "-m", "pipx", "install", f"{wheel}[ros]"], cwd=tmp_path, env=env)
+    assert pipx.returncode == 0, output(pipx)
+    wsbuild = str(bin_dir / "wsbuild")
+    ws = tmp_path / "ws"
+    (ws / "src").mkdir(parents=True)
+    for command in (["pkg", "create", "hello_cpp", "--library-name", "hello"],
+                    ["deps", "install", "-y"], ["build"], ["test"]):
+        done = run([wsbuild, *command], cwd=ws, env=env)
+        assert done.returncode == 0, f"wsbuild {' '.join(command)}:\n{output(done)}"
+    # the underlay is pipx's own virtualenv, and deps installed into it
+    assert f"underlay {home / 'venvs' / 'wsbuild'}" in run([wsbuild, "deps"], cwd=ws,
+                                                           env=env).stdout
