@@ -83,6 +83,12 @@ def test_osrf_pycommon_is_installed_from_its_pypi_project_and_an_option_like_key
     refused = line_with(check.stdout, "unresolved: python3--h (")
     assert "'-h' is not a PEP 508 requirement, so wsbuild does not hand it to pip" in refused
 
+    # a constraints file of the user's replaces the one wsbuild ships
+    mine = tmp_path / "mine.txt"
+    mine.write_text("osrf-pycommon>=2\n")
+    planned = wsbuild(venv, "deps", "install", "--dry-run", "--constraint", str(mine), cwd=ws)
+    assert f"-m pip install -c {mine} -- osrf-pycommon" in planned.stdout, output(planned)
+
     installed = wsbuild(venv, "deps", "install", "-y", cwd=ws)
     assert installed.returncode == 1, output(installed)  # python3--h stays unresolved
     assert "installed: osrf_pycommon (osrf-pycommon)" in installed.stdout, output(installed)
