@@ -20,9 +20,9 @@ import pytest
 from conftest import REPO
 from test_build_helpers import clean_env, output
 
-pytestmark = [pytest.mark.slow]
+pytestmark = [pytest.mark.slow, pytest.mark.xdist_group("install_wheel")]
 
-#: the Python files of the checkout the copy leaves out (git's view: tracked and new files)
+#: top-level folders of the checkout the copy leaves out (a venv, build output, git itself)
 _LEFT_OUT = (".git", ".venv", "build", "install", "log", "dist")
 
 
