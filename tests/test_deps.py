@@ -139,7 +139,7 @@ def test_missing_wheel_and_python_key_are_listed_planned_installed_and_built(
     assert freeze(venv) == before
     command = line_with(planned.stdout, "$ ")
     assert command.split("$ ", 1)[1] == (f"{venv}/bin/python3 -m pip install -c {LOCK} "
-                                         "tabulate ros-jazzy-sensor-msgs")
+                                         "-- tabulate ros-jazzy-sensor-msgs")
     assert "sensor_msgs -> ros-jazzy-sensor-msgs  (ROS wheel" in planned.stdout
 
     installed = deps(venv, "deps", "install", "-y", "--constraint", str(LOCK), cwd=needy)
@@ -287,7 +287,7 @@ def test_rosdep_rules_install_pip_entries_and_apt_only_with_yes(
     assert held.returncode == 1, output(held)
     error = line_with(held.stderr, "wsbuild: error: wsbuild-test-hello")
     assert "apt-get runs only with -y" in error
-    assert error.endswith("run it yourself: apt-get install -y --no-install-recommends hello")
+    assert error.endswith("run it yourself: apt-get install -y --no-install-recommends -- hello")
     assert not _installed("hello")
     assert any(line.lower().startswith("termcolor==") for line in freeze(venv))
 

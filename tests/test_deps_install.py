@@ -53,7 +53,7 @@ def test_one_pip_command_for_all_keys() -> None:
                             source=Source.ROS_WHEEL)], recorder,
                       repaired=[Path("/venv/share/x.cmake")])
     assert recorder.commands == [[str(PYTHON), "-m", "pip", "install", "-c", "/lock.txt",
-                                  "psutil", "ros-jazzy-sensor-msgs"]]
+                                  "--", "psutil", "ros-jazzy-sensor-msgs"]]
     assert all(o.ok for o in report.outcomes)
     assert report.repaired == (Path("/venv/share/x.cmake"),)  # new wheels are repaired
 
@@ -88,7 +88,7 @@ def test_apt_as_a_user_without_sudo_prints_the_sudo_command(
     message = report.failed[0].message
     assert "apt-get needs root or password-less sudo" in message
     assert message.endswith("run it yourself: sudo apt-get install -y --no-install-recommends "
-                            "hello")
+                            "-- hello")
 
 
 def test_apt_with_password_less_sudo(monkeypatch: pytest.MonkeyPatch) -> None:
@@ -99,5 +99,5 @@ def test_apt_with_password_less_sudo(monkeypatch: pytest.MonkeyPatch) -> None:
                       recorder)
     assert recorder.commands == [["sudo", "-n", "true"],
                                  ["sudo", "-n", "apt-get", "install", "-y",
-                                  "--no-install-recommends", "hello"]]
+                                  "--no-install-recommends", "--", "hello"]]
     assert report.failed == []

@@ -41,8 +41,9 @@ def test_a_plugin_pytest_refuses_names_the_cause_and_the_ros_pytest_as_the_fix()
     assert failure.what == "pytest exited with code 3 without writing results"
     assert failure.cause == ("PluginValidationError: Plugin 'launch_testing' for hook "
                              "'pytest_pycollect_makemodule'")
-    assert failure.fix.endswith("install it for the ROS tests: /venv/bin/python -m pip install "
-                                "--target /venv/ros-pytest pytest==7.4.4")
+    assert failure.fix.endswith("install it for the ROS tests: wsbuild deps install (or: "
+                                "/venv/bin/python -m pip install --target /venv/ros-pytest "
+                                "pytest==7.4.4)")
 
 
 def test_a_module_that_cannot_be_imported_names_the_module_to_install() -> None:
@@ -80,8 +81,8 @@ def test_the_summary_keeps_failing_tests_and_tooling_apart_and_names_missing_lin
         "    pytest exited with code 3 without writing results: PluginValidationError: Plugin "
         "'launch_testing' for hook 'pytest_pycollect_makemodule'",
         "      fix: ROS 2 Jazzy's pytest plugins need pytest 7.4.4's hook arguments; install it "
-        "for the ROS tests: /venv/bin/python -m pip install --target /venv/ros-pytest "
-        "pytest==7.4.4",
+        "for the ROS tests: wsbuild deps install (or: /venv/bin/python -m pip install "
+        "--target /venv/ros-pytest pytest==7.4.4)",
     ]
 
 

@@ -136,4 +136,5 @@ def test_a_pytest_that_refuses_the_plugin_is_the_tooling_failing_with_the_fix(
                             "'pytest_pycollect_makemodule'")
     assert fix.startswith("      fix: ROS 2 Jazzy's pytest plugins need pytest 7.4.4's hook "
                           "arguments; install it for the ROS tests: ")
-    assert fix.endswith(f" -m pip install --target {built / 'no-such-dir'} pytest==7.4.4")
+    assert fix.endswith(f" -m pip install --target {built / 'no-such-dir'} pytest==7.4.4)")
+    assert "install it for the ROS tests: wsbuild deps install (or: " in fix

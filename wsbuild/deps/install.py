@@ -1,4 +1,5 @@
-"""Run the plan's installers: the underlay venv's pip, and apt-get when allowed.
+"""Run the plan's installers: the underlay venv's pip, and apt-get when allowed; then the
+ROS tests' pytest into its own directory (test_tools.py).
 
 Each installer gets all its packages in one command first; when that fails, each key's packages
 are tried on their own, so one bad key never stops the others (pip installs nothing of a
@@ -18,6 +19,7 @@ from pathlib import Path
 
 from wsbuild.deps.index import error_line, pip_command, pip_environment
 from wsbuild.deps.plan import DepsPlan, Installer, Source, Step
+from wsbuild.deps.test_tools import ros_pytest_command
 
 #: the longest one installer command may take
 INSTALL_TIMEOUT = 1800.0
@@ -50,7 +52,7 @@ def pip_install_command(python: Path, packages: Sequence[str],
     command = [*pip_command(python), "install"]
     if constraint is not None:
         command += ["-c", str(constraint)]
-    return command + list(packages)
+    return [*command, "--", *packages]
 
 
 def apt_privilege(run: Run = subprocess.run) -> list[str] | None:
@@ -69,9 +71,10 @@ def apt_privilege(run: Run = subprocess.run) -> list[str] | None:
 
 
 def apt_install_command(packages: Sequence[str], prefix: Sequence[str] | None) -> list[str]:
-    """`apt-get install -y …`, behind `sudo` when not root (the printed form uses plain sudo)."""
+    """`apt-get install -y … -- PACKAGES`, behind `sudo` when not root (the printed form uses
+    plain sudo)."""
     head = list(prefix) if prefix is not None else ["sudo"]
-    return [*head, "apt-get", "install", "-y", "--no-install-recommends", *packages]
+    return [*head, "apt-get", "install", "-y", "--no-install-recommends", "--", *packages]
 
 
 def installer_command(installer: Installer, steps: Sequence[Step], *, python: Path,
@@ -108,6 +111,9 @@ def install(plan: DepsPlan, *, venv: Path, python: Path, constraint: Path | None
             outcomes += _run_group(apt_steps,
                                    lambda steps: apt_install_command(_packages(steps), prefix),
                                    env, run)
+    for step in plan.test_tools:
+        ok, message = _run(ros_pytest_command(python), pip_environment(environ), run)
+        outcomes.append(Outcome(step, ok, message))
     repaired: list[Path] = []
     if any(o.ok and o.step.source is Source.ROS_WHEEL for o in outcomes):
         repaired = repair(venv)

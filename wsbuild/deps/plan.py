@@ -3,12 +3,17 @@
 Sources, in this order (issue 21):
 
 1. a `ros-<distro>-<name>` wheel on the package index pip uses, for ROS package names;
+1b. the PyPI project of a ROS package that PyPI carries under its own name (`osrf_pycommon` →
+   `osrf-pycommon`), from a curated table (pypi_projects.py), never guessed;
 2. rosdep's rule for this OS, when rosdep and its rules cache are there: `pip` entries go to
    the venv's pip, `apt` entries to apt-get (an `apt` rule for a `python3-*` key is passed over
    when the venv does not see the system's site-packages: it would install where the underlay
    cannot import it; so is one naming `ros-<distro>-*` Debian packages, which install into
    /opt/ros, an underlay the venv does not use);
 3. a `python3-*` key by convention: its PyPI distribution (`python3-psutil` → `psutil`).
+
+Every name a step hands to pip or apt-get is checked (names.py): a key whose name would not be
+one (`python3--h` → `-h`) is unresolved, never a command-line option.
 
 Keys the build finds are satisfied; ament linters wsbuild stands in for count as found; system
 keys (`libfoo-dev`) are checked through rosdep's installer when rosdep knows them, and otherwise
@@ -22,8 +27,11 @@ from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 from enum import Enum
 
+from wsbuild.deps.from_source import FromSource
 from wsbuild.deps.index import IndexAnswer
+from wsbuild.deps.names import invalid_name, valid_debian_package, valid_pip_requirement
 from wsbuild.deps.needs import Need
+from wsbuild.deps.pypi_projects import pypi_project
 from wsbuild.deps.rosdep import RosdepRules, Rule
 from wsbuild.workspace.model import Resolution
 from wsbuild.workspace.resolve import normalize_distribution, python_distribution
@@ -36,8 +44,10 @@ class Source(Enum):
     """Where the plan found a way to install a key."""
 
     ROS_WHEEL = "ROS wheel"
+    PYPI_PROJECT = "ROS package on PyPI"
     ROSDEP = "rosdep"
     PYTHON = "Python key by convention"
+    ROS_PYTEST = "the ROS tests' pytest"
 
 
 class Installer(Enum):
@@ -78,10 +88,15 @@ class DepsPlan:
     stood_in: tuple[Need, ...] = ()
     #: keys the build's lookup does not find but whose rosdep rule is installed
     by_rosdep: tuple[Need, ...] = ()
+    #: the pytest the packages' tests need, when it is not installed (test_tools.py)
+    test_tools: tuple[Step, ...] = ()
+    #: keys no installer provides that the distro's index releases from source
+    from_source: tuple[FromSource, ...] = ()
 
     @property
     def missing(self) -> int:
-        return len(self.steps) + len(self.unresolved)
+        return (len(self.steps) + len(self.unresolved) + len(self.test_tools)
+                + len(self.from_source))
 
     def by_installer(self) -> dict[Installer, list[Step]]:
         """The steps grouped by installer, pip first."""
@@ -126,6 +141,8 @@ class Planner:
                 unchecked.append(need)
                 continue
             step, why = self._source(need)
+            if step is not None:
+                step, why = _checked_names(step)
             if step is None and not why:
                 by_rosdep.append(need)  # rosdep's rule is installed already
             elif step is not None:
@@ -145,12 +162,21 @@ class Planner:
             if answer is not None and answer.exists:
                 return Step(need, Source.ROS_WHEEL, Installer.PIP, (wheel,)), ""
             tried.append(f"no {wheel} wheel ({answer.detail if answer else 'not asked'})")
+        project = pypi_project(need.key)
+        if project is not None and need.resolution is Resolution.UNRESOLVED:
+            answer = self.pythons.get(project)
+            if answer is not None and answer.exists:
+                return Step(need, Source.PYPI_PROJECT, Installer.PIP, (project,)), ""
+            tried.append(f"no PyPI project {project} "
+                         f"({answer.detail if answer else 'not asked'})")
         step, why = self._rosdep(need)
         if step is not None or not why:
             return step, ""
         tried.append(why)
         distribution = python_distribution(need.key)
-        if distribution is not None and need.resolution is Resolution.UNRESOLVED:
+        if distribution is not None and not valid_pip_requirement(distribution):
+            tried.append(invalid_name("pip", distribution))
+        elif distribution is not None and need.resolution is Resolution.UNRESOLVED:
             answer = self.pythons.get(distribution)
             if answer is not None and answer.exists:
                 return Step(need, Source.PYTHON, Installer.PIP, (distribution,)), ""
@@ -195,6 +221,15 @@ class Planner:
                       f"not run (rosdep install can)")
 
 
+def _checked_names(step: Step) -> tuple[Step | None, str]:
+    """`step` when every package is a name its installer takes; else (None, why)."""
+    valid = valid_pip_requirement if step.installer is Installer.PIP else valid_debian_package
+    bad = [p for p in step.packages if not valid(p)]
+    if bad:
+        return None, invalid_name(step.installer.value, bad[0])
+    return step, ""
+
+
 def _requirement_name(requirement: str) -> str:
     return re.split(r"[<>=!~;\[ ]", requirement, maxsplit=1)[0]
 
@@ -213,6 +248,8 @@ def wheel_candidates(distro: str, needs: Iterable[Need]) -> list[str]:
 
 
 def python_candidates(needs: Iterable[Need]) -> list[str]:
-    """The distributions to ask the index about: one per unresolved `python3-*` key."""
-    names = (python_distribution(n.key) for n in needs if n.resolution is Resolution.UNRESOLVED)
-    return sorted({n for n in names if n is not None})
+    """The distributions to ask the index about: one per unresolved `python3-*` key or ROS
+    package of the PyPI table (names pip would not take as a requirement are never asked)."""
+    unresolved = [n.key for n in needs if n.resolution is Resolution.UNRESOLVED]
+    names = [*(python_distribution(k) for k in unresolved), *(pypi_project(k) for k in unresolved)]
+    return sorted({n for n in names if n is not None and valid_pip_requirement(n)})

@@ -4,15 +4,24 @@ from __future__ import annotations
 
 import importlib
 import sys
-from collections.abc import Iterable, Mapping
-from dataclasses import dataclass
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 from wsbuild.deps import index
 from wsbuild.deps.index import IndexAnswer
 from wsbuild.deps.needs import collect_needs
-from wsbuild.deps.plan import DepsPlan, Planner, python_candidates, wheel_candidates
+from wsbuild.deps.from_source import FromSource, load_distro_sources
+from wsbuild.deps.plan import (
+    DepsPlan,
+    Planner,
+    Unresolved,
+    python_candidates,
+    wheel_candidates,
+    wheel_name,
+)
 from wsbuild.deps.rosdep import load_rosdep
+from wsbuild.deps.test_tools import ros_pytest_step
 from wsbuild.underlay.environment import PreparedUnderlay
 from wsbuild.errors import UnderlayError
 from wsbuild.underlay.detect import ros_distro, venv_python
@@ -31,11 +40,13 @@ class Survey:
     python: Path
     distro: str
     rosdep_status: str
+    #: where the keys available from source were looked up ("" when no key needed it)
+    sources_status: str = ""
 
 
-def survey(packages: Iterable[Package], workspace: Mapping[str, Package],
+def survey(packages: Sequence[Package], workspace: Mapping[str, Package],
            kinds: frozenset[DepKind], *, environ: Mapping[str, str], shim_dir: Path,
-           skip: frozenset[str] = frozenset()) -> Survey:
+           skip: frozenset[str] = frozenset(), refresh: bool = False) -> Survey:
     """Resolve the keys of `packages` as the build would and plan a source for each missing one."""
     importlib.invalidate_caches()  # distributions installed since the last look
     underlay = prepare_underlay(environ, executable=sys.executable, repair=False,
@@ -43,13 +54,15 @@ def survey(packages: Iterable[Package], workspace: Mapping[str, Package],
     if underlay.venv is None:
         raise UnderlayError(
             "wsbuild deps installs into a virtualenv ROS underlay, and none is active",
-            hint="run the virtualenv's wsbuild (or activate it) after pip install 'wsbuild[ros]'")
+            hint="install wsbuild with its ros extra into a virtualenv (README: Installing) "
+                 "and run that virtualenv's wsbuild, or activate it")
     venv = underlay.venv
     distro = ros_distro(venv) or environ.get("ROS_DISTRO", "")
     if not distro:
         raise UnderlayError("cannot tell the ROS distribution: no ros-<distro>-* wheel in the "
                             "virtualenv and ROS_DISTRO is not set", path=venv,
-                            hint="pip install 'wsbuild[ros]', or set ROS_DISTRO=jazzy")
+                            hint="install wsbuild with its ros extra into this virtualenv, "
+                                 "or set ROS_DISTRO=jazzy")
     resolver = Resolver.from_environment(underlay.environ, [venv])
     needs = collect_needs(packages, workspace, resolver, kinds, skip)
     python = venv_python(venv).executable
@@ -57,14 +70,48 @@ def survey(packages: Iterable[Package], workspace: Mapping[str, Package],
     wheels = wheel_candidates(distro, needs)
     known = {name: IndexAnswer(name, True) for name in wheels if _known_wheel(distro, name)}
     answers = index.query(python, [n for n in wheels if n not in known]
-                          + python_candidates(needs), environ)
+                          + python_candidates(needs), environ,
+                          memory=index.AnswerMemory.for_index(python, environ), refresh=refresh)
     installed = frozenset(python_distributions(resolver.python_paths))
     planner = Planner(distro=distro, wheels={**answers, **known}, pythons=answers,
                       rosdep=rosdep, rosdep_status=rosdep_status,
                       system_site_packages=_system_site_packages(venv),
                       stand_ins=_provided_by_wsbuild(underlay),
                       installed=frozenset(normalize_distribution(n) for n in installed))
-    return Survey(planner.plan(needs), venv, python, distro, rosdep_status)
+    plan = planner.plan(needs)
+    pytest_step = ros_pytest_step(packages, python, kinds)
+    if pytest_step is not None:
+        plan = replace(plan, test_tools=(pytest_step,))
+    memory = index.AnswerMemory.for_index(python, environ)
+    plan, sources_status = _from_source(plan, distro, memory.path.parent, memory.now, refresh)
+    return Survey(plan, venv, python, distro, rosdep_status, sources_status)
+
+
+def _from_source(plan: DepsPlan, distro: str, cache_dir: Path, now: float,
+                 refresh: bool) -> tuple[DepsPlan, str]:
+    """The unresolved ROS package keys the distro's index releases from a source repository
+    move to `from_source`; the others say what the index answered."""
+    ros_keys = [u for u in plan.unresolved if wheel_name(distro, u.need.key) is not None]
+    if not ros_keys:
+        return plan, ""
+    sources, status = load_distro_sources(distro, cache_dir=cache_dir, now=now,
+                                          refresh=refresh)
+    unresolved: list[Unresolved] = []
+    from_source: list[FromSource] = []
+    for item in plan.unresolved:
+        if item not in ros_keys:
+            unresolved.append(item)
+            continue
+        repository = sources.repository_of(item.need.key) if sources is not None else None
+        problem = repository.problem() if repository is not None else ""
+        if repository is not None and not problem:
+            from_source.append(FromSource(item.need.key, item.need.needed_by, repository))
+            continue
+        why = (problem if repository is not None
+               else f"not released in the {distro} index" if sources is not None
+               else "the index could not be read (see the first line)")
+        unresolved.append(replace(item, why=f"{item.why}; from source: {why}"))
+    return replace(plan, unresolved=tuple(unresolved), from_source=tuple(from_source)), status
 
 
 def _provided_by_wsbuild(underlay: PreparedUnderlay) -> frozenset[str]:

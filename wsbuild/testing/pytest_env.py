@@ -5,7 +5,8 @@ ROS 2 Jazzy's pytest plugins (launch_testing's `pytest_pycollect_makemodule(path
 `Module.from_parent(parent, fspath=...)`) use the py.path arguments that pytest 9 removed; the
 interpreter that runs wsbuild (and wsbuild's own test suite) may well hold pytest 9. So a
 package's tests, and the pytest tests CTest runs, get `<prefix>/ros-pytest` (a `pip install
---target` of `requirements/ros-pytest.txt`, made by scripts/setup.sh) first on PYTHONPATH: the
+--target` of `requirements/ros-pytest.txt`, made by `wsbuild deps install` or scripts/setup.sh;
+where it lives: underlay/constraints.py) first on PYTHONPATH: the
 ROS packages stay the interpreter's, only pytest and its own dependencies are Jazzy's. Without
 that directory the interpreter's own pytest runs, and a plugin it refuses is reported as the
 test tooling failing to start, with this fix (runners.py). `$WSBUILD_ROS_PYTEST` names another
@@ -15,27 +16,17 @@ directory (one shared by several virtualenvs, say).
 from __future__ import annotations
 
 import os
-import sys
 from collections.abc import Mapping
-from pathlib import Path
 
-#: the directory, under the interpreter's prefix, holding the pytest for ROS packages' tests
-ROS_PYTEST_DIR = "ros-pytest"
-#: names the directory instead
-ROS_PYTEST_VAR = "WSBUILD_ROS_PYTEST"
-#: the version Jazzy's platform (Ubuntu 24.04) ships and its plugins are tested with
-ROS_PYTEST_VERSION = "7.4.4"
+from wsbuild.underlay.constraints import (
+    ROS_PYTEST_DIR,
+    ROS_PYTEST_VAR,
+    ROS_PYTEST_VERSION,
+    ros_pytest_dir,
+)
 
-
-def ros_pytest_dir(python_executable: str) -> Path:
-    """Where the ROS tests' pytest lives for this interpreter (it may not exist)."""
-    if os.environ.get(ROS_PYTEST_VAR):
-        return Path(os.environ[ROS_PYTEST_VAR])
-    if Path(python_executable) == Path(sys.executable):
-        prefix = Path(sys.prefix)
-    else:  # a virtualenv's bin/python
-        prefix = Path(python_executable).absolute().parent.parent
-    return prefix / ROS_PYTEST_DIR
+__all__ = ["ROS_PYTEST_DIR", "ROS_PYTEST_VAR", "ROS_PYTEST_VERSION", "install_hint",
+           "ros_pytest_dir", "with_ros_pytest"]
 
 
 def with_ros_pytest(env: Mapping[str, str], python_executable: str) -> dict[str, str]:
@@ -49,6 +40,6 @@ def with_ros_pytest(env: Mapping[str, str], python_executable: str) -> dict[str,
 
 
 def install_hint(python_executable: str) -> str:
-    """The command that installs the ROS tests' pytest for this interpreter."""
-    return (f"{python_executable} -m pip install --target {ros_pytest_dir(python_executable)} "
-            f"pytest=={ROS_PYTEST_VERSION}")
+    """How to install the ROS tests' pytest for this interpreter."""
+    return (f"wsbuild deps install (or: {python_executable} -m pip install --target "
+            f"{ros_pytest_dir(python_executable)} pytest=={ROS_PYTEST_VERSION})")

@@ -19,17 +19,19 @@ if TYPE_CHECKING:
 
 DEPS_DOC = """Check or install the dependencies of the packages that nothing provides.
 
-Every package.xml key of the selected packages (build, run and test types; the workspace's
-own packages left out) is looked up as `wsbuild build` does. For each one not found, the
-first source that can install it: a ros-<distro>-<name> wheel, rosdep's rule for this OS
-(when rosdep and its cache exist), or a python3-* key's PyPI distribution. pip installs
-into the virtualenv underlay; apt-get runs only with -y, as root or with sudo -n, and is
-printed as a command otherwise.
+Every package.xml key of the selected packages (build, run and test types) is looked up as
+`wsbuild build` does. Each one not found comes from the first source that has it: a
+ros-<distro>-<name> wheel, a ROS package's own PyPI project (wsbuild's table), rosdep's rule
+(when rosdep and its cache exist), a python3-* key's PyPI distribution; else, with
+--from-source, the source repository the distro's index names (rosdistro;
+ROSDISTRO_INDEX_URL), cloned into src/ and listed in from-source.repos. pip installs into the
+virtualenv underlay, constrained by the lock file wsbuild ships for its distro; apt-get runs
+only with -y, as root or with sudo -n, and is printed as a command otherwise.
 
 examples:
   wsbuild deps                      # what is missing, and from where it would come
   wsbuild deps install --dry-run    # the plan: one command per installer, nothing changed
-  wsbuild deps install -y --constraint requirements/ros-jazzy.lock.txt
+  wsbuild deps install -y --from-source   # also launch_ros & co. from their repositories
 
 exit codes: 0 nothing missing (check) or everything installed (install), 1 something is
 missing or could not be installed, 2 usage or workspace error
@@ -47,9 +49,18 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--types", metavar="T,T", default=None,
                         help="dependency types: build, run, test, doc (default: build,run,test)")
     parser.add_argument("--constraint", metavar="FILE", type=Path,
-                        help="pip constraints file for every pip install, e.g. a lock file")
+                        help="pip constraints file for every pip install (default: the lock "
+                             "file wsbuild ships for the underlay's ROS distro)")
     parser.add_argument("--skip-keys", nargs="+", default=[], metavar="KEY",
                         help="keys to leave alone (as rosdep's --skip-keys)")
+    parser.add_argument("--from-source", action="store_true",
+                        help="install: clone the packages no installer provides from the "
+                             "source repositories the distro's index names (rosdistro; "
+                             "ROSDISTRO_INDEX_URL), their own dependencies in turn, and list "
+                             "them in from-source.repos")
+    parser.add_argument("--refresh", action="store_true",
+                        help="ask the package index again instead of using its answers "
+                             "remembered for a day")
 
 
 def run_deps(args: argparse.Namespace) -> int:
@@ -58,14 +69,75 @@ def run_deps(args: argparse.Namespace) -> int:
     from wsbuild.verbs.load import load
 
     loaded = load(args, warn=print_warnings)
-    found = _survey(args, loaded)
+    names = list(loaded.selected)
+    found = _survey(args, loaded, names)
     if args.action == "check" and not args.dry_run:
         print("\n".join(check_lines(found)))
         return 1 if found.plan.missing else 0
+    if args.from_source and not args.dry_run and found.plan.from_source:
+        loaded, names, found = _fetch_sources(args, loaded, names, found)
     print("\n".join(plan_lines(found, constraint=args.constraint, dry_run=args.dry_run)))
-    if args.dry_run or not found.plan.steps:
-        return 1 if found.plan.unresolved else 0
-    return _install(args, loaded, found)
+    if args.dry_run or not (found.plan.steps or found.plan.test_tools):
+        if found.plan.from_source and not args.dry_run:
+            _from_source_error(found)
+        return 1 if found.plan.unresolved or found.plan.from_source else 0
+    return _install(args, loaded, found, names)
+
+
+def _fetch_sources(args: argparse.Namespace, loaded: Loaded, names: list[str],
+                   found: Survey) -> tuple[Loaded, list[str], Survey]:
+    """`--from-source`: clone the repositories of the keys available from source, look at
+    the packages they bring, and again for their own keys, until nothing new is wanted."""
+    import os
+
+    from wsbuild.deps.from_source import REPOS_FILE, import_repositories, write_repos_file
+    from wsbuild.report import print_warnings
+    from wsbuild.verbs.load import load
+
+    root = loaded.workspace.root
+    repos_file, src = root / REPOS_FILE, root / "src"
+    fetched: set[str] = set()
+    while True:
+        new = {f.repository.name: f.repository for f in found.plan.from_source
+               if f.repository.name not in fetched}
+        if not new:
+            _unneeded_note(loaded, names, [src / name for name in sorted(fetched)])
+            return loaded, names, found
+        write_repos_file(repos_file, new.values())
+        src.mkdir(exist_ok=True)
+        for name in sorted(new):
+            repository = new[name]
+            print(f"from source: {name} ({repository.url} {repository.version}) into "
+                  f"{src / name}")
+        ok, message = import_repositories(repos_file, src, os.environ)
+        if not ok:
+            print(f"wsbuild: error: vcs-import of {repos_file} failed: {message}",
+                  file=sys.stderr)
+            return loaded, names, found
+        fetched |= set(new)
+        wanted = [f.key for f in found.plan.from_source]
+        loaded = load(args, warn=print_warnings)
+        names = [n for n in names if n in loaded.packages]
+        names += [k for k in wanted if k in loaded.packages and k not in names]
+        found = _survey(args, loaded, names)
+        print(f"from source: {len(fetched)} repositories in {repos_file.name} "
+              f"(vcs-import src < {repos_file.name} fetches them again)")
+
+
+def _unneeded_note(loaded: Loaded, names: list[str], folders: list[Path]) -> None:
+    """Name the packages of the fetched repositories nothing needed: `build` builds them too
+    (over the underlay's wheels of the same name) unless the selection leaves them out."""
+    extra = sorted(name for name, package in loaded.packages.items()
+                   if name not in names and any(package.path.is_relative_to(f) for f in folders))
+    if extra:
+        print(f"from source: the fetched repositories also hold {len(extra)} package(s) "
+              f"nothing here needs: {', '.join(extra)} (wsbuild build --packages-up-to "
+              "YOUR_PACKAGES leaves them out)")
+
+
+def _from_source_error(found: Survey) -> None:
+    print(f"wsbuild: error: {len(found.plan.from_source)} key(s) available from source (listed "
+          "above): wsbuild deps install --from-source fetches them into src/", file=sys.stderr)
 
 
 def install_for_build(args: argparse.Namespace, loaded: Loaded) -> None:
@@ -73,35 +145,41 @@ def install_for_build(args: argparse.Namespace, loaded: Loaded) -> None:
     What cannot be installed is reported and the build goes on (it warns about build
     dependencies itself)."""
     deps_args = argparse.Namespace(**vars(args))
-    deps_args.assume_yes, deps_args.constraint = True, getattr(args, "constraint", None)
-    deps_args.types, deps_args.skip_keys = None, []
+    deps_args.assume_yes, deps_args.constraint = True, None
+    deps_args.types, deps_args.skip_keys, deps_args.refresh = None, [], False
     found = _survey(deps_args, loaded)
-    if not found.plan.steps:
+    if not (found.plan.steps or found.plan.test_tools):
         return
-    print("\n".join(plan_lines(found, constraint=None, dry_run=False)))
+    print("\n".join(plan_lines(found, constraint=deps_args.constraint, dry_run=False)))
     _install(deps_args, loaded, found)
 
 
-def _survey(args: argparse.Namespace, loaded: Loaded) -> Survey:
+def _survey(args: argparse.Namespace, loaded: Loaded, names: list[str] | None = None,
+            ) -> Survey:
     import os
 
     from wsbuild.deps.needs import parse_types
     from wsbuild.deps.survey import survey
     from wsbuild.errors import WsbuildError
 
+    from wsbuild.underlay.constraints import distro_constraints
+
     if args.constraint is not None and not args.constraint.is_file():
         raise WsbuildError("the constraints file does not exist", path=args.constraint,
-                           hint="give pip's constraints file, e.g. "
-                                "--constraint requirements/ros-jazzy.lock.txt")
+                           hint="give an existing pip constraints file, or leave --constraint "
+                                "out to use the one wsbuild ships for the underlay's ROS distro")
     constraint = args.constraint.absolute() if args.constraint is not None else None
-    args.constraint = constraint
-    packages = [loaded.packages[name] for name in loaded.selected]
-    return survey(packages, loaded.packages, parse_types(args.types), environ=os.environ,
-                  shim_dir=loaded.workspace.build_base / ".wsbuild" / "lint_shim",
-                  skip=frozenset(args.skip_keys))
+    packages = [loaded.packages[name]
+                for name in (loaded.selected if names is None else names)]
+    found = survey(packages, loaded.packages, parse_types(args.types), environ=os.environ,
+                   shim_dir=loaded.workspace.build_base / ".wsbuild" / "lint_shim",
+                   skip=frozenset(args.skip_keys), refresh=getattr(args, "refresh", False))
+    args.constraint = constraint or distro_constraints(found.distro)
+    return found
 
 
-def _install(args: argparse.Namespace, loaded: Loaded, found: Survey) -> int:
+def _install(args: argparse.Namespace, loaded: Loaded, found: Survey,
+             names: list[str] | None = None) -> int:
     import os
 
     from wsbuild.deps.install import install
@@ -114,14 +192,17 @@ def _install(args: argparse.Namespace, loaded: Loaded, found: Survey) -> int:
     for outcome in report.failed:
         print(f"wsbuild: error: {outcome.step.need.key}: {outcome.step.installer.value} "
               f"{' '.join(outcome.step.packages)} failed: {outcome.message}", file=sys.stderr)
-    after = _survey(args, loaded)
+    after = _survey(args, loaded, names)
     still = {s.need.key for s in after.plan.steps} | {u.need.key for u in after.plan.unresolved}
     ok = {o.step.need.key for o in report.outcomes if o.ok}
     for key in sorted(ok & still):
         print(f"wsbuild: error: {key}: installed, but still not found by the build's lookup "
               f"(see wsbuild deps check)", file=sys.stderr)
-    if report.failed or found.plan.unresolved or ok & still:
-        count = len(report.failed) + len(found.plan.unresolved) + len(ok & still)
+    if found.plan.from_source:
+        _from_source_error(found)
+    if report.failed or found.plan.unresolved or ok & still or found.plan.from_source:
+        count = (len(report.failed) + len(found.plan.unresolved) + len(ok & still)
+                 + len(found.plan.from_source))
         print(f"wsbuild: error: {count} key(s) not installed (listed above): install them by "
               "hand, or leave them alone with --skip-keys KEY", file=sys.stderr)
         return 1
@@ -136,8 +217,9 @@ def _needed(need: Need) -> str:
 
 def _header(found: Survey) -> list[str]:
     plan = found.plan
+    sources = f"; sources: {found.sources_status}" if found.sources_status else ""
     return [f"{len(plan.needs)} key(s) of the selected packages; underlay {found.venv} "
-            f"(ROS {found.distro}); rosdep: {found.rosdep_status}"]
+            f"(ROS {found.distro}); rosdep: {found.rosdep_status}{sources}"]
 
 
 def check_lines(found: Survey) -> list[str]:
@@ -147,10 +229,15 @@ def check_lines(found: Survey) -> list[str]:
     for step in plan.steps:
         lines.append(f"  missing: {_needed(step.need)} -> {step.source.value}: "
                      f"{step.installer.value} {' '.join(step.packages)}")
+    for step in plan.test_tools:
+        lines.append(f"  missing: {step.need.key} for the tests of {step.need.users()} -> "
+                     f"{step.source.value}: pip into {_ros_pytest_dir(found)}")
     lines += _tail_lines(plan)
     if plan.missing:
+        fetch = (f", and with --from-source fetches {len(plan.from_source)}"
+                 if plan.from_source else "")
         lines.append(f"{plan.missing} key(s) missing: wsbuild deps install -y installs "
-                     f"{len(plan.steps)} of them")
+                     f"{len(plan.steps) + len(plan.test_tools)} of them{fetch}")
     else:
         lines.append("nothing is missing")
     return lines
@@ -176,13 +263,43 @@ def plan_lines(found: Survey, *, constraint: Path | None, dry_run: bool) -> list
         command = installer_command(installer, steps, python=found.python,
                                     constraint=constraint, apt_prefix=prefix)
         lines.append(f"  $ {shlex.join(command)}")
-    if not groups:
+    if plan.test_tools:
+        from wsbuild.deps.test_tools import ros_pytest_command
+
+        lines.append(f"{plan.test_tools[0].source.value} (into {_ros_pytest_dir(found)}, "
+                     "where wsbuild test looks for it):")
+        lines += [f"  {s.need.key}  (needed by the tests of {s.need.users()})"
+                  for s in plan.test_tools]
+        lines.append(f"  $ {shlex.join(ros_pytest_command(found.python))}")
+    if plan.from_source:
+        from wsbuild.deps.from_source import REPOS_FILE
+
+        repositories = {f.repository.name: f.repository for f in plan.from_source}
+        lines.append(f"from source (with --from-source: cloned into src/, listed in "
+                     f"{REPOS_FILE}, their own keys in turn):")
+        for name, repository in sorted(repositories.items()):
+            keys = ", ".join(sorted(f.key for f in plan.from_source
+                                    if f.repository.name == name))
+            lines.append(f"  {name}: {repository.url} {repository.version}  (for {keys})")
+    if not groups and not plan.test_tools and not plan.from_source:
         lines.append("nothing to install")
     return lines + _tail_lines(plan)
 
 
+def _ros_pytest_dir(found: Survey) -> Path:
+    from wsbuild.underlay.constraints import ros_pytest_dir
+
+    return ros_pytest_dir(str(found.python))
+
+
 def _tail_lines(plan: DepsPlan) -> list[str]:
     lines = []
+    for item in plan.from_source:
+        repository = item.repository
+        lines.append(f"  available from source: {item.key} (needed by "
+                     f"{', '.join(item.needed_by)}) -> repository {repository.name} "
+                     f"({repository.url} {repository.version}): wsbuild deps install "
+                     "--from-source")
     for item in plan.unresolved:
         lines.append(f"  unresolved: {_needed(item.need)}: {item.why}")
     if plan.stood_in:

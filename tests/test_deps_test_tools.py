@@ -1,0 +1,69 @@
+"""wsbuild/deps/test_tools.py and the shipped requirement files it and `deps install` use
+(wsbuild/underlay/constraints.py): when the ROS tests' pytest is wanted, where it goes, and
+which constraints file a distro gets."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from conftest import REPO
+from wsbuild.deps.plan import Source
+from wsbuild.deps.test_tools import has_tests, ros_pytest_command, ros_pytest_step
+from wsbuild.underlay.constraints import (
+    ROS_PYTEST_VAR,
+    distro_constraints,
+    ros_pytest_installed,
+    ros_pytest_requirements,
+)
+from wsbuild.workspace.model import DepKind, Dependency, Package
+
+ALL = frozenset(DepKind)
+PYTHON = Path("/venv/bin/python3")
+
+
+def package(tmp_path: Path, name: str, *, test_depend: bool = False,
+            folder: str = "") -> Package:
+    path = tmp_path / name
+    (path / folder if folder else path).mkdir(parents=True)
+    dependencies = (Dependency("python3-pytest", DepKind.TEST),) if test_depend else ()
+    return Package(name, path, "ament_python", dependencies=dependencies)
+
+
+def test_a_package_has_tests_by_a_test_depend_or_a_test_folder(tmp_path: Path) -> None:
+    assert has_tests(package(tmp_path, "a", test_depend=True))
+    assert has_tests(package(tmp_path, "b", folder="test"))
+    assert has_tests(package(tmp_path, "c", folder="tests"))
+    assert not has_tests(package(tmp_path, "d", folder="src"))
+
+
+def test_the_ros_pytest_is_wanted_only_for_tests_and_only_when_missing(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    target = tmp_path / "ros-pytest"
+    monkeypatch.setenv(ROS_PYTEST_VAR, str(target))
+    tested = [package(tmp_path, "b_pkg", folder="test"), package(tmp_path, "a_pkg",
+                                                                 test_depend=True)]
+    step = ros_pytest_step(tested, PYTHON, ALL)
+    assert step is not None and step.source is Source.ROS_PYTEST
+    assert step.need.key == "pytest==7.4.4" and step.need.needed_by == ("a_pkg", "b_pkg")
+    assert ros_pytest_step(tested, PYTHON, ALL - {DepKind.TEST}) is None  # --types build,run
+    assert ros_pytest_step([package(tmp_path, "plain")], PYTHON, ALL) is None
+    (target / "pytest-7.4.4.dist-info").mkdir(parents=True)
+    assert ros_pytest_installed(str(PYTHON)) and ros_pytest_step(tested, PYTHON, ALL) is None
+
+
+def test_the_ros_pytest_goes_into_its_own_folder_without_the_venvs_packages(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setenv(ROS_PYTEST_VAR, str(tmp_path / "ros-pytest"))
+    assert ros_pytest_command(PYTHON) == [
+        str(PYTHON), "-m", "pip", "install", "--no-deps", "--upgrade", "--target",
+        str(tmp_path / "ros-pytest"), "-r", str(REPO / "requirements" / "ros-pytest.txt")]
+    assert "pytest==7.4.4" in (ros_pytest_requirements() or Path("/")).read_text()
+
+
+def test_each_distro_gets_its_shipped_constraints_and_only_by_a_plain_name() -> None:
+    assert distro_constraints("jazzy") == REPO / "requirements" / "ros-jazzy.lock.txt"
+    assert distro_constraints("kilted") is None  # none shipped: pip runs unconstrained
+    for odd in ("../jazzy", "jazzy/../x", "", "Jazzy"):
+        assert distro_constraints(odd) is None
