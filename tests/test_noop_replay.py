@@ -331,3 +331,27 @@ def test_a_reader_that_stops_early_gets_no_error_and_leaves_no_short_record(
     shell(" | true")  # in full
     assert not record.exists(), "a run whose output was cut short is not replayed"
     assert shell("").stdout == complete.stdout
+
+
+def test_a_replayed_no_op_is_drawn_by_the_reporter_as_the_full_run_showed_it(
+        built: Path) -> None:
+    """The record keeps what the reporter was asked to show (its console options, the
+    package list, the events), not the text: the replay asks the reporter again, so the
+    output is the full run's, with the replay's own time."""
+    args = ("build", "--event-handlers", "console_package_list+")
+    full = run_wsbuild(*args, cwd=built)
+    assert full.returncode == 0, full.stderr
+    assert full.stdout.startswith("Topological order\n- pa (ament_python)\n"), full.stdout
+    time.sleep(SETTLE)
+    recording = run_wsbuild(*args, cwd=built)
+    record = json.loads((built / replay.record_path("build")).read_text())
+    replayed = run_wsbuild(*args, cwd=built)
+
+    assert [kind for kind, _ in record["shown"]][:2] == ["reporter", "package_list"]
+    assert record["stdout"] == "" and record["stderr"] == ""
+    assert replayed.returncode == 0, replayed.stderr
+    summary = [line for line in replayed.stdout.splitlines() if line.startswith("Summary:")]
+    assert len(summary) == 1 and summary[0].endswith("s]")
+    strip = (lambda text: [line for line in text.splitlines()
+                           if not line.startswith("Summary:")])
+    assert strip(replayed.stdout) == strip(recording.stdout) == strip(full.stdout)

@@ -47,7 +47,7 @@ def _shown(kind: str, data: object) -> None:
 def print_warnings(warnings: Iterable[str], stream: TextIO | None = None) -> None:
     """Warnings found before a run starts (discovery, result files), one line each on stderr."""
     warnings = list(warnings)
-    if stream is None:
+    if stream is None and warnings:
         _shown("warnings", warnings)
     for warning in warnings:
         print(f"wsbuild: warning: {warning}", file=stream or sys.stderr)
@@ -56,7 +56,7 @@ def print_warnings(warnings: Iterable[str], stream: TextIO | None = None) -> Non
 def print_notes(notes: Iterable[str], stream: TextIO | None = None) -> None:
     """Notes on how a command line was understood (an option ignored, and why), on stderr."""
     notes = list(notes)
-    if stream is None:
+    if stream is None and notes:
         _shown("notes", notes)
     for note in notes:
         print(f"wsbuild: note: {note}", file=stream or sys.stderr)
