@@ -94,3 +94,23 @@ def test_a_word_like_no_verb_lists_them() -> None:
     done = _wsbuild("frobnicate")
     assert done.returncode == 2
     assert "unknown verb 'frobnicate'; the verbs: build, test, test-result," in done.stderr
+
+
+def _sections(text: str) -> dict[str, str]:
+    """The help's option groups: heading → its lines."""
+    sections: dict[str, str] = {}
+    heading = ""
+    for line in text.splitlines():
+        if line and not line.startswith(" ") and line.endswith(":"):
+            heading = line[:-1]
+        elif line.startswith(" "):
+            sections[heading] = sections.get(heading, "") + line + "\n"
+    return sections
+
+
+def test_build_help_shows_install_deps_and_files_timings_apart_from_cmake() -> None:
+    sections = _sections(_help(["build"], "--help"))
+    assert "  --install-deps" in "".join(sections.values())
+    assert "  --timings" in "".join(sections.values())
+    assert "--timings" not in sections["CMake packages"]
+    assert "--cmake-args" in sections["CMake packages"]
