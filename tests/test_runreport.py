@@ -21,7 +21,7 @@ from wsbuild.engine.jobs import JobResult, JobStarted, Outcome, StepStarted
 from wsbuild.engine.progress import Progress
 from wsbuild.events import JobFinished
 from wsbuild.report import Reporter
-from wsbuild.runreport.model import compiler_cache_by_package, critical_path, load_run
+from wsbuild.runreport.model import compiler_cache_counts, critical_path, load_run
 from wsbuild.runreport.page import render_page, write_report
 
 
@@ -215,8 +215,18 @@ def test_compiler_cache_counts_go_to_the_package_holding_the_source(tmp_path: Pa
                    "# /elsewhere/y.c\ncache_miss\n")
     entries = [{"name": "lib", "path": "/ws/src/lib", "build_dir": "/ws/build/lib"},
                {"name": "msgs", "path": "/ws/src/msgs", "build_dir": "/ws/build/msgs"}]
-    assert compiler_cache_by_package(log, entries) == {"lib": "1 hit, 1 miss",
-                                                       "msgs": "1 hit, 0 misses"}
+    assert compiler_cache_counts(log, entries) == {"lib": (1, 1), "msgs": (1, 0)}
+
+
+def test_compiler_cache_counts_go_to_the_package_that_compiled_wherever_the_source(
+        tmp_path: Path) -> None:
+    log = tmp_path / "ccache_stats.log"
+    log.write_text("## package lib\n# /venv/src/gtest_vendor/src/gtest-all.cc\ncache_miss\n"
+                   "# /ws/src/lib/a.cpp\ndirect_cache_hit\n"
+                   "## package msgs\n# /venv/src/gtest_vendor/src/gtest-all.cc\ncache_miss\n")
+    entries = [{"name": "lib", "path": "/ws/src/lib", "build_dir": "/ws/build/lib"},
+               {"name": "msgs", "path": "/ws/src/msgs", "build_dir": "/ws/build/msgs"}]
+    assert compiler_cache_counts(log, entries) == {"lib": (1, 1), "msgs": (0, 1)}
 
 
 def test_time_left_is_the_longer_of_the_critical_path_and_the_work_per_worker() -> None:
@@ -265,3 +275,36 @@ def test_the_sampler_counts_the_cpu_children_use_and_stops_at_once() -> None:
     # the busy cores over time add up to the CPU the child used (however loaded the machine)
     assert abs(sampled - child_cpu) < 0.25 * child_cpu + 0.1, (sampled, child_cpu)
     assert tree_cpu_seconds(os.getpid()) is not None
+
+
+def test_the_run_table_and_the_package_rows_count_the_same_compiles(tmp_path: Path) -> None:
+    """A package compiling a source outside its own directories (as gtest_vendor's, under the
+    underlay) counts it in its row, so the run's count is the rows' sum; one miss is "1 miss"."""
+    from test_build_helpers import write_cmake
+
+    ws = tmp_path / "ws"
+    shared = tmp_path / "shared"
+    shared.mkdir()
+    (shared / "common.c").write_text("int common(void) { return 1; }\n")
+    write_cmake(ws / "src", "uses_shared", "cmake_minimum_required(VERSION 3.14)\n"
+                "project(uses_shared C)\n"
+                f"add_library(uses_shared SHARED own.c {shared / 'common.c'})\n"
+                "install(TARGETS uses_shared DESTINATION lib)\n",
+                files={"own.c": "int own(void) { return 2; }\n"})
+    write_cmake(ws / "src", "single", "cmake_minimum_required(VERSION 3.14)\nproject(single C)\n"
+                "add_library(single SHARED one.c)\ninstall(TARGETS single DESTINATION lib)\n",
+                files={"one.c": "int one(void) { return 3; }\n"})
+    env = dict(os.environ, CCACHE_DIR=str(tmp_path / "ccache"), WSBUILD_CACHE="")
+    done = run_wsbuild("build", "--no-cache", "--compiler-cache", "ccache", cwd=ws, env=env)
+    assert done.returncode == 0, done.stderr
+    assert "compiler cache (ccache): 0 hits, 3 misses" in done.stdout
+    report = load_run(ws / "log" / "latest")
+    rows = {row.name: row.compiler_cache for row in report.packages}
+    assert rows == {"uses_shared": "0 hits, 2 misses", "single": "0 hits, 1 miss"}
+    assert report.compiled == (0, 3)
+    html = (ws / "log" / "latest" / "report.html").read_text()
+    assert "ccache: 0 hits, 3 misses, 0 not cacheable" in html
+    shutil.rmtree(ws / "build" / "single")
+    shutil.rmtree(ws / "install" / "single")
+    again = run_wsbuild("build", "--no-cache", "--compiler-cache", "ccache", cwd=ws, env=env)
+    assert "compiler cache (ccache): 1 hit, 0 misses" in again.stdout

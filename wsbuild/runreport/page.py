@@ -8,7 +8,7 @@ from html import escape
 from pathlib import Path
 
 from wsbuild.engine.timeline import Timeline, render_cpu_svg, render_svg
-from wsbuild.runreport.model import PackageRow, RunReport, load_run
+from wsbuild.runreport.model import PackageRow, RunReport, compiler_cache_text, load_run
 from wsbuild.runreport.record import REPORT_HTML
 
 _CSS = """
@@ -126,10 +126,13 @@ def _facts(report: RunReport) -> str:
                      f"{escape(str(record.get('workers', '')))} packages at once")]
     if record.get("verb") == "build":
         compiler = record.get("compiler_cache")
-        compiler_text = (f"{compiler['tool']}: {compiler['hits']} hits, {compiler['misses']} "
-                         f"misses, {compiler['uncacheable']} not cacheable"
-                         if isinstance(compiler, dict)
-                         else f"{record.get('compiler_cache_choice', '')} (nothing compiled)")
+        if isinstance(compiler, dict):
+            # one count: the package rows' sum where they have one (ccache)
+            hits, misses = report.compiled or (int(compiler["hits"]), int(compiler["misses"]))
+            compiler_text = (f"{compiler['tool']}: {compiler_cache_text(hits, misses)}, "
+                             f"{compiler['uncacheable']} not cacheable")
+        else:
+            compiler_text = f"{record.get('compiler_cache_choice', '')} (nothing compiled)"
         rows += [("generator", escape(str(record.get("generator", "")))),
                  ("compiler cache", escape(str(compiler_text))),
                  ("build cache", escape(str(record.get("artifact_cache", ""))))]
