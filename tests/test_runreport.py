@@ -21,7 +21,8 @@ from wsbuild.engine.jobs import JobResult, JobStarted, Outcome, StepStarted
 from wsbuild.engine.progress import Progress
 from wsbuild.events import JobFinished
 from wsbuild.report import Reporter
-from wsbuild.runreport.model import compiler_cache_counts, critical_path, load_run
+from wsbuild.engine.timing_files import bound_text, critical_chain
+from wsbuild.runreport.model import compiler_cache_counts, load_run
 from wsbuild.runreport.page import render_page, write_report
 
 
@@ -200,12 +201,24 @@ def test_a_test_runs_report_counts_tests_and_links_failing_ones_to_junit(tmp_pat
 
 
 def test_the_critical_path_follows_what_each_package_waited_for() -> None:
-    deps = {"msgs": [], "lib": ["msgs"], "tool": [], "app": ["lib", "tool"]}
-    finished = {"msgs": 4.0, "tool": 6.0, "lib": 5.0, "app": 9.0}
-    assert critical_path(deps, finished) == ["tool", "app"]
-    finished["lib"] = 7.0
-    assert critical_path(deps, finished) == ["msgs", "lib", "app"]
-    assert critical_path(deps, {}) == []
+    # (package, ready: when its last dependency finished, started, finished)
+    rows = [("msgs", 0.0, 0.0, 4.0), ("tool", 0.0, 0.0, 6.0), ("lib", 4.0, 4.0, 5.0),
+            ("app", 6.0, 6.5, 9.0)]
+    assert critical_chain(rows) == [("tool", 6.0), ("app", 2.5)]
+    rows[2] = ("lib", 4.0, 4.0, 7.0)
+    rows[3] = ("app", 7.0, 7.0, 9.0)
+    assert critical_chain(rows) == [("msgs", 4.0), ("lib", 3.0), ("app", 2.0)]
+    assert critical_chain([]) == []
+
+
+def test_the_wall_time_is_told_against_its_lower_bound_with_why() -> None:
+    chain = [("msgs", 4.0), ("lib", 3.0), ("app", 2.0)]
+    assert bound_text(10.0, 6.0, 2, chain) == (
+        "wall 10.0 s, 3.3× the lower bound of 3.0 s (CPU ÷ cores): the critical path "
+        "msgs → lib → app ran one after another for 9.0 s of it")
+    assert bound_text(10.0, 6.0, 2, [("big", 9.5)]).endswith(": big alone ran for 9.5 s of it")
+    assert bound_text(3.3, 6.0, 2, chain) == "wall 3.3 s, 1.1× the lower bound of 3.0 s (CPU ÷ cores)"
+    assert "limit" not in bound_text(10.0, 6.0, 2, chain)
 
 
 def test_compiler_cache_counts_go_to_the_package_holding_the_source(tmp_path: Path) -> None:
@@ -308,3 +321,24 @@ def test_the_run_table_and_the_package_rows_count_the_same_compiles(tmp_path: Pa
     shutil.rmtree(ws / "install" / "single")
     again = run_wsbuild("build", "--no-cache", "--compiler-cache", "ccache", cwd=ws, env=env)
     assert "compiler cache (ccache): 1 hit, 0 misses" in again.stdout
+
+
+def test_timings_report_and_page_tell_the_wall_against_its_lower_bound(tmp_path: Path) -> None:
+    """A chain of packages (each needs the one before): timings.txt, `wsbuild report` and the
+    page say what the bound is and, when the run was well above it, name the chain."""
+    ws = tmp_path / "ws"
+    write_package(ws / "src", "chain_a", "cmake")
+    write_package(ws / "src", "chain_b", "cmake", ["chain_a"])
+    write_package(ws / "src", "chain_c", "cmake", ["chain_b"])
+    done = run_wsbuild("build", "--timings", "--no-cache", cwd=ws)
+    assert done.returncode == 0, done.stderr
+    timings = json.loads((ws / "log" / "latest" / "timings.json").read_text())
+    ratio = timings["wall_seconds"] / timings["limit_seconds"]
+    words = "the critical path chain_a → chain_b → chain_c ran one after another for"
+    last = (ws / "log" / "latest" / "timings.txt").read_text().splitlines()[-1]
+    printed = run_wsbuild("report", cwd=ws).stdout
+    page = (ws / "log" / "latest" / "report.html").read_text()
+    for text in (last, done.stdout, printed, page):
+        assert "× the lower bound of" in text and "(CPU ÷ cores)" in text, text
+        assert "the limit" not in text
+        assert (words in text) == (ratio >= 1.2), (ratio, text)

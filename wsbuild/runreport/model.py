@@ -11,6 +11,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from wsbuild.engine.timeline import Bar, phase_of
+from wsbuild.engine.timing_files import bound_text, critical_chain
 from wsbuild.engine.timings import TIMINGS_JSON
 from wsbuild.runreport.record import REPORT_JSON
 from wsbuild.words import plural
@@ -65,6 +66,8 @@ class RunReport:
     #: the compiler cache's hits and misses, the sum of the package rows' (None: no ccache
     #: stats log, e.g. sccache: the run's own counts in `record` are shown)
     compiled: tuple[int, int] | None = None
+    #: the critical path with the seconds each of its packages ran
+    chain: tuple[tuple[str, float], ...] = ()
 
     @property
     def verb(self) -> str:
@@ -96,8 +99,9 @@ def load_run(run_dir: Path) -> RunReport:
     timings = _read_json(run_dir / TIMINGS_JSON) or {}
     entries: list[dict[str, object]] = list(record.get("packages", []))  # type: ignore[arg-type]
     times = {str(p["package"]): p for p in timings.get("packages", [])}  # type: ignore[union-attr]
-    critical = critical_path({str(e["name"]): e.get("dependencies", []) for e in entries},
-                             {n: float(t["finished"]) for n, t in times.items()})
+    chain = critical_chain((n, float(t["ready"]), float(t["started"]), float(t["finished"]))
+                           for n, t in times.items())
+    critical = [name for name, _ in chain]
     counts = compiler_cache_counts(run_dir / CCACHE_STATS, entries)
     compiler = {name: compiler_cache_text(*tally) for name, tally in counts.items()}
     cache_on = str(record.get("artifact_cache", "off")).startswith("local")
@@ -125,22 +129,7 @@ def load_run(run_dir: Path) -> RunReport:
     compiled = (sum(h for h, _ in counts.values()), sum(m for _, m in counts.values())) \
         if (run_dir / CCACHE_STATS).is_file() else None
     return RunReport(run_dir, record, timings, packages, _bars(packages, times),
-                     tuple(critical), compiled)
-
-
-def critical_path(dependencies: Mapping[str, Sequence[object]],
-                  finished: Mapping[str, float]) -> list[str]:
-    """The chain of packages that set the run's length, first to last: from the package that
-    finished last, back through the dependency that finished last (the one it waited for)."""
-    if not finished:
-        return []
-    current: str | None = max(sorted(finished), key=lambda n: finished[n])
-    chain: list[str] = []
-    while current is not None and current not in chain:
-        chain.append(current)
-        deps = sorted(str(d) for d in dependencies.get(current, []) if str(d) in finished)
-        current = max(deps, key=lambda n: finished[n]) if deps else None
-    return chain[::-1]
+                     tuple(critical), compiled, tuple(chain))
 
 
 def _command_log(run_dir: Path, log_dir: object) -> str:
@@ -318,10 +307,9 @@ def summary_lines(report: RunReport) -> list[str]:
     cpu: Mapping[str, float] = timings.get("cpu_seconds", {})  # type: ignore[assignment]
     if cpu:
         cores = int(timings.get("cores", 1) or 1)  # type: ignore[call-overload]
-        limit = float(cpu.get("total", 0.0)) / cores
-        ratio = f" ({report.wall / limit:.2f}× the limit)" if limit > 0 else ""
-        lines.append(f"  CPU {float(cpu.get('total', 0.0)):.1f} s on {cores} cores: "
-                     f"limit {limit:.1f} s, wall {report.wall:.1f} s{ratio}")
+        lines.append(f"  CPU {float(cpu.get('total', 0.0)):.1f} s on {cores} cores; "
+                     + bound_text(report.wall, float(cpu.get("total", 0.0)), cores,
+                                  report.chain))
     if report.critical_path:
         lines.append(f"  critical path: {' → '.join(report.critical_path)}")
     for row in report.failed:

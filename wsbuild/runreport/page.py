@@ -8,6 +8,7 @@ from html import escape
 from pathlib import Path
 
 from wsbuild.engine.timeline import Timeline, render_cpu_svg, render_svg
+from wsbuild.engine.timing_files import bound_text
 from wsbuild.runreport.model import PackageRow, RunReport, compiler_cache_text, load_run
 from wsbuild.runreport.record import REPORT_HTML
 
@@ -116,8 +117,6 @@ def _facts(report: RunReport) -> str:
     cores = int(record.get("cores", timings.get("cores", 1)) or 1)  # type: ignore[call-overload]
     total = float(cpu.get("total", 0.0))
     limit = total / cores
-    closeness = f" &ndash; the run took {report.wall / limit:.2f}&times; the limit" \
-        if limit > 0 else ""
     rows = [("command", f"<code>{escape(str(record.get('command', '')))}</code>"),
             ("wsbuild", escape(str(record.get("version", "")))),
             ("started", escape(str(record.get("started", "")))),
@@ -139,8 +138,9 @@ def _facts(report: RunReport) -> str:
     rows += [("wall", _seconds(report.wall)),
              ("CPU", f"{_seconds(total)} (wsbuild itself "
                      f"{_seconds(float(cpu.get('wsbuild', 0.0)))})"),
-             ("CPU limit", f"{_seconds(limit)} = CPU &divide; {cores} cores: the wall time with "
-                           f"every core busy throughout{closeness}")]
+             ("lower bound", f"{_seconds(limit)} = CPU &divide; {cores} cores: no run can be "
+                             "shorter (every core busy throughout)"),
+             ("against the bound", escape(bound_text(report.wall, total, cores, report.chain)))]
     body = "".join(f"<tr><td>{k}</td><td>{v}</td></tr>" for k, v in rows)
     return f'<h2>Run</h2>\n<table class="facts">{body}</table>'
 
