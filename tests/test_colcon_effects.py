@@ -14,6 +14,7 @@ import re
 import select
 import shutil
 import socket
+import ssl
 import subprocess
 import sys
 import threading
@@ -294,27 +295,46 @@ class _Quiet(http.server.SimpleHTTPRequestHandler):
         pass
 
 
+def _self_signed(directory: Path) -> tuple[Path, Path]:
+    """A certificate for 127.0.0.1 and its key (openssl, which scripts/setup.sh installs)."""
+    cert, key = directory / "cert.pem", directory / "key.pem"
+    subprocess.run(["openssl", "req", "-x509", "-newkey", "rsa:2048", "-nodes", "-days", "1",
+                    "-subj", "/CN=127.0.0.1", "-addext", "subjectAltName=IP:127.0.0.1",
+                    "-keyout", str(key), "-out", str(cert)],
+                   check=True, capture_output=True, timeout=60)
+    return cert, key
+
+
 @contextlib.contextmanager
-def _serving(directory: Path) -> Iterator[str]:
-    """An HTTP server for `directory` on 127.0.0.1 for the block; its base URL."""
+def _serving(directory: Path, tls: tuple[Path, Path] | None = None) -> Iterator[str]:
+    """An HTTP (with `tls`: HTTPS) server for `directory` on 127.0.0.1 for the block; its
+    base URL."""
     handler = functools.partial(_Quiet, directory=str(directory))
     server = http.server.ThreadingHTTPServer(("127.0.0.1", 0), handler)
+    if tls is not None:
+        context = ssl.SSLContext(ssl.PROTOCOL_TLS_SERVER)
+        context.load_cert_chain(*tls)
+        server.socket = context.wrap_socket(server.socket, server_side=True)
     thread = threading.Thread(target=server.serve_forever, daemon=True)
     thread.start()
     try:
-        yield f"http://127.0.0.1:{server.server_address[1]}"
+        yield f"{'https' if tls else 'http'}://127.0.0.1:{server.server_address[1]}"
     finally:
         server.shutdown()
         server.server_close()
         thread.join()
 
 
+@pytest.mark.parametrize("scheme", ["http", "https"])
 def test_mixins_over_http_reach_the_build(make_workspace: Callable[..., Path],
-                                          tmp_path: Path) -> None:
+                                          tmp_path: Path, scheme: str) -> None:
     ws = make_workspace({"pc": ("cmake", [])})
     home = tmp_path / "colcon_home"
     env = env_with(home)
-    with _serving(MIXIN_INDEX) as url:
+    tls = _self_signed(tmp_path) if scheme == "https" else None
+    if tls is not None:  # the client trusts the test's certificate, as a company CA would be
+        env["SSL_CERT_FILE"] = str(tls[0])
+    with _serving(MIXIN_INDEX, tls) as url:
         added = run_wsbuild("mixin", "add", "served", f"{url}/index.yaml", cwd=ws, env=env)
         assert added.returncode == 0, added.stderr
         updated = run_wsbuild("mixin", "update", "served", cwd=ws, env=env)
