@@ -256,8 +256,8 @@ def test_log_base_dev_null_leaves_no_log_anywhere(make_workspace: Callable[..., 
     temporary = tmp_path / "tmp"
     temporary.mkdir()
     env = {**os.environ, "TMPDIR": str(temporary)}
-    for argv in (["build", "--log-base", os.devnull], ["--log-base", os.devnull, "build",
-                                                        "--force"]):
+    for argv in (["build", "--log-base", os.devnull],
+                 ["--log-base", os.devnull, "build", "--force"]):
         done = run_wsbuild(*argv, cwd=ws, env=env)
         assert done.returncode == 0, done.stderr
         assert "Finished <<< pc" in done.stdout

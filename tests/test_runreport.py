@@ -217,7 +217,8 @@ def test_the_wall_time_is_told_against_its_lower_bound_with_why() -> None:
         "wall 10.0 s, 3.3× the lower bound of 3.0 s (CPU ÷ cores): the critical path "
         "msgs → lib → app ran one after another for 9.0 s of it")
     assert bound_text(10.0, 6.0, 2, [("big", 9.5)]).endswith(": big alone ran for 9.5 s of it")
-    assert bound_text(3.3, 6.0, 2, chain) == "wall 3.3 s, 1.1× the lower bound of 3.0 s (CPU ÷ cores)"
+    assert bound_text(3.3, 6.0, 2, chain) == \
+        "wall 3.3 s, 1.1× the lower bound of 3.0 s (CPU ÷ cores)"
     assert "limit" not in bound_text(10.0, 6.0, 2, chain)
 
 

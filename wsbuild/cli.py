@@ -489,4 +489,3 @@ def _internal_error() -> int:
     print("wsbuild: internal error: this is a bug in wsbuild; please report it with the "
           "traceback above", file=sys.stderr)
     return 3
-
