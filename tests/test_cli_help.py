@@ -114,3 +114,16 @@ def test_build_help_shows_install_deps_and_files_timings_apart_from_cmake() -> N
     assert "  --timings" in "".join(sections.values())
     assert "--timings" not in sections["CMake packages"]
     assert "--cmake-args" in sections["CMake packages"]
+
+
+@pytest.mark.parametrize(("verb", "actions"), [
+    ("cache", ["stats", "prune", "verify"]), ("pkg", ["create"]),
+    ("underlay", ["check", "repair"]), ("mixin", ["add", "remove", "update", "list", "show"]),
+])
+def test_a_verb_with_actions_alone_lists_them(verb: str, actions: list[str]) -> None:
+    done = _wsbuild(verb)
+    assert done.returncode == 2 and "required" not in done.stderr
+    listed = [line.split()[0] for line in done.stdout.splitlines()
+              if line.startswith("  ") and not line.lstrip().startswith("-")
+              and line.split()[0] in actions]
+    assert listed == actions, done.stdout

@@ -264,8 +264,7 @@ def _mixin_parser(tree: _Tree, name: str) -> None:
     verbs = tree.subparsers
     sub = verbs.add_parser("mixin", help=VERBS[name],
                            description=mixin.MIXIN_DOC.strip(), formatter_class=_Formatter)
-    actions = sub.add_subparsers(dest="action", metavar="ACTION")
-    actions.required = True
+    actions = sub.add_subparsers(dest="action", metavar="ACTION")  # none: main() shows them
 
     def make(name: str, summary: str) -> argparse.ArgumentParser:
         # verbs/mixin.py words its summaries as phrases: listed, they start as the others do
@@ -283,8 +282,7 @@ def _pkg_parser(tree: _Tree, name: str) -> None:
     sub = verbs.add_parser("pkg", help=VERBS[name],
                            description="Work with packages. Actions: create.",
                            formatter_class=_Formatter)
-    actions = sub.add_subparsers(dest="action", metavar="ACTION")
-    actions.required = True
+    actions = sub.add_subparsers(dest="action", metavar="ACTION")  # none: main() shows them
     create = actions.add_parser("create", help="Create a new package from templates",
                                 description=CREATE_DOC.strip(), formatter_class=_Formatter)
     create.set_defaults(func="wsbuild.verbs.pkg:run_pkg_create")
@@ -300,8 +298,7 @@ def _underlay_parser(tree: _Tree, name: str) -> None:
     verbs = tree.subparsers
     sub = verbs.add_parser("underlay", help=VERBS[name],
                            description=UNDERLAY_DOC.strip(), formatter_class=_Formatter)
-    actions = sub.add_subparsers(dest="action", metavar="ACTION")
-    actions.required = True
+    actions = sub.add_subparsers(dest="action", metavar="ACTION")  # none: main() shows them
     check = actions.add_parser("check", help="Report problems without changing anything")
     check.set_defaults(func="wsbuild.verbs.underlay:run_check")
     repair = actions.add_parser("repair", help="Fix the wheels' hard-coded paths in place")
@@ -314,8 +311,7 @@ def _cache_parser(tree: _Tree, name: str) -> None:
     verbs = tree.subparsers
     sub = verbs.add_parser("cache", help=VERBS[name],
                            description=CACHE_DOC.strip(), formatter_class=_Formatter)
-    actions = sub.add_subparsers(dest="action", metavar="ACTION")
-    actions.required = True
+    actions = sub.add_subparsers(dest="action", metavar="ACTION")  # none: main() shows them
     stats = actions.add_parser("stats", help="Show the entries and the space they use")
     stats.set_defaults(func="wsbuild.verbs.cache:run_stats")
     prune = actions.add_parser("prune", help="Evict the least recently used entries")
@@ -435,8 +431,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     except WsbuildError as exc:
         print(f"wsbuild: error: {exc}", file=sys.stderr)
         return exc.exit_code
-    if args.verb is None:  # a bare `wsbuild` (options at most): what each verb does
-        build_parser(pkg_arguments=False).print_help()
+    if not hasattr(args, "func"):  # a bare `wsbuild` or `wsbuild cache`: what each one does
+        _print_choices(args.verb)
         return 2
     from wsbuild.report import print_notes
     from wsbuild.verbs.colcon import ignored_notes
@@ -465,6 +461,16 @@ def main(argv: Sequence[str] | None = None) -> int:
         return 1
     except Exception:
         return _internal_error()
+
+
+def _print_choices(verb: str | None) -> None:
+    """The help of the top level (every verb) or of a verb with actions (every action)."""
+    parser = build_parser(pkg_arguments=False, verbs=None if verb is None else {verb})
+    if verb is not None:
+        from wsbuild.verbs.defaults import verb_parsers
+
+        parser = verb_parsers(parser)[verb]
+    parser.print_help()
 
 
 def _finish(parser: argparse.ArgumentParser, verb: str, args: argparse.Namespace,
