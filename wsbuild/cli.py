@@ -38,7 +38,7 @@ class _Formatter(argparse.RawDescriptionHelpFormatter):
         super().add_arguments(actions)
 
     def _format_action(self, action: argparse.Action) -> str:
-        # the verbs (or actions) one a line under their heading, without a line naming
+        # the verbs (or actions) one per line under their heading, without a line naming
         # their metavar above them
         if isinstance(action, argparse._SubParsersAction):
             return "".join(super(_Formatter, self)._format_action(choice)
@@ -105,7 +105,7 @@ class _Parser(argparse.ArgumentParser):
 
 
 def unknown_choice_message(word: str, choices: Sequence[str], kind: str) -> str:
-    """`unknown verb 'biuld': did you mean 'build'? (wsbuild --help lists them)`."""
+    """`unknown verb 'biuld': did you mean 'build'?`, or the choices when none is close."""
     import difflib
 
     close = difflib.get_close_matches(word, choices, n=1, cutoff=0.6)
