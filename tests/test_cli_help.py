@@ -9,6 +9,7 @@ import sys
 
 import pytest
 
+from wsbuild.cli import VERBS as VERBS_OF_CLI
 from wsbuild.cli import build_parser
 
 VERBS = [["build"], ["test"], ["list"], ["graph"], ["info"], ["clean"], ["test-result"],
@@ -53,3 +54,76 @@ def test_help_all_lists_every_option_and_help_names_the_rest(args: list[str]) ->
     assert left_out, "nothing left out: --help-all is pointless"
     assert "--help-all" in short.splitlines()[0]  # the usage line says where the rest is
     assert "--packages-select-regex" not in short and "--packages-select-regex" in full
+
+
+def _wsbuild(*args: str) -> subprocess.CompletedProcess[str]:
+    env = dict(os.environ, COLUMNS="100")
+    return subprocess.run([sys.executable, "-m", "wsbuild", *args], env=env,
+                          capture_output=True, text=True, timeout=60, check=False)
+
+
+def test_bare_wsbuild_lists_the_verbs_in_a_users_order_with_what_each_does() -> None:
+    done = _wsbuild()
+    assert done.returncode == 2
+    assert "required" not in done.stdout + done.stderr
+    listed = [line.split(None, 1) for line in done.stdout.splitlines()
+              if line.startswith("  ") and not line.lstrip().startswith("-")
+              and len(line.split(None, 1)) == 2]
+    names = [name for name, _ in listed]
+    assert names[:6] == ["build", "test", "test-result", "list", "graph", "info"]
+    assert sorted(names) == sorted(VERBS_OF_CLI)
+    for name, summary in listed:  # one style: a capital first, no full stop
+        assert summary[0].isupper() and not summary.endswith("."), (name, summary)
+    assert "wsbuild VERB --help" in done.stdout
+    assert _wsbuild("--help").stdout == done.stdout
+
+
+@pytest.mark.parametrize(("argv", "wanted"), [
+    (["biuld"], "unknown verb 'biuld': did you mean 'build'?"),
+    (["tset"], "unknown verb 'tset': did you mean 'test'?"),
+    (["--log-base", "x", "lsit"], "unknown verb 'lsit': did you mean 'list'?"),
+    (["cache", "prun"], "unknown action 'prun': did you mean 'prune'?"),
+])
+def test_a_mistyped_verb_gets_a_did_you_mean(argv: list[str], wanted: str) -> None:
+    done = _wsbuild(*argv)
+    assert done.returncode == 2
+    assert done.stderr.splitlines()[-1].endswith(wanted), done.stderr
+
+
+def test_a_word_like_no_verb_lists_them() -> None:
+    done = _wsbuild("frobnicate")
+    assert done.returncode == 2
+    assert "unknown verb 'frobnicate'; the verbs: build, test, test-result," in done.stderr
+
+
+def _sections(text: str) -> dict[str, str]:
+    """The help's option groups: heading → its lines."""
+    sections: dict[str, str] = {}
+    heading = ""
+    for line in text.splitlines():
+        if line and not line.startswith(" ") and line.endswith(":"):
+            heading = line[:-1]
+        elif line.startswith(" "):
+            sections[heading] = sections.get(heading, "") + line + "\n"
+    return sections
+
+
+def test_build_help_shows_install_deps_and_files_timings_apart_from_cmake() -> None:
+    sections = _sections(_help(["build"], "--help"))
+    assert "  --install-deps" in "".join(sections.values())
+    assert "  --timings" in "".join(sections.values())
+    assert "--timings" not in sections["CMake packages"]
+    assert "--cmake-args" in sections["CMake packages"]
+
+
+@pytest.mark.parametrize(("verb", "actions"), [
+    ("cache", ["stats", "prune", "verify"]), ("pkg", ["create"]),
+    ("underlay", ["check", "repair"]), ("mixin", ["add", "remove", "update", "list", "show"]),
+])
+def test_a_verb_with_actions_alone_lists_them(verb: str, actions: list[str]) -> None:
+    done = _wsbuild(verb)
+    assert done.returncode == 2 and "required" not in done.stderr
+    listed = [line.split()[0] for line in done.stdout.splitlines()
+              if line.startswith("  ") and not line.lstrip().startswith("-")
+              and line.split()[0] in actions]
+    assert listed == actions, done.stdout

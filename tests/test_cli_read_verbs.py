@@ -121,3 +121,24 @@ def test_violated_version_constraint_is_reported(make_workspace, wsbuild) -> Non
     result = wsbuild("list", cwd=ws)
     assert result.returncode == 0
     assert "lib" in result.stderr and "2.0.0" in result.stderr and str(xml) in result.stderr
+
+
+def test_info_names_what_wsbuild_stands_in_for_as_deps_does(tmp_path: Path) -> None:
+    """ament_lint_auto and ament_lint_common have no wheel: `wsbuild deps` and the build say
+    wsbuild stands in for them, and so does `info` (also `list --deps`), not "unresolved"."""
+    from conftest import run_wsbuild, write_package
+
+    ws = tmp_path / "ws"
+    write_package(ws / "src", "linted", "ament_cmake",
+                  kinds={"test_depend": ["ament_lint_auto", "ament_lint_common"]})
+    info = run_wsbuild("info", "linted", cwd=ws)
+    assert info.returncode == 0, info.stderr
+    lines = {line.split()[0]: line for line in info.stdout.splitlines()[5:] if line.strip()}
+    shim = ws / "build" / ".wsbuild" / "lint_shim"
+    for name in ("ament_lint_auto", "ament_lint_common"):
+        assert lines[name].endswith(f"stood in for by wsbuild ({shim})"), lines[name]
+    assert "unresolved" not in info.stdout
+    deps = run_wsbuild("deps", cwd=ws)
+    assert "stood in for by wsbuild" in deps.stdout and "ament_lint_auto" in deps.stdout
+    listed = run_wsbuild("list", "--deps", cwd=ws).stdout
+    assert "  ament_lint_auto\ttest_depend\tstood in for by wsbuild" in listed

@@ -1,11 +1,25 @@
-"""What colcon's options do when wsbuild runs them: event handlers, mixins, colcon.meta, the
-global --log-base and the selections by previous results, on real builds."""
+"""What colcon's options do when wsbuild runs them: event handlers (console_stderr-, status-
+on a terminal), mixins (over http, from COLCON_MIXIN_PATH), colcon.meta, --log-base (and
+/dev/null), test --abort-on-error, WSBUILD_CACHE_TIMEOUT, the last 10 runs kept, and the
+selections by previous results, on real builds."""
 
 from __future__ import annotations
 
+import contextlib
+import functools
+import http.server
 import os
+import pty
+import re
+import select
 import shutil
-from collections.abc import Callable
+import socket
+import ssl
+import subprocess
+import sys
+import threading
+import time
+from collections.abc import Callable, Iterator
 from pathlib import Path
 
 import pytest
@@ -170,3 +184,242 @@ def test_info_without_names_describes_the_selected_packages(
     assert result.stdout.startswith("pb\n") and "\npa\n" not in result.stdout
     everything = run_wsbuild("info", cwd=ws)
     assert everything.stdout.startswith("pa\n") and "\n\npb\n" in everything.stdout
+
+
+# ----------------------------------------------------------- effects, not just parsing (#32)
+
+WARNING_CMAKE = """cmake_minimum_required(VERSION 3.14)
+project({name} NONE)
+message(WARNING "{name} probe warning")
+"""
+
+
+def test_console_stderr_off_hides_a_packages_warnings(make_workspace: Callable[..., Path]) -> None:
+    ws = make_workspace({"pw": ("cmake", [])})
+    (ws / "src" / "pw" / "CMakeLists.txt").write_text(WARNING_CMAKE.format(name="pw"))
+    shown = run_wsbuild("build", cwd=ws)
+    assert shown.returncode == 0, shown.stderr
+    assert "--- warnings: pw" in shown.stdout and "pw probe warning" in shown.stdout
+    hidden = run_wsbuild("build", "--force", "--cmake-force-configure", "--event-handlers",
+                         "console_stderr-", cwd=ws)
+    assert hidden.returncode == 0, hidden.stderr
+    assert "probe warning" not in hidden.stdout + hidden.stderr
+    assert "Finished <<< pw" in hidden.stdout
+    # the warning is still in the package's log
+    assert "pw probe warning" in (ws / "log" / "latest_build" / "pw" /
+                                  "stdout_stderr.log").read_text()
+
+
+def _on_a_terminal(ws: Path, *args: str) -> tuple[int, str]:
+    """Run `wsbuild ARGS` with a pseudo-terminal as its output; its exit code and output."""
+    master, slave = pty.openpty()
+    process = subprocess.Popen([sys.executable, "-m", "wsbuild", *args], cwd=ws,
+                               stdin=subprocess.DEVNULL, stdout=slave, stderr=slave,
+                               env={**os.environ, "ROS_AUTOMATIC_DISCOVERY_RANGE": "LOCALHOST"})
+    os.close(slave)
+    output = b""
+    try:
+        while True:
+            ready, _, _ = select.select([master], [], [], 60)
+            if not ready:
+                break
+            try:
+                chunk = os.read(master, 4096)
+            except OSError:  # EIO: the other side closed
+                break
+            if not chunk:
+                break
+            output += chunk
+        return process.wait(timeout=60), output.decode(errors="replace")
+    finally:
+        os.close(master)
+        if process.poll() is None:
+            process.kill()
+            process.wait()
+
+
+def test_status_off_draws_no_status_line_on_a_terminal(make_workspace: Callable[..., Path]) -> None:
+    ws = make_workspace({"pc": ("cmake", []), "pd": ("cmake", ["pc"])})
+    code, live = _on_a_terminal(ws, "build")
+    assert code == 0, live
+    # drawn when a package starts: "\r[0.1s] [0/2 done] [>   ] [pc:configure - 0.0s]\x1b[K"
+    assert re.search(r"\r\[\d+\.\ds\] \[\d/2 done", live) and "\x1b[K" in live, live
+    code, quiet = _on_a_terminal(ws, "build", "--force", "--event-handlers", "status-")
+    assert code == 0, quiet
+    assert "\x1b[K" not in quiet and " done" not in quiet.replace("Finished", ""), quiet
+    assert "Finished <<< pd" in quiet
+
+
+def test_log_base_dev_null_leaves_no_log_anywhere(make_workspace: Callable[..., Path],
+                                                  tmp_path: Path) -> None:
+    ws = make_workspace({"pc": ("cmake", [])})
+    temporary = tmp_path / "tmp"
+    temporary.mkdir()
+    env = {**os.environ, "TMPDIR": str(temporary)}
+    for argv in (["build", "--log-base", os.devnull],
+                 ["--log-base", os.devnull, "build", "--force"]):
+        done = run_wsbuild(*argv, cwd=ws, env=env)
+        assert done.returncode == 0, done.stderr
+        assert "Finished <<< pc" in done.stdout
+        assert not (ws / "log").exists()
+        assert not [p for p in temporary.iterdir() if p.name.startswith("wsbuild-log-")]
+    assert (ws / "install" / "pc").is_dir()
+
+
+def _python_with_tests(ws: Path, name: str, passing: bool, depend: tuple[str, ...] = ()) -> None:
+    from conftest import write_package
+
+    path = write_package(ws / "src", name, "ament_python", depend)
+    (path / "test").mkdir()
+    (path / "test" / f"test_{name}.py").write_text(
+        f"def test_{name}():\n    assert {passing}\n")
+
+
+def test_test_abort_on_error_runs_nothing_after_a_failure(tmp_path: Path) -> None:
+    ws = tmp_path / "ws"
+    _python_with_tests(ws, "pa", passing=False)
+    _python_with_tests(ws, "pb", passing=True, depend=("pa",))
+    assert run_wsbuild("build", cwd=ws).returncode == 0
+    aborted = run_wsbuild("test", "--abort-on-error", cwd=ws)
+    assert aborted.returncode == 1
+    assert "1 package not tested: pb" in aborted.stdout
+    assert not (ws / "build" / "pb" / "test_results").exists()
+    continued = run_wsbuild("test", cwd=ws)
+    assert continued.returncode == 1
+    assert "1 package passed: pb" in continued.stdout
+    assert (ws / "build" / "pb" / "test_results").is_dir()
+
+
+class _Quiet(http.server.SimpleHTTPRequestHandler):
+    def log_message(self, *args: object) -> None:  # no access log on the test's stderr
+        pass
+
+
+def _self_signed(directory: Path) -> tuple[Path, Path]:
+    """A certificate for 127.0.0.1 and its key (openssl, which scripts/setup.sh installs)."""
+    cert, key = directory / "cert.pem", directory / "key.pem"
+    subprocess.run(["openssl", "req", "-x509", "-newkey", "rsa:2048", "-nodes", "-days", "1",
+                    "-subj", "/CN=127.0.0.1", "-addext", "subjectAltName=IP:127.0.0.1",
+                    "-keyout", str(key), "-out", str(cert)],
+                   check=True, capture_output=True, timeout=60)
+    return cert, key
+
+
+@contextlib.contextmanager
+def _serving(directory: Path, tls: tuple[Path, Path] | None = None) -> Iterator[str]:
+    """An HTTP (with `tls`: HTTPS) server for `directory` on 127.0.0.1 for the block; its
+    base URL."""
+    handler = functools.partial(_Quiet, directory=str(directory))
+    server = http.server.ThreadingHTTPServer(("127.0.0.1", 0), handler)
+    if tls is not None:
+        context = ssl.SSLContext(ssl.PROTOCOL_TLS_SERVER)
+        context.load_cert_chain(*tls)
+        server.socket = context.wrap_socket(server.socket, server_side=True)
+    thread = threading.Thread(target=server.serve_forever, daemon=True)
+    thread.start()
+    try:
+        yield f"{'https' if tls else 'http'}://127.0.0.1:{server.server_address[1]}"
+    finally:
+        server.shutdown()
+        server.server_close()
+        thread.join()
+
+
+@pytest.mark.parametrize("scheme", ["http", "https"])
+def test_mixins_over_http_reach_the_build(make_workspace: Callable[..., Path],
+                                          tmp_path: Path, scheme: str) -> None:
+    ws = make_workspace({"pc": ("cmake", [])})
+    home = tmp_path / "colcon_home"
+    env = env_with(home)
+    tls = _self_signed(tmp_path) if scheme == "https" else None
+    if tls is not None:  # the client trusts the test's certificate, as a company CA would be
+        env["SSL_CERT_FILE"] = str(tls[0])
+    with _serving(MIXIN_INDEX, tls) as url:
+        added = run_wsbuild("mixin", "add", "served", f"{url}/index.yaml", cwd=ws, env=env)
+        assert added.returncode == 0, added.stderr
+        updated = run_wsbuild("mixin", "update", "served", cwd=ws, env=env)
+        assert updated.returncode == 0, updated.stderr
+    assert (home / "mixin" / "served" / "build-type.mixin").is_file()
+    built = run_wsbuild("build", "--mixin", "release", cwd=ws, env=env)
+    assert built.returncode == 0, built.stderr
+    assert cache_entry(ws / "build" / "pc", "CMAKE_BUILD_TYPE") == "Release"
+
+
+def test_colcon_mixin_path_is_searched(make_workspace: Callable[..., Path],
+                                       tmp_path: Path) -> None:
+    ws = make_workspace({"pc": ("cmake", [])})
+    elsewhere = tmp_path / "team_mixins"
+    elsewhere.mkdir()
+    (elsewhere / "team.mixin").write_text(
+        '{"build": {"team-probe": {"cmake-args": ["-DWSBUILD_MIXIN_PROBE=from_path"]}}}\n')
+    env = {**env_with(tmp_path / "empty_home"), "COLCON_MIXIN_PATH": str(elsewhere)}
+    built = run_wsbuild("build", "--mixin", "team-probe", cwd=ws, env=env)
+    assert built.returncode == 0, built.stderr
+    assert cache_entry(ws / "build" / "pc", "WSBUILD_MIXIN_PROBE") == "from_path"
+    unknown = run_wsbuild("build", "--mixin", "team-probe", cwd=ws, env=env_with(tmp_path / "x"))
+    assert unknown.returncode == 2 and "team-probe" in unknown.stderr
+
+
+class _Hanging:
+    """A TCP server on 127.0.0.1 that accepts connections and never answers; notes how long
+    each stayed open (accept → the client's close)."""
+
+    def __init__(self) -> None:
+        self.socket = socket.create_server(("127.0.0.1", 0))
+        self.socket.settimeout(0.1)  # accept() wakes up to see whether the test is over
+        self.url = f"http://127.0.0.1:{self.socket.getsockname()[1]}/"
+        self.held: list[float] = []
+        self._over = threading.Event()
+        self._thread = threading.Thread(target=self._serve, daemon=True)
+        self._thread.start()
+
+    def _serve(self) -> None:
+        while not self._over.is_set():
+            try:
+                conn, _ = self.socket.accept()
+            except TimeoutError:
+                continue
+            conn.settimeout(None)
+            threading.Thread(target=self._hold, args=(conn,), daemon=True).start()
+
+    def _hold(self, conn: socket.socket) -> None:
+        opened = time.monotonic()
+        with conn:
+            while conn.recv(4096):
+                pass
+        self.held.append(time.monotonic() - opened)
+
+    def close(self) -> None:
+        self._over.set()
+        self._thread.join()
+        self.socket.close()
+
+
+def test_wsbuild_cache_timeout_bounds_a_silent_cache_server(
+        make_workspace: Callable[..., Path], tmp_path: Path) -> None:
+    ws = make_workspace({"pc": ("cmake", [])})
+    server = _Hanging()
+    try:
+        env = {**os.environ, "WSBUILD_CACHE": server.url, "WSBUILD_CACHE_TIMEOUT": "0.5",
+               "XDG_CACHE_HOME": str(tmp_path / "xdg")}
+        done = run_wsbuild("build", cwd=ws, env=env)
+    finally:
+        server.close()
+    assert done.returncode == 0, done.stderr
+    assert "timed out" in done.stdout + done.stderr
+    assert "Finished <<< pc" in done.stdout
+    # measured at the server: the client gave up after its 0.5 s, not the default 3 s
+    assert server.held and all(0.45 <= held < 3.0 for held in server.held), server.held
+
+
+def test_the_last_ten_runs_are_kept(make_workspace: Callable[..., Path]) -> None:
+    ws = make_workspace({"pc": ("cmake", [])})
+    runs = []
+    for _ in range(12):
+        done = run_wsbuild("build", cwd=ws)
+        assert done.returncode == 0, done.stderr
+        runs.append((ws / "log" / "latest_build").resolve().name)
+    assert len(set(runs)) == 12
+    kept = sorted(p.name for p in (ws / "log").iterdir()
+                  if p.is_dir() and not p.is_symlink() and p.name.startswith("build_"))
+    assert kept == sorted(runs[2:])

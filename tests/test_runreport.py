@@ -21,7 +21,8 @@ from wsbuild.engine.jobs import JobResult, JobStarted, Outcome, StepStarted
 from wsbuild.engine.progress import Progress
 from wsbuild.events import JobFinished
 from wsbuild.report import Reporter
-from wsbuild.runreport.model import compiler_cache_by_package, critical_path, load_run
+from wsbuild.engine.timing_files import bound_text, critical_chain
+from wsbuild.runreport.model import compiler_cache_counts, load_run
 from wsbuild.runreport.page import render_page, write_report
 
 
@@ -200,12 +201,25 @@ def test_a_test_runs_report_counts_tests_and_links_failing_ones_to_junit(tmp_pat
 
 
 def test_the_critical_path_follows_what_each_package_waited_for() -> None:
-    deps = {"msgs": [], "lib": ["msgs"], "tool": [], "app": ["lib", "tool"]}
-    finished = {"msgs": 4.0, "tool": 6.0, "lib": 5.0, "app": 9.0}
-    assert critical_path(deps, finished) == ["tool", "app"]
-    finished["lib"] = 7.0
-    assert critical_path(deps, finished) == ["msgs", "lib", "app"]
-    assert critical_path(deps, {}) == []
+    # (package, ready: when its last dependency finished, started, finished)
+    rows = [("msgs", 0.0, 0.0, 4.0), ("tool", 0.0, 0.0, 6.0), ("lib", 4.0, 4.0, 5.0),
+            ("app", 6.0, 6.5, 9.0)]
+    assert critical_chain(rows) == [("tool", 6.0), ("app", 2.5)]
+    rows[2] = ("lib", 4.0, 4.0, 7.0)
+    rows[3] = ("app", 7.0, 7.0, 9.0)
+    assert critical_chain(rows) == [("msgs", 4.0), ("lib", 3.0), ("app", 2.0)]
+    assert critical_chain([]) == []
+
+
+def test_the_wall_time_is_told_against_its_lower_bound_with_why() -> None:
+    chain = [("msgs", 4.0), ("lib", 3.0), ("app", 2.0)]
+    assert bound_text(10.0, 6.0, 2, chain) == (
+        "wall 10.0 s, 3.3× the lower bound of 3.0 s (CPU ÷ cores): the critical path "
+        "msgs → lib → app ran one after another for 9.0 s of it")
+    assert bound_text(10.0, 6.0, 2, [("big", 9.5)]).endswith(": big alone ran for 9.5 s of it")
+    assert bound_text(3.3, 6.0, 2, chain) == \
+        "wall 3.3 s, 1.1× the lower bound of 3.0 s (CPU ÷ cores)"
+    assert "limit" not in bound_text(10.0, 6.0, 2, chain)
 
 
 def test_compiler_cache_counts_go_to_the_package_holding_the_source(tmp_path: Path) -> None:
@@ -215,8 +229,18 @@ def test_compiler_cache_counts_go_to_the_package_holding_the_source(tmp_path: Pa
                    "# /elsewhere/y.c\ncache_miss\n")
     entries = [{"name": "lib", "path": "/ws/src/lib", "build_dir": "/ws/build/lib"},
                {"name": "msgs", "path": "/ws/src/msgs", "build_dir": "/ws/build/msgs"}]
-    assert compiler_cache_by_package(log, entries) == {"lib": "1 hit, 1 miss",
-                                                       "msgs": "1 hit, 0 misses"}
+    assert compiler_cache_counts(log, entries) == {"lib": (1, 1), "msgs": (1, 0)}
+
+
+def test_compiler_cache_counts_go_to_the_package_that_compiled_wherever_the_source(
+        tmp_path: Path) -> None:
+    log = tmp_path / "ccache_stats.log"
+    log.write_text("## package lib\n# /venv/src/gtest_vendor/src/gtest-all.cc\ncache_miss\n"
+                   "# /ws/src/lib/a.cpp\ndirect_cache_hit\n"
+                   "## package msgs\n# /venv/src/gtest_vendor/src/gtest-all.cc\ncache_miss\n")
+    entries = [{"name": "lib", "path": "/ws/src/lib", "build_dir": "/ws/build/lib"},
+               {"name": "msgs", "path": "/ws/src/msgs", "build_dir": "/ws/build/msgs"}]
+    assert compiler_cache_counts(log, entries) == {"lib": (1, 1), "msgs": (0, 1)}
 
 
 def test_time_left_is_the_longer_of_the_critical_path_and_the_work_per_worker() -> None:
@@ -265,3 +289,57 @@ def test_the_sampler_counts_the_cpu_children_use_and_stops_at_once() -> None:
     # the busy cores over time add up to the CPU the child used (however loaded the machine)
     assert abs(sampled - child_cpu) < 0.25 * child_cpu + 0.1, (sampled, child_cpu)
     assert tree_cpu_seconds(os.getpid()) is not None
+
+
+def test_the_run_table_and_the_package_rows_count_the_same_compiles(tmp_path: Path) -> None:
+    """A package compiling a source outside its own directories (as gtest_vendor's, under the
+    underlay) counts it in its row, so the run's count is the rows' sum; one miss is "1 miss"."""
+    from test_build_helpers import write_cmake
+
+    ws = tmp_path / "ws"
+    shared = tmp_path / "shared"
+    shared.mkdir()
+    (shared / "common.c").write_text("int common(void) { return 1; }\n")
+    write_cmake(ws / "src", "uses_shared", "cmake_minimum_required(VERSION 3.14)\n"
+                "project(uses_shared C)\n"
+                f"add_library(uses_shared SHARED own.c {shared / 'common.c'})\n"
+                "install(TARGETS uses_shared DESTINATION lib)\n",
+                files={"own.c": "int own(void) { return 2; }\n"})
+    write_cmake(ws / "src", "single", "cmake_minimum_required(VERSION 3.14)\nproject(single C)\n"
+                "add_library(single SHARED one.c)\ninstall(TARGETS single DESTINATION lib)\n",
+                files={"one.c": "int one(void) { return 3; }\n"})
+    env = dict(os.environ, CCACHE_DIR=str(tmp_path / "ccache"), WSBUILD_CACHE="")
+    done = run_wsbuild("build", "--no-cache", "--compiler-cache", "ccache", cwd=ws, env=env)
+    assert done.returncode == 0, done.stderr
+    assert "compiler cache (ccache): 0 hits, 3 misses" in done.stdout
+    report = load_run(ws / "log" / "latest")
+    rows = {row.name: row.compiler_cache for row in report.packages}
+    assert rows == {"uses_shared": "0 hits, 2 misses", "single": "0 hits, 1 miss"}
+    assert report.compiled == (0, 3)
+    html = (ws / "log" / "latest" / "report.html").read_text()
+    assert "ccache: 0 hits, 3 misses, 0 not cacheable" in html
+    shutil.rmtree(ws / "build" / "single")
+    shutil.rmtree(ws / "install" / "single")
+    again = run_wsbuild("build", "--no-cache", "--compiler-cache", "ccache", cwd=ws, env=env)
+    assert "compiler cache (ccache): 1 hit, 0 misses" in again.stdout
+
+
+def test_timings_report_and_page_tell_the_wall_against_its_lower_bound(tmp_path: Path) -> None:
+    """A chain of packages (each needs the one before): timings.txt, `wsbuild report` and the
+    page say what the bound is and, when the run was well above it, name the chain."""
+    ws = tmp_path / "ws"
+    write_package(ws / "src", "chain_a", "cmake")
+    write_package(ws / "src", "chain_b", "cmake", ["chain_a"])
+    write_package(ws / "src", "chain_c", "cmake", ["chain_b"])
+    done = run_wsbuild("build", "--timings", "--no-cache", cwd=ws)
+    assert done.returncode == 0, done.stderr
+    timings = json.loads((ws / "log" / "latest" / "timings.json").read_text())
+    ratio = timings["wall_seconds"] / timings["limit_seconds"]
+    words = "the critical path chain_a → chain_b → chain_c ran one after another for"
+    last = (ws / "log" / "latest" / "timings.txt").read_text().splitlines()[-1]
+    printed = run_wsbuild("report", cwd=ws).stdout
+    page = (ws / "log" / "latest" / "report.html").read_text()
+    for text in (last, done.stdout, printed, page):
+        assert "× the lower bound of" in text and "(CPU ÷ cores)" in text, text
+        assert "the limit" not in text
+        assert (words in text) == (ratio >= 1.2), (ratio, text)

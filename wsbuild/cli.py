@@ -37,6 +37,14 @@ class _Formatter(argparse.RawDescriptionHelpFormatter):
             actions = [a for a in actions if not getattr(a, "secondary", False)]
         super().add_arguments(actions)
 
+    def _format_action(self, action: argparse.Action) -> str:
+        # the verbs (or actions) one per line under their heading, without a line naming
+        # their metavar above them
+        if isinstance(action, argparse._SubParsersAction):
+            return "".join(super(_Formatter, self)._format_action(choice)
+                           for choice in action._get_subactions())
+        return super()._format_action(action)
+
 
 class _FullFormatter(_Formatter):
     show_all = True
@@ -61,9 +69,49 @@ def _help_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--help-all", action=_HelpAll, help=argparse.SUPPRESS)
 
 
-#: every verb, in the order `wsbuild --help` lists them
-VERBS = ("list", "graph", "info", "build", "test", "clean", "deps", "completion",
-         "test-result", "report", "run", "mixin", "pkg", "underlay", "cache")
+#: every verb with what it does, in the order `wsbuild --help` lists them: the order of a day's
+#: work (build and test, look at the workspace, then the rest), as colcon and cargo list theirs
+VERBS: dict[str, str] = {
+    "build": "Build the packages into install/",
+    "test": "Run the packages' tests",
+    "test-result": "Show the results of earlier test runs",
+    "list": "List the packages of the workspace",
+    "graph": "Show the dependency graph of the packages",
+    "info": "Show a package's dependencies and where each is found",
+    "run": "Run an executable of an installed package",
+    "clean": "Remove what builds left in build/, install/ and log/",
+    "deps": "Check or install the dependencies nothing provides",
+    "report": "Show an earlier run's summary and its report page",
+    "pkg": "Create a new package",
+    "mixin": "Manage colcon-mixin's named option sets",
+    "underlay": "Check or repair the ROS underlay in the virtualenv",
+    "cache": "Look after the local build cache",
+    "completion": "Print the shell code for Tab completion",
+}
+
+#: the end of `wsbuild --help` (and of a bare `wsbuild`)
+_TOP_EPILOG = "Run `wsbuild VERB --help` for what a verb does and its options."
+
+
+class _Parser(argparse.ArgumentParser):
+    """argparse's parser, but a word that is no verb (or action) gets a "did you mean"."""
+
+    def _check_value(self, action: argparse.Action, value: object) -> None:
+        if isinstance(action, argparse._SubParsersAction) and action.choices is not None \
+                and value not in action.choices:
+            raise argparse.ArgumentError(None, unknown_choice_message(
+                str(value), list(action.choices), str(action.metavar or "VERB").lower()))
+        super()._check_value(action, value)
+
+
+def unknown_choice_message(word: str, choices: Sequence[str], kind: str) -> str:
+    """`unknown verb 'biuld': did you mean 'build'?`, or the choices when none is close."""
+    import difflib
+
+    close = difflib.get_close_matches(word, choices, n=1, cutoff=0.6)
+    if close:
+        return f"unknown {kind} '{word}': did you mean '{close[0]}'?"
+    return f"unknown {kind} '{word}'; the {kind}s: {', '.join(choices)}"
 
 
 class _Tree:
@@ -78,7 +126,7 @@ class _Tree:
              operands: str = "") -> argparse.ArgumentParser:
         """A verb with the workspace (and `selection`) options; --help shows the common
         ones, --help-all every one."""
-        sub = self.subparsers.add_parser(name, help=doc.strip().partition("\n")[0],
+        sub = self.subparsers.add_parser(name, help=VERBS[name],
                                          description=doc.strip(), add_help=False,
                                          formatter_class=_Formatter,
                                          usage=f"%(prog)s [options]{operands}   "
@@ -97,9 +145,10 @@ def build_parser(*, pkg_arguments: bool = True,
     options, whose defaults need the (slow to import) template machinery."""
     from wsbuild.verbs import colcon
 
-    parser = argparse.ArgumentParser(
+    parser = _Parser(
         prog="wsbuild",
         description="Build ROS 2 workspaces: fast, strict, and install-compatible with colcon.",
+        epilog=_TOP_EPILOG,
         formatter_class=_Formatter,
         # argparse matches abbreviations of the options before the verb against the whole
         # command line: `clean --log` would be an ambiguous --log-base/--log-level
@@ -107,8 +156,9 @@ def build_parser(*, pkg_arguments: bool = True,
     )
     parser.add_argument("--version", action="version", version=f"wsbuild {__version__}")
     colcon.add_global_arguments(parser)
-    subparsers = parser.add_subparsers(dest="verb", metavar="VERB")
-    subparsers.required = True
+    # not required: a bare `wsbuild` prints the verbs (main()), not argparse's complaint
+    subparsers = parser.add_subparsers(dest="verb", metavar="VERB", title="verbs")
+    parser._action_groups.insert(0, parser._action_groups.pop())  # the verbs come first
     tree = _Tree(subparsers, pkg_arguments)
     for name in VERBS:
         if verbs is None or name in verbs:
@@ -168,7 +218,7 @@ def _completion_parser(tree: _Tree, name: str) -> None:
     from wsbuild.verbs.completion import COMPLETION_DOC, add_completion_arguments
 
     verbs = tree.subparsers
-    sub = verbs.add_parser("completion", help=COMPLETION_DOC.partition("\n")[0],
+    sub = verbs.add_parser("completion", help=VERBS[name],
                            description=COMPLETION_DOC.strip(), formatter_class=_Formatter)
     sub.set_defaults(func="wsbuild.verbs.completion:run_completion")
     add_completion_arguments(sub)
@@ -178,7 +228,7 @@ def _test_result_parser(tree: _Tree, name: str) -> None:
     from wsbuild.verbs import colcon, test
 
     verbs = tree.subparsers
-    sub = verbs.add_parser("test-result", help="show the results of earlier test runs",
+    sub = verbs.add_parser("test-result", help=VERBS[name],
                            description=test.TEST_RESULT_DOC.strip(), formatter_class=_Formatter,
                            add_help=False,
                            usage="%(prog)s [options]   (every option: --help-all)")
@@ -192,7 +242,7 @@ def _report_parser(tree: _Tree, name: str) -> None:
     from wsbuild.verbs.report import REPORT_DOC, add_report_arguments
 
     verbs = tree.subparsers
-    sub = verbs.add_parser("report", help=REPORT_DOC.partition("\n")[0],
+    sub = verbs.add_parser("report", help=VERBS[name],
                            description=REPORT_DOC.strip(), formatter_class=_Formatter)
     sub.set_defaults(func="wsbuild.verbs.report:run_report")
     add_report_arguments(sub)
@@ -202,7 +252,7 @@ def _run_parser(tree: _Tree, name: str) -> None:
     from wsbuild.verbs import run
 
     verbs = tree.subparsers
-    sub = verbs.add_parser("run", help="run an executable of an installed package",
+    sub = verbs.add_parser("run", help=VERBS[name],
                            description=run.RUN_DOC.strip(), formatter_class=_Formatter)
     sub.set_defaults(func="wsbuild.verbs.run:run_executable")
     run.add_arguments(sub)
@@ -212,12 +262,13 @@ def _mixin_parser(tree: _Tree, name: str) -> None:
     from wsbuild.verbs import mixin
 
     verbs = tree.subparsers
-    sub = verbs.add_parser("mixin", help="manage colcon-mixin's named option sets",
+    sub = verbs.add_parser("mixin", help=VERBS[name],
                            description=mixin.MIXIN_DOC.strip(), formatter_class=_Formatter)
-    actions = sub.add_subparsers(dest="action", metavar="ACTION")
-    actions.required = True
+    actions = sub.add_subparsers(dest="action", metavar="ACTION")  # none: main() shows them
 
     def make(name: str, summary: str) -> argparse.ArgumentParser:
+        # verbs/mixin.py words its summaries as phrases: listed, they start as the others do
+        summary = summary[:1].upper() + summary[1:]
         return actions.add_parser(name, help=summary, description=summary,
                                   formatter_class=_Formatter)
 
@@ -228,12 +279,11 @@ def _pkg_parser(tree: _Tree, name: str) -> None:
     from wsbuild.verbs.pkg import CREATE_DOC
 
     verbs = tree.subparsers
-    sub = verbs.add_parser("pkg", help="create packages",
+    sub = verbs.add_parser("pkg", help=VERBS[name],
                            description="Work with packages. Actions: create.",
                            formatter_class=_Formatter)
-    actions = sub.add_subparsers(dest="action", metavar="ACTION")
-    actions.required = True
-    create = actions.add_parser("create", help=CREATE_DOC.partition("\n")[0],
+    actions = sub.add_subparsers(dest="action", metavar="ACTION")  # none: main() shows them
+    create = actions.add_parser("create", help="Create a new package from templates",
                                 description=CREATE_DOC.strip(), formatter_class=_Formatter)
     create.set_defaults(func="wsbuild.verbs.pkg:run_pkg_create")
     if tree.pkg_arguments:
@@ -246,14 +296,13 @@ def _underlay_parser(tree: _Tree, name: str) -> None:
     from wsbuild.verbs.underlay import UNDERLAY_DOC, add_check_arguments
 
     verbs = tree.subparsers
-    sub = verbs.add_parser("underlay", help="check or repair the ROS underlay in the virtualenv",
+    sub = verbs.add_parser("underlay", help=VERBS[name],
                            description=UNDERLAY_DOC.strip(), formatter_class=_Formatter)
-    actions = sub.add_subparsers(dest="action", metavar="ACTION")
-    actions.required = True
-    check = actions.add_parser("check", help="report problems without changing anything")
+    actions = sub.add_subparsers(dest="action", metavar="ACTION")  # none: main() shows them
+    check = actions.add_parser("check", help="Report problems without changing anything")
     add_check_arguments(check)
     check.set_defaults(func="wsbuild.verbs.underlay:run_check")
-    repair = actions.add_parser("repair", help="fix the wheels' hard-coded paths in place")
+    repair = actions.add_parser("repair", help="Fix the wheels' hard-coded paths in place")
     repair.set_defaults(func="wsbuild.verbs.underlay:run_repair")
 
 
@@ -261,16 +310,15 @@ def _cache_parser(tree: _Tree, name: str) -> None:
     from wsbuild.verbs.cache import CACHE_DOC, add_prune_arguments
 
     verbs = tree.subparsers
-    sub = verbs.add_parser("cache", help="look after the local build cache",
+    sub = verbs.add_parser("cache", help=VERBS[name],
                            description=CACHE_DOC.strip(), formatter_class=_Formatter)
-    actions = sub.add_subparsers(dest="action", metavar="ACTION")
-    actions.required = True
-    stats = actions.add_parser("stats", help="entries and space used")
+    actions = sub.add_subparsers(dest="action", metavar="ACTION")  # none: main() shows them
+    stats = actions.add_parser("stats", help="Show the entries and the space they use")
     stats.set_defaults(func="wsbuild.verbs.cache:run_stats")
-    prune = actions.add_parser("prune", help="evict the least recently used entries")
+    prune = actions.add_parser("prune", help="Evict the least recently used entries")
     add_prune_arguments(prune)
     prune.set_defaults(func="wsbuild.verbs.cache:run_prune")
-    verify = actions.add_parser("verify", help="check every entry, remove bad ones")
+    verify = actions.add_parser("verify", help="Check every entry, remove bad ones")
     verify.set_defaults(func="wsbuild.verbs.cache:run_verify")
 
 
@@ -384,6 +432,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     except WsbuildError as exc:
         print(f"wsbuild: error: {exc}", file=sys.stderr)
         return exc.exit_code
+    if not hasattr(args, "func"):  # a bare `wsbuild` or `wsbuild cache`: what each one does
+        _print_choices(args.verb)
+        return 2
     from wsbuild.report import print_notes
     from wsbuild.verbs.colcon import ignored_notes
 
@@ -413,6 +464,16 @@ def main(argv: Sequence[str] | None = None) -> int:
         return _internal_error()
 
 
+def _print_choices(verb: str | None) -> None:
+    """The help of the top level (every verb) or of a verb with actions (every action)."""
+    parser = build_parser(pkg_arguments=False, verbs=None if verb is None else {verb})
+    if verb is not None:
+        from wsbuild.verbs.defaults import verb_parsers
+
+        parser = verb_parsers(parser)[verb]
+    parser.print_help()
+
+
 def _finish(parser: argparse.ArgumentParser, verb: str, args: argparse.Namespace,
             environ: Mapping[str, str], cwd: Path) -> None:
     """After parsing: the mixins the command line names, and colcon's `--log-base` given
@@ -435,4 +496,3 @@ def _internal_error() -> int:
     print("wsbuild: internal error: this is a bug in wsbuild; please report it with the "
           "traceback above", file=sys.stderr)
     return 3
-

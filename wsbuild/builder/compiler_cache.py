@@ -12,7 +12,10 @@ sccache: wsbuild runs the sccache server itself, as its own child, on a private 
 (`SCCACHE_SERVER_UDS`) with the environment wsbuild was started with. So the server never
 inherits a package's jobserver, the counts are exactly this run's, the compilers' CPU time is
 counted in the run's total, and no daemon is left behind. ccache has no server: every
-compile appends its counters to a per-run stats log (`CCACHE_STATSLOG`); wsbuild turns on its
+compile appends its counters to a stats log (`CCACHE_STATSLOG`), one per package so that each
+package's counts are its own compiles wherever their sources are (gtest_vendor's under the
+underlay); the run's counts are their sum, and one file in the run's log keeps them, each
+package's under a `## package NAME` line. wsbuild turns on its
 depend mode (`CCACHE_DEPEND=1`, unless `CCACHE_DEPEND` or `CCACHE_NODEPEND` is set), which
 makes a cache miss about as cheap as a plain compile.
 
@@ -36,10 +39,16 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from wsbuild.errors import WsbuildError
+from wsbuild.words import plural
 
 CHOICES = ("auto", "sccache", "ccache", "none")
-#: in the run's log directory: every compile's ccache result, by source file
+#: in the run's log directory: every compile's ccache result, by source file, each package's
+#: after a PACKAGE_HEADER line
 CCACHE_STATS_LOG = "ccache_stats.log"
+#: `## package NAME` in CCACHE_STATS_LOG: the compiles below are that package's
+PACKAGE_HEADER = "## package "
+#: in the private directory: one ccache stats log per package
+_PACKAGE_STATS = "stats"
 #: the order `auto` tries
 AUTO_ORDER = ("ccache", "sccache")
 _SERVER_START_SECONDS = 15.0
@@ -59,7 +68,8 @@ class CacheCounts:
         total = self.hits + self.misses
         rate = f" ({self.hits / total:.0%} hits)" if total else ""
         extra = f", {self.uncacheable} not cacheable" if self.uncacheable else ""
-        return f"compiler cache ({self.tool}): {self.hits} hits, {self.misses} misses{extra}{rate}"
+        return (f"compiler cache ({self.tool}): {plural(self.hits, 'hit')}, "
+                f"{plural(self.misses, 'miss', 'misses')}{extra}{rate}")
 
 
 def find_tool(name: str, environ: Mapping[str, str]) -> Path | None:
@@ -144,10 +154,25 @@ class CompilerCache:
         if not self._started:
             return None
         if self.tool == "ccache":
-            return _ccache_counts(Path(self.environ["CCACHE_STATSLOG"]))
+            return _ccache_counts(self._ccache_stats_logs())
         if self._server is None:
             return None
         return _sccache_counts(self.executable, self.environ)
+
+    def package_environ(self, package: str) -> dict[str, str]:
+        """What the build of `package` adds to `environ`: a ccache stats log of its own."""
+        if self.tool != "ccache":
+            return {}
+        return {"CCACHE_STATSLOG": str(self.private_dir / _PACKAGE_STATS / f"{package}.log")}
+
+    def _ccache_stats_logs(self) -> list[tuple[str | None, Path]]:
+        """The run's ccache stats logs: the run-wide one (no package), then each package's,
+        by name."""
+        logs: list[tuple[str | None, Path]] = [(None, Path(self.environ["CCACHE_STATSLOG"]))]
+        per_package = self.private_dir / _PACKAGE_STATS
+        if per_package.is_dir():
+            logs += [(path.stem, path) for path in sorted(per_package.glob("*.log"))]
+        return logs
 
     def close(self) -> None:
         """Stop the sccache server (and wait for it: its CPU time counts); remove temp files."""
@@ -167,10 +192,18 @@ class CompilerCache:
     def _keep_stats_log(self) -> None:
         """ccache's stats log goes into the run's log directory (beside `log_file`): the run
         report counts each package's hits and misses from it."""
-        stats = self.environ.get("CCACHE_STATSLOG")
-        if stats and Path(stats).is_file():
+        if self.tool != "ccache":
+            return
+        parts = []
+        for package, path in self._ccache_stats_logs():
             try:
-                shutil.move(stats, self.log_file.parent / CCACHE_STATS_LOG)
+                text = path.read_text(errors="replace")
+            except OSError:
+                continue
+            parts.append(text if package is None else f"{PACKAGE_HEADER}{package}\n{text}")
+        if any(parts):
+            try:
+                (self.log_file.parent / CCACHE_STATS_LOG).write_text("".join(parts))
             except OSError:
                 pass
 
@@ -193,6 +226,7 @@ def open_compiler_cache(choice: str, environ: Mapping[str, str], log_file: Path,
                           log_file=log_file)
     if tool == "ccache":
         cache.environ["CCACHE_STATSLOG"] = str(private / "stats.log")
+        (private / _PACKAGE_STATS).mkdir()
         if "CCACHE_DEPEND" not in environ and "CCACHE_NODEPEND" not in environ:
             # depend mode: a miss costs a compile, not a preprocessor run plus a compile
             # (CMake passes -MD with both generators); CCACHE_NODEPEND=1 turns it off
@@ -242,16 +276,16 @@ def _sccache_counts(executable: Path, extra: Mapping[str, str]) -> CacheCounts |
 _CCACHE_HITS = {"direct_cache_hit", "preprocessed_cache_hit"}
 
 
-def _ccache_counts(stats_log: Path | None) -> CacheCounts | None:
-    if stats_log is None:
-        return None
+def _ccache_counts(stats_logs: list[tuple[str | None, Path]]) -> CacheCounts | None:
     hits = misses = 0
-    try:
-        lines = stats_log.read_text(errors="replace").splitlines()
-    except FileNotFoundError:
-        lines = []  # nothing was compiled
-    except OSError:
-        return None
+    lines: list[str] = []
+    for _package, stats_log in stats_logs:
+        try:
+            lines += stats_log.read_text(errors="replace").splitlines()
+        except FileNotFoundError:
+            continue  # nothing was compiled
+        except OSError:
+            return None
     for line in lines:
         word = line.strip()
         if word in _CCACHE_HITS:

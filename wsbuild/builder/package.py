@@ -159,6 +159,7 @@ class PackageBuild:
         environ["MAKEFLAGS"] = self.run.jobserver.makeflags
         if self.run.compilers is not None:
             environ.update(self.run.compilers.environ)
+            environ.update(self.run.compilers.package_environ(self.name))
         if self.run.distribution is not None:
             environ.update(self.run.distribution.environ)
         self.context = BuildContext(

@@ -43,6 +43,7 @@ from wsbuild.errors import BuildFailed, Interrupted
 from wsbuild.events import Emit, Event, Notice, RunFinished
 from wsbuild.session import Session, SessionOptions, open_session
 from wsbuild.workspace.selected import Selection
+from wsbuild.words import plural
 
 from wsbuild.engine.cpu_sampler import CpuSampler
 from wsbuild.engine import recording
@@ -88,7 +89,7 @@ def run_build(selection: Selection, request: BuildRequest, emit: Emit) -> list[J
     emit(RunFinished(tuple(results), seconds, details=details))
     failed = [r.package for r in results if r.outcome is Outcome.FAILED]
     if failed:
-        raise BuildFailed(f"{len(failed)} package(s) failed: {', '.join(failed)}",
+        raise BuildFailed(f"{plural(len(failed), 'package')} failed: {', '.join(failed)}",
                           hint=f"logs in {session.run_log}")
     if watcher is not None and all(r.outcome is Outcome.UP_TO_DATE for r in results):
         assert session.run_log is not None

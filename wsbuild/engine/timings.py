@@ -1,12 +1,12 @@
-"""Where a build's time goes: per-package phase times, CPU time against the limit, and the
-recorded durations the scheduler weighs packages by.
+"""Where a build's time goes: per-package phase times, the wall time against its lower bound,
+and the recorded durations the scheduler weighs packages by.
 
 - `TimingRecorder` listens to the run's events and notes, per package, when it became ready
   (its last dependency finished), when it started, when each labelled step started and when it
   finished. "idle" is ready → started: the package waited for a worker (the CPU budget).
 - `cpu_times()` is the CPU used by wsbuild and every child process it waited for (compilers
   run by make, Ninja, ccache, or by the sccache server wsbuild runs as its own child).
-  limit = that CPU time ÷ cores: how long the run would take with every core busy throughout.
+  limit = that CPU time ÷ cores: the lower bound of the wall time (every core busy throughout).
 - Every run writes `timings.json` and `timings.txt` into its log directory; `--timings` prints
   the table too. `job_budget` is what the jobserver held; a distributed run adds
   `compile_jobs` (how many compiles ran remotely, locally, fell back; hosts lost). Packages
@@ -28,6 +28,7 @@ from wsbuild.engine.timing_files import (
     TIMINGS_JSON,
     TIMINGS_TEXT,
     cpu_seconds,
+    critical_chain,
     limit,
     summary_line,
     totals_json,
@@ -212,7 +213,8 @@ class RunTimings:
         }
 
     def summary_line(self) -> str:
-        return summary_line(self.wall, self.cpu.children, self.cpu.own, self.cores)
+        chain = critical_chain((p.package, p.ready, p.started, p.finished) for p in self.packages)
+        return summary_line(self.wall, self.cpu.children, self.cpu.own, self.cores, chain)
 
     def table(self) -> list[str]:
         """Per built package: idle (waiting for the CPU budget), then its phases, in seconds."""

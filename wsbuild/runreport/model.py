@@ -11,12 +11,16 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from wsbuild.engine.timeline import Bar, phase_of
+from wsbuild.engine.timing_files import bound_text, critical_chain
 from wsbuild.engine.timings import TIMINGS_JSON
 from wsbuild.runreport.record import REPORT_JSON
+from wsbuild.words import plural
 
 #: lines of a failed package's log shown in the report
 TAIL_LINES = 15
 CCACHE_STATS = "ccache_stats.log"
+#: the line before a package's compiles in CCACHE_STATS (as builder/compiler_cache.py writes it)
+_CCACHE_PACKAGE = "## package "
 _CCACHE_HITS = {"direct_cache_hit", "preprocessed_cache_hit"}
 FAILED_OUTCOMES = ("failed", "interrupted")
 
@@ -59,6 +63,11 @@ class RunReport:
     packages: tuple[PackageRow, ...]
     bars: tuple[Bar, ...]
     critical_path: tuple[str, ...]
+    #: the compiler cache's hits and misses, the sum of the package rows' (None: no ccache
+    #: stats log, e.g. sccache: the run's own counts in `record` are shown)
+    compiled: tuple[int, int] | None = None
+    #: the critical path with the seconds each of its packages ran
+    chain: tuple[tuple[str, float], ...] = ()
 
     @property
     def verb(self) -> str:
@@ -90,9 +99,11 @@ def load_run(run_dir: Path) -> RunReport:
     timings = _read_json(run_dir / TIMINGS_JSON) or {}
     entries: list[dict[str, object]] = list(record.get("packages", []))  # type: ignore[arg-type]
     times = {str(p["package"]): p for p in timings.get("packages", [])}  # type: ignore[union-attr]
-    critical = critical_path({str(e["name"]): e.get("dependencies", []) for e in entries},
-                             {n: float(t["finished"]) for n, t in times.items()})
-    compiler = compiler_cache_by_package(run_dir / CCACHE_STATS, entries)
+    chain = critical_chain((n, float(t["ready"]), float(t["started"]), float(t["finished"]))
+                           for n, t in times.items())
+    critical = [name for name, _ in chain]
+    counts = compiler_cache_counts(run_dir / CCACHE_STATS, entries)
+    compiler = {name: compiler_cache_text(*tally) for name, tally in counts.items()}
     cache_on = str(record.get("artifact_cache", "off")).startswith("local")
     up_to_date = _up_to_date_reasons(run_dir)
     rows = []
@@ -115,23 +126,10 @@ def load_run(run_dir: Path) -> RunReport:
             tests=entry.get("tests"),  # type: ignore[arg-type]
         ))
     packages = tuple(rows)
+    compiled = (sum(h for h, _ in counts.values()), sum(m for _, m in counts.values())) \
+        if (run_dir / CCACHE_STATS).is_file() else None
     return RunReport(run_dir, record, timings, packages, _bars(packages, times),
-                     tuple(critical))
-
-
-def critical_path(dependencies: Mapping[str, Sequence[object]],
-                  finished: Mapping[str, float]) -> list[str]:
-    """The chain of packages that set the run's length, first to last: from the package that
-    finished last, back through the dependency that finished last (the one it waited for)."""
-    if not finished:
-        return []
-    current: str | None = max(sorted(finished), key=lambda n: finished[n])
-    chain: list[str] = []
-    while current is not None and current not in chain:
-        chain.append(current)
-        deps = sorted(str(d) for d in dependencies.get(current, []) if str(d) in finished)
-        current = max(deps, key=lambda n: finished[n]) if deps else None
-    return chain[::-1]
+                     tuple(critical), compiled, tuple(chain))
 
 
 def _command_log(run_dir: Path, log_dir: object) -> str:
@@ -184,23 +182,35 @@ def _artifact_cache(entry: Mapping[str, object], log_text: str, enabled: bool) -
     return "miss; stored" if entry["outcome"] == "finished" else "miss"
 
 
-def compiler_cache_by_package(stats_log: Path,
-                              entries: Sequence[Mapping[str, object]]) -> dict[str, str]:
-    """`3 hits, 1 miss` per package from ccache's stats log (`# <source>` then its result
-    counters), by the package whose source or build directory holds the source file."""
+def compiler_cache_text(hits: int, misses: int) -> str:
+    """`3 hits, 1 miss`: the report's words for compiler-cache counts."""
+    return f"{plural(hits, 'hit')}, {plural(misses, 'miss', 'misses')}"
+
+
+def compiler_cache_counts(stats_log: Path, entries: Sequence[Mapping[str, object]]
+                          ) -> dict[str, tuple[int, int]]:
+    """(hits, misses) per package from ccache's stats log (`# <source>` then its result
+    counters): each package's compiles follow a `## package NAME` line; in a log without
+    them (an older run's), a compile is the package's whose source or build directory holds
+    the source file. Packages that compiled nothing are left out."""
     try:
         lines = stats_log.read_text(errors="replace").splitlines()
     except OSError:
         return {}
+    names = {str(e["name"]) for e in entries}
     roots = sorted(((str(e[key]).rstrip("/") + "/", str(e["name"]))
                     for e in entries for key in ("path", "build_dir") if e.get(key)),
                    key=lambda item: -len(item[0]))
     counts: dict[str, list[int]] = {}
+    package: str | None = None
     owner: str | None = None
     for line in lines:
-        if line.startswith("# "):
+        if line.startswith(_CCACHE_PACKAGE):
+            package = line[len(_CCACHE_PACKAGE):].strip()
+            package = package if package in names else None
+        elif line.startswith("# "):
             source = line[2:].strip()
-            owner = next((name for root, name in roots if source.startswith(root)), None)
+            owner = package or next((n for root, n in roots if source.startswith(root)), None)
         elif owner is not None:
             word = line.strip()
             tally = counts.setdefault(owner, [0, 0])
@@ -208,9 +218,8 @@ def compiler_cache_by_package(stats_log: Path,
                 tally[0] += 1
             elif word == "cache_miss":
                 tally[1] += 1
-    return {name: f"{hits} hit{'' if hits == 1 else 's'}, "
-                  f"{misses} miss{'' if misses == 1 else 'es'}"
-            for name, (hits, misses) in sorted(counts.items()) if hits or misses}
+    return {name: (hits, misses) for name, (hits, misses) in sorted(counts.items())
+            if hits or misses}
 
 
 def _tail(run_dir: Path, entry: Mapping[str, object]) -> tuple[str, ...]:
@@ -298,10 +307,9 @@ def summary_lines(report: RunReport) -> list[str]:
     cpu: Mapping[str, float] = timings.get("cpu_seconds", {})  # type: ignore[assignment]
     if cpu:
         cores = int(timings.get("cores", 1) or 1)  # type: ignore[call-overload]
-        limit = float(cpu.get("total", 0.0)) / cores
-        ratio = f" ({report.wall / limit:.2f}× the limit)" if limit > 0 else ""
-        lines.append(f"  CPU {float(cpu.get('total', 0.0)):.1f} s on {cores} cores: "
-                     f"limit {limit:.1f} s, wall {report.wall:.1f} s{ratio}")
+        lines.append(f"  CPU {float(cpu.get('total', 0.0)):.1f} s on {cores} cores; "
+                     + bound_text(report.wall, float(cpu.get("total", 0.0)), cores,
+                                  report.chain))
     if report.critical_path:
         lines.append(f"  critical path: {' → '.join(report.critical_path)}")
     for row in report.failed:

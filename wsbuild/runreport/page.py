@@ -8,7 +8,8 @@ from html import escape
 from pathlib import Path
 
 from wsbuild.engine.timeline import Timeline, render_cpu_svg, render_svg
-from wsbuild.runreport.model import PackageRow, RunReport, load_run
+from wsbuild.engine.timing_files import bound_text
+from wsbuild.runreport.model import PackageRow, RunReport, compiler_cache_text, load_run
 from wsbuild.runreport.record import REPORT_HTML
 
 _CSS = """
@@ -116,8 +117,6 @@ def _facts(report: RunReport) -> str:
     cores = int(record.get("cores", timings.get("cores", 1)) or 1)  # type: ignore[call-overload]
     total = float(cpu.get("total", 0.0))
     limit = total / cores
-    closeness = f" &ndash; the run took {report.wall / limit:.2f}&times; the limit" \
-        if limit > 0 else ""
     rows = [("command", f"<code>{escape(str(record.get('command', '')))}</code>"),
             ("wsbuild", escape(str(record.get("version", "")))),
             ("started", escape(str(record.get("started", "")))),
@@ -126,18 +125,22 @@ def _facts(report: RunReport) -> str:
                      f"{escape(str(record.get('workers', '')))} packages at once")]
     if record.get("verb") == "build":
         compiler = record.get("compiler_cache")
-        compiler_text = (f"{compiler['tool']}: {compiler['hits']} hits, {compiler['misses']} "
-                         f"misses, {compiler['uncacheable']} not cacheable"
-                         if isinstance(compiler, dict)
-                         else f"{record.get('compiler_cache_choice', '')} (nothing compiled)")
+        if isinstance(compiler, dict):
+            # one count: the package rows' sum where they have one (ccache)
+            hits, misses = report.compiled or (int(compiler["hits"]), int(compiler["misses"]))
+            compiler_text = (f"{compiler['tool']}: {compiler_cache_text(hits, misses)}, "
+                             f"{compiler['uncacheable']} not cacheable")
+        else:
+            compiler_text = f"{record.get('compiler_cache_choice', '')} (nothing compiled)"
         rows += [("generator", escape(str(record.get("generator", "")))),
                  ("compiler cache", escape(str(compiler_text))),
                  ("build cache", escape(str(record.get("artifact_cache", ""))))]
     rows += [("wall", _seconds(report.wall)),
              ("CPU", f"{_seconds(total)} (wsbuild itself "
                      f"{_seconds(float(cpu.get('wsbuild', 0.0)))})"),
-             ("CPU limit", f"{_seconds(limit)} = CPU &divide; {cores} cores: the wall time with "
-                           f"every core busy throughout{closeness}")]
+             ("lower bound", f"{_seconds(limit)} = CPU &divide; {cores} cores: no run can be "
+                             "shorter (every core busy throughout)"),
+             ("against the bound", escape(bound_text(report.wall, total, cores, report.chain)))]
     body = "".join(f"<tr><td>{k}</td><td>{v}</td></tr>" for k, v in rows)
     return f'<h2>Run</h2>\n<table class="facts">{body}</table>'
 

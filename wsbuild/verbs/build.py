@@ -21,9 +21,8 @@ if TYPE_CHECKING:  # the modules of the work are imported when the verb runs, no
 
 BUILD_DOC = """Build the packages of the workspace into install/.
 
-Packages build in dependency order and in parallel, each into a stage that replaces its
-install only on success; then `source install/setup.bash` (or .sh/.zsh). Build dependencies
-that nothing provides are listed as a warning first.
+Packages build in dependency order, in parallel, each replacing its install only on success; then
+`source install/setup.bash`. Build dependencies nothing provides are listed as a warning first.
 
 examples:
   wsbuild build --packages-up-to my_robot_bringup --symlink-install
@@ -49,14 +48,16 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                      help="unresolved build dependencies refuse the build (exit 2)")
     secondary(how.add_argument("--skip-dependency-check", action="store_true",
                                help="do not look for build dependencies (no warning)"))
-    secondary(how.add_argument("--install-deps", action="store_true",
-                               help="run wsbuild deps install -y first"))
+    how.add_argument("--install-deps", action="store_true",
+                     help="first install what nothing provides (wsbuild deps install -y)")
     how.add_argument("--force", action="store_true", help="rebuild even what is up to date")
     how.add_argument("--allow-overriding", nargs="+", default=[], metavar="PKG",
                      help="no override warning for these packages")
     how.add_argument("--dry-run", action="store_true",
                      help="print the plan (order, why each builds, critical path) only")
     how.add_argument("--json", action="store_true", help="with --dry-run: machine-readable")
+    how.add_argument("--timings", action="store_true",
+                     help="after the summary: where the time went, the report's path")
     secondary(how.add_argument("--no-report", action="store_true",
                                help="write no log/<run>/report.html (timeline, CPU use)"))
     _cmake_arguments(parser.add_argument_group("CMake packages"))
@@ -80,8 +81,6 @@ def _cmake_arguments(cmake: argparse._ArgumentGroup) -> None:
     secondary(cmake.add_argument("--distribute", metavar="HOSTS", help=(
         "compile on distcc hosts too: 'box1/16 box2/16,lzo' (or $WSBUILD_DISTRIBUTE, "
         "$DISTCC_HOSTS)")))
-    cmake.add_argument("--timings", action="store_true",
-                       help="phase times, CPU against the limit, the report's path")
 
 
 def _cache_arguments(cache: argparse._ArgumentGroup) -> None:

@@ -5,6 +5,8 @@ from __future__ import annotations
 import argparse
 import json
 import os
+from collections.abc import Mapping
+from dataclasses import dataclass
 from pathlib import Path
 
 from typing import TYPE_CHECKING
@@ -15,6 +17,7 @@ if TYPE_CHECKING:  # the modules of the work are imported when a verb runs, not 
     from wsbuild.workspace.graph import Graph
     from wsbuild.verbs.load import Loaded
     from wsbuild.workspace.model import Package
+    from wsbuild.workspace.resolve import Resolver
 
 LIST_DOC = """List the packages of the workspace.
 
@@ -38,8 +41,9 @@ run edges dashed and test edges dotted.
 INFO_DOC = """Show everything wsbuild knows about packages.
 
 For each package: path, build type, version, and every dependency by kind with the source
-that resolves it (workspace, ament index, cmake config, python distribution, executable,
-pkg-config, python module, system key not checked) and where, or "unresolved".
+that resolves it, in the words of `wsbuild deps` and the build (workspace, ament index, cmake
+config, python distribution, executable, pkg-config, python module, system key not checked,
+a linter stood in for by wsbuild) and where, or "unresolved".
 """
 
 
@@ -102,7 +106,7 @@ def run_list(args: argparse.Namespace) -> int:
         return 0
     names = loaded.selected if args.topological_order else sorted(loaded.selected)
     root = loaded.workspace.root
-    resolver = _resolver() if args.deps else None
+    lookup = _lookup(loaded.workspace.build_base) if args.deps else None
     if args.json:
         rows = []
         for name in names:
@@ -113,8 +117,8 @@ def run_list(args: argparse.Namespace) -> int:
                 "build_type": package.build_type,
                 "version": package.version,
             }
-            if resolver is not None:
-                row["dependencies"] = _dependency_rows(package, loaded.packages, resolver)
+            if lookup is not None:
+                row["dependencies"] = _dependency_rows(package, loaded.packages, lookup)
             rows.append(row)
         print(json.dumps(rows, indent=2))
         return 0
@@ -127,8 +131,8 @@ def run_list(args: argparse.Namespace) -> int:
             lines.append(_relative(package.path, root))
         else:
             lines.append(f"{name}\t{_relative(package.path, root)}\t({package.build_type})")
-        if resolver is not None and not (args.names_only or args.paths_only):
-            for dep in _dependency_rows(package, loaded.packages, resolver):
+        if lookup is not None and not (args.names_only or args.paths_only):
+            for dep in _dependency_rows(package, loaded.packages, lookup):
                 kinds = ",".join(dep["kinds"])  # type: ignore[arg-type]
                 lines.append(f"  {dep['name']}\t{kinds}\t{dep['resolution']}")
     if lines:
@@ -136,29 +140,57 @@ def run_list(args: argparse.Namespace) -> int:
     return 0
 
 
-def _resolver():  # type: ignore[no-untyped-def]
+#: how `info` and `list --deps` name a key wsbuild answers itself (`wsbuild deps`'s words)
+STOOD_IN = "stood in for by wsbuild"
+DRIVEN = "written by wsbuild for the installed program"
+NOT_INSTALLED = "not installed: wsbuild test counts its tests as skipped"
+
+
+@dataclass(frozen=True, slots=True)
+class Lookup:
+    """How `info` and `list --deps` look dependencies up: as the build does (in the underlay's
+    build environment), with the keys wsbuild answers itself named as `wsbuild deps` and the
+    build name them."""
+
+    resolver: Resolver
+    #: key → (resolution, where) for the keys wsbuild answers itself
+    by_wsbuild: Mapping[str, tuple[str, str]]
+
+
+def _lookup(build_base: Path) -> Lookup:
     import sys
 
-    from wsbuild.underlay.detect import find_venv_underlay
+    from wsbuild.session import LINT_SHIM
+    from wsbuild.underlay.environment import prepare_underlay
+    from wsbuild.underlay.lint import LINTERS
+    from wsbuild.underlay.wheels import JAZZY_WHEELS
     from wsbuild.workspace.resolve import Resolver
 
-    venv = find_venv_underlay(os.environ, sys.executable)
-    return Resolver.from_environment(os.environ, [venv] if venv else [], detailed=True)
+    shim = build_base / LINT_SHIM
+    underlay = prepare_underlay(os.environ, executable=sys.executable, repair=False,
+                                shim_dir=shim, notice=lambda _text: None, dry_run=True)
+    venv = underlay.venv
+    resolver = Resolver.from_environment(underlay.environ, [venv] if venv else [], detailed=True)
+    by_wsbuild = {module: (NOT_INSTALLED, "") for module in LINTERS.values()
+                  if module not in JAZZY_WHEELS}
+    by_wsbuild.update({name: (DRIVEN, str(shim)) for name in underlay.lint_driven})
+    by_wsbuild.update({name: (STOOD_IN, str(shim)) for name in underlay.lint_stand_ins})
+    return Lookup(resolver, by_wsbuild)
 
 
 def _dependency_rows(package: Package, workspace: dict[str, Package],
-                     resolver: object) -> list[dict[str, object]]:
+                     lookup: Lookup) -> list[dict[str, object]]:
+    from wsbuild.workspace.model import Resolution
     from wsbuild.workspace.resolve import resolve_dependencies
 
-    return [
-        {
-            "name": dep.name,
-            "kinds": [k.value for k in dep.kinds],
-            "resolution": dep.resolution.value,
-            "location": dep.location,
-        }
-        for dep in resolve_dependencies(package, workspace, resolver)  # type: ignore[arg-type]
-    ]
+    rows: list[dict[str, object]] = []
+    for dep in resolve_dependencies(package, workspace, lookup.resolver):
+        resolution, location = dep.resolution.value, dep.location
+        if dep.resolution is Resolution.UNRESOLVED and dep.name in lookup.by_wsbuild:
+            resolution, location = lookup.by_wsbuild[dep.name]
+        rows.append({"name": dep.name, "kinds": [k.value for k in dep.kinds],
+                     "resolution": resolution, "location": location})
+    return rows
 
 
 #: how each dependency category's edges are drawn (by DepCategory value)
@@ -220,7 +252,7 @@ def run_info(args: argparse.Namespace) -> int:
 
     loaded = load(args, warn=print_warnings, remember=True)
     _read_only(loaded)
-    resolver = _resolver()
+    lookup = _lookup(loaded.workspace.build_base)
     blocks = []
     records: list[dict[str, object]] = []
     for name in args.package_names or loaded.selected:
@@ -234,7 +266,7 @@ def run_info(args: argparse.Namespace) -> int:
                 else "run 'wsbuild list -n' to see the package names",
             )
         package = loaded.packages[name]
-        rows = _dependency_rows(package, loaded.packages, resolver)
+        rows = _dependency_rows(package, loaded.packages, lookup)
         if getattr(args, "json", False):
             records.append({"name": name, "path": str(package.path),
                             "build_type": package.build_type, "version": package.version,

@@ -95,6 +95,12 @@ def load(args: argparse.Namespace, *, select: bool = True,
         from wsbuild.verbs.results import select_by_results
 
         selected = select_by_results(args, workspace.build_base, select_packages(options, graph))
+        from wsbuild.verbs.cache_selection import cache_selection_given, select_by_cache
+
+        if cache_selection_given(args):
+            from wsbuild.workspace.selected import Selection
+
+            selected = select_by_cache(args, Selection(workspace, packages, graph, selected))
     else:
         selected = graph.topological_order()
     return Loaded(workspace, packages, graph, selected, warnings)
