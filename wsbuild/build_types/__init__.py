@@ -108,6 +108,8 @@ class BuildOutputs:
     #: files (relative to the prefix) an install wrote into the prefix directly instead of the
     #: stage (ament's symlink install into a merged prefix); the merged record keeps them
     installed_in_place: tuple[str, ...] = ()
+    #: files outside the package the build read (absolute); None: the build cannot tell
+    read_outside: tuple[str, ...] | None = None
 
 
 @dataclass(slots=True)
@@ -159,10 +161,12 @@ class BuildType(Protocol):
         """The options that shape what this build type installs (they enter the build key)."""
         ...
 
-    def external_inputs(self, ctx: BuildContext) -> list[str]:
+    def external_inputs(self, ctx: BuildContext) -> list[str] | None:
         """After a build: the absolute paths outside the package that its build system read
         (from the build system's own dependency lists), recorded with the package's state so
-        that a change to one rebuilds it. Optional for a third-party type (BuildTypeBase: [])."""
+        that a change to one rebuilds it; None when the build cannot tell (a dependency's
+        rebuild then always rebuilds the package). Optional for a third-party type
+        (BuildTypeBase: what its steps put in `ctx.outputs.read_outside`, else None)."""
         ...
 
 
@@ -190,8 +194,11 @@ class BuildTypeBase:
         return {k: v for k, v in asdict(options).items()
                 if k not in _RUN_ONLY_OPTIONS and k not in _CMAKE_OPTIONS}
 
-    def external_inputs(self, ctx: BuildContext) -> list[str]:
-        return []
+    def external_inputs(self, ctx: BuildContext) -> list[str] | None:
+        """What the steps reported reading outside the package (`ctx.outputs.read_outside`:
+        the Python builds' setup.py, by an audit hook), else None."""
+        read = ctx.outputs.read_outside
+        return sorted(read) if read is not None else None
 
 
 def cmake_key_options(options: BuildOptions) -> dict[str, object]:

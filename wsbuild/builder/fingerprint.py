@@ -15,7 +15,7 @@ from __future__ import annotations
 import hashlib
 import json
 import os
-from collections.abc import Iterable, Mapping
+from collections.abc import Collection, Iterable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -148,6 +148,12 @@ class BuildState:
     inputs: dict[str, object] = field(default_factory=dict)
     #: files outside the package its build system read (absolute path -> stat signature)
     external: dict[str, tuple[int, ...]] = field(default_factory=dict)
+    #: the content digests of those inside the workspace's install base (a dependency's
+    #: install rebuilt to the same bytes has new signatures, not new contents)
+    external_digests: dict[str, str] = field(default_factory=dict)
+    #: whether `external` is all the build read outside the package (the build system said
+    #: so): then a dependency's rebuild matters only through those files (early cutoff)
+    depinfo: bool = False
 
     @staticmethod
     def make_key(source: str, settings: str, dependencies: Mapping[str, str]) -> str:
@@ -166,6 +172,8 @@ def read_state(build_dir: Path) -> BuildState | None:
             installed=[(p, s) for p, s in data["installed"]],
             inputs=dict(data.get("inputs") or {}),
             external={k: tuple(v) for k, v in data["external"].items()},
+            external_digests=dict(data["external_digests"]),
+            depinfo=bool(data["depinfo"]),
         )
     except (OSError, ValueError, KeyError, TypeError, AttributeError):
         return None
@@ -184,6 +192,8 @@ def write_state(build_dir: Path, state: BuildState) -> None:
         "installed": state.installed,
         "inputs": state.inputs,
         "external": dict(sorted(state.external.items())),
+        "external_digests": dict(sorted(state.external_digests.items())),
+        "depinfo": state.depinfo,
     }
     atomic_write(path, json.dumps(data, separators=(",", ":")))
 
@@ -206,12 +216,35 @@ def external_signatures(paths: Iterable[str]) -> dict[str, tuple[int, ...]]:
     return {path: stat_signature(path) for path in sorted(set(paths))}
 
 
-def changed_external(external: Mapping[str, tuple[int, ...]]) -> str | None:
-    """The first recorded outside file whose signature changed, if any."""
+def changed_external(external: Mapping[str, tuple[int, ...]],
+                     digests: Mapping[str, str] | None = None) -> str | None:
+    """The first recorded outside file that changed, if any: its signature, or, where
+    `digests` has its content's digest, its content."""
     for path, signature in external.items():
         if stat_signature(path) != signature:
-            return path
+            recorded = (digests or {}).get(path)
+            if recorded is None or content_digest(path) != recorded:
+                return path
     return None
+
+
+def content_digest(path: str) -> str:
+    """A file's content digest ("" when it cannot be read)."""
+    try:
+        return _hash_file(path)
+    except OSError:
+        return ""
+
+
+def cutoff_note(old: BuildState | None, dependencies: Mapping[str, str]) -> str:
+    """Why a package whose dependencies were rebuilt is still up to date ("" when none was)."""
+    if old is None:
+        return ""
+    changed = sorted(n for n in dependencies if old.dependencies.get(n) != dependencies[n])
+    if not changed:
+        return ""
+    return (f"dependency {', '.join(changed)} rebuilt; nothing this package builds from "
+            "changed → up to date")
 
 
 def system_state_paths() -> list[str]:
@@ -255,6 +288,9 @@ class Reason:
     kind: str
     text: str
     details: tuple[str, ...] = ()
+    #: decided once the dependencies in `details` are built in this run: built only if what
+    #: it read of them changed (early cutoff), else up to date
+    cutoff: bool = False
 
 
 def settings_changes(old: Mapping[str, object], new: Mapping[str, object]) -> list[str]:
@@ -289,9 +325,11 @@ def _shown(value: object) -> str:
 
 def rebuild_reason(old: BuildState | None, snapshot: SourceSnapshot, settings: str,
                    dependencies: Mapping[str, str], install_base: Path,
-                   inputs: Mapping[str, object] | None = None) -> Reason | None:
+                   inputs: Mapping[str, object] | None = None,
+                   pending: Collection[str] = ()) -> Reason | None:
     """None when up to date, else why not. `inputs` (what `settings` digests) lets the
-    reason name the options that changed, when the last build recorded its own."""
+    reason name the options that changed, when the last build recorded its own; `pending`:
+    the dependencies this run builds or restores before this package."""
     if old is None:
         return Reason("new", "no previous build")
     if old.settings != settings:
@@ -306,10 +344,20 @@ def rebuild_reason(old: BuildState | None, snapshot: SourceSnapshot, settings: s
                       tuple(snapshot.changed))
     changed_deps = sorted(n for n in set(old.dependencies) | set(dependencies)
                           if old.dependencies.get(n) != dependencies.get(n))
-    if changed_deps:
+    # early cutoff: a rebuilt dependency matters only through what this build read of it
+    # (its recorded outside files), when the build system said what it read
+    cutoff = old.depinfo and set(old.dependencies) == set(dependencies)
+    if changed_deps and not cutoff:
         return Reason("dependency", "dependency rebuilt: " + ", ".join(changed_deps),
                       tuple(changed_deps))
-    outside = changed_external(old.external)
+    waiting = [n for n in changed_deps if n in pending]
+    if waiting:
+        return Reason("dependency", f"dependency {', '.join(waiting)} is built first; this "
+                      "package only if what it read of it changes", tuple(waiting), cutoff=True)
+    outside = changed_external(old.external, old.external_digests)
+    if outside is not None and changed_deps:
+        return Reason("dependency", "dependency rebuilt: " + ", ".join(changed_deps)
+                      + f" (read while building: {outside})", tuple(changed_deps))
     if outside is not None:
         return Reason("external", f"file outside the package changed: {outside}", (outside,))
     damaged = damaged_install(install_base, old.installed)

@@ -98,6 +98,9 @@ class PackageBuild:
     def _execute(self) -> JobResult:
         if self.planned.decision is Decision.UP_TO_DATE:
             return JobResult(self.name, Outcome.UP_TO_DATE, self._seconds())
+        cut_off = self._cut_off()
+        if cut_off is not None:
+            return cut_off
         self.log_dir.mkdir(parents=True, exist_ok=True)
         reason = self.planned.reason.text if self.planned.reason else ""
         self._log(f"Rebuilding: {reason}")
@@ -184,6 +187,7 @@ class PackageBuild:
             except WsbuildError as exc:
                 raise StepFailed(f"{exc}") from None
         self._advance_backdated()
+        self._advance_changed_outside()
         for step in get_build_type(ctx.package.build_type).steps(ctx):
             self.run.emit(StepStarted(self.name, step.label))
             step.action(ctx)
@@ -200,6 +204,25 @@ class PackageBuild:
                 continue
             self._log(f"Set the modification time of {path} to now: its content changed, its "
                       "time did not advance, and the build system compares times only")
+
+    def _advance_changed_outside(self) -> None:
+        """A dependency's installed file this package read, changed in content, gets the
+        current time: CMake installs a file with its source's time cut to the second, so a
+        header edited in the second this package last compiled would look older than its
+        objects to Ninja and make. Only files in the workspace's install base (wsbuild's own)
+        are touched."""
+        from wsbuild.builder.fingerprint import content_digest, stat_signature
+
+        previous = self.planned.previous
+        if previous is None:
+            return
+        for path, recorded in previous.external_digests.items():
+            if stat_signature(path) != previous.external.get(path) \
+                    and content_digest(path) != recorded:
+                try:
+                    os.utime(path)
+                except OSError:
+                    continue
 
     def register(self) -> None:
         """package.xml, the index marker and the environment hooks, into the stage."""
@@ -236,26 +259,57 @@ class PackageBuild:
         from wsbuild.builder.fingerprint import BuildState, write_state
 
         planned = self.planned
+        external, digests, depinfo = self._external()
         write_state(self.build_dir, BuildState(
             key=planned.key, source=planned.snapshot.digest, settings=planned.settings,
             dependencies=dict(planned.dependency_keys), files=planned.snapshot.files,
-            installed=installed, inputs=dict(planned.inputs), external=self._external()))
+            installed=installed, inputs=dict(planned.inputs), external=external,
+            external_digests=digests, depinfo=depinfo))
         (self.build_dir / BUILDING_MARKER).unlink(missing_ok=True)
 
-    def _external(self) -> dict[str, tuple[int, ...]]:
-        """The outside files the build system read, with their signatures; one changed while
-        the package built is recorded as changed, so the next plan builds it again. A restore
-        read nothing here: what its cache key trusted stands in (the system's package
-        database and the interpreter's installed distributions)."""
-        from wsbuild.builder.fingerprint import ABSENT, external_signatures, system_state_paths
+    def _external(self) -> tuple[dict[str, tuple[int, ...]], dict[str, str], bool]:
+        """The outside files the build system read, with their signatures (one changed while
+        the package built is recorded as changed, so the next plan builds it again), the
+        content digests of those in the workspace's install base, and whether the build system
+        said what it read. A restore read nothing here: what its cache key trusted stands in
+        (the system's package database and the interpreter's installed distributions)."""
+        from wsbuild.builder.fingerprint import (
+            ABSENT,
+            content_digest,
+            external_signatures,
+            system_state_paths,
+        )
 
         if self.context is None:
-            return external_signatures(system_state_paths())
+            return external_signatures(system_state_paths()), {}, False
         paths = get_build_type(self.planned.build_type).external_inputs(self.context)
+        if paths is None:
+            return {}, {}, False
         own = str(self.prefix) + os.sep
         signatures = external_signatures(p for p in paths if not p.startswith(own))
-        return {path: ABSENT if max(sig[3:]) >= self.started_ns else sig
-                for path, sig in signatures.items()}
+        install_base = str(self.run.selection.workspace.install_base) + os.sep
+        digests = {path: content_digest(path) for path in signatures
+                   if path.startswith(install_base)}
+        return ({path: ABSENT if max(sig[3:]) >= self.started_ns else sig
+                 for path, sig in signatures.items()}, digests, True)
+
+    def _cut_off(self) -> JobResult | None:
+        """A package planned to build only if what it read of its dependencies (built before
+        it in this run) changed: up to date when nothing did, its state refreshed."""
+        from wsbuild.builder.fingerprint import changed_external, external_signatures, write_state
+
+        planned = self.planned
+        refreshed = planned.refreshed
+        if planned.reason is None or not planned.reason.cutoff or refreshed is None:
+            return None
+        if changed_external(refreshed.external, refreshed.external_digests) is not None:
+            return None
+        write_state(self.build_dir, replace(
+            refreshed, external=external_signatures(refreshed.external)))
+        deps = ", ".join(planned.reason.details)
+        return JobResult(self.name, Outcome.UP_TO_DATE, self._seconds(),
+                         message=f"dependency {deps} rebuilt; nothing this package builds from "
+                         "changed → up to date")
 
     def store(self) -> None:
         """Into the build cache (when on), for the next machine or branch that needs it."""

@@ -82,8 +82,9 @@ def run_build(selection: Selection, request: BuildRequest, emit: Emit) -> list[J
         _warn(plan, emit)
         results, counts, recorder, sampler = execute(plan, selection, request, session, emit,
                                                      started, cpu_before)
-        details = _run_details(request, session, results, recorder, counts,
-                               time.monotonic() - started, cpu_before)
+        details = (*_cut_off_line(results), *_run_details(
+            request, session, results, recorder, counts, time.monotonic() - started,
+            cpu_before))
         details += _write_report(selection, request, session, results, counts, sampler)
     seconds = time.monotonic() - started
     emit(RunFinished(tuple(results), seconds, details=details))
@@ -152,8 +153,9 @@ def execute(plan: BuildPlan, selection: Selection, request: BuildRequest, sessio
         counts = _stop_compilers(compilers, distribution, emit)
         results = _in_selection_order(selection, {**settled, **_by_name(interrupt.results)})
         write_setup_scripts(ws, session.merged, session.underlay, installed_changed=True)
-        details = _run_details(request, session, results, recorder, counts,
-                               time.monotonic() - started, cpu_before)
+        details = (*_cut_off_line(results), *_run_details(
+            request, session, results, recorder, counts, time.monotonic() - started,
+            cpu_before))
         details += _write_report(selection, request, session, results, counts, sampler)
         emit(RunFinished(tuple(results), time.monotonic() - started, details=details))
         raise Interrupted("build interrupted") from None
@@ -189,6 +191,16 @@ def _write_report(selection: Selection, request: BuildRequest, session: Session,
     return write_build_report(selection, facts, session.run_log, results, sampler)
 
 
+def _cut_off_line(results: Sequence[JobResult]) -> list[str]:
+    """The summary's line naming the packages a dependency's rebuild did not reach (early
+    cutoff: what they build from is unchanged)."""
+    cut = [r.package for r in results if r.outcome is Outcome.UP_TO_DATE and r.message]
+    if not cut:
+        return []
+    return [f"{plural(len(cut), 'package')} cut off (a dependency was rebuilt, nothing they "
+            f"build from changed): {' '.join(cut)}"]
+
+
 def _settle_up_to_date(plan: BuildPlan, session: Session, emit: Emit) -> dict[str, JobResult]:
     """Up-to-date packages need no worker: their results, and one line each in a shared log
     file (a no-op build of many packages creates no directories)."""
@@ -198,10 +210,15 @@ def _settle_up_to_date(plan: BuildPlan, session: Session, emit: Emit) -> dict[st
     for planned in plan.packages:
         if planned.decision is Decision.UP_TO_DATE:
             emit(JobStarted(planned.name))
-            result = JobResult(planned.name, Outcome.UP_TO_DATE)
+            result = JobResult(planned.name, Outcome.UP_TO_DATE, message=planned.note)
+            if planned.refreshed is not None:  # cut off: its dependencies' new keys
+                from wsbuild.builder.fingerprint import write_state
+
+                write_state(session.workspace.build_base / planned.name, planned.refreshed)
             emit(JobFinished(result))
             results[planned.name] = result
-            lines.append(f"{planned.name}: up to date, nothing changed since the last build\n")
+            lines.append(f"{planned.name}: up to date, "
+                         f"{planned.note or 'nothing changed since the last build'}\n")
     if lines:
         with open(session.run_log / "up_to_date.log", "a") as handle:
             handle.writelines(lines)

@@ -9,7 +9,7 @@ from __future__ import annotations
 import heapq
 import os
 import sys
-from collections.abc import Iterable, Mapping, Sequence
+from collections.abc import Collection, Iterable, Mapping, Sequence
 from dataclasses import dataclass, replace
 from enum import Enum
 from pathlib import Path
@@ -62,6 +62,13 @@ class PackagePlan:
     snapshot_root: Path = Path()
     #: source files whose content changed but whose modification time did not advance
     backdated: tuple[str, ...] = ()
+    #: why an up-to-date package whose dependencies were rebuilt is still up to date
+    note: str = ""
+    #: the state an up-to-date package gets (its dependencies' new keys), or the one a
+    #: package cut off after its dependencies' builds gets (Reason.cutoff)
+    refreshed: BuildState | None = None
+    #: what the last build recorded (a package to build or restore)
+    previous: BuildState | None = None
 
 
 @dataclass(frozen=True, slots=True)
@@ -119,9 +126,13 @@ def make_plan(selection: Selection, request: BuildRequest, session: Session) -> 
     # in start order, so a dependent sees the key its dependency will have after this run
     keys: dict[str, str] = {}
     packages: list[PackagePlan] = []
+    pending: set[str] = set()
     for name in order:
-        planned = plan_package(selection, request, options, session, name, keys, underlay)
+        planned = plan_package(selection, request, options, session, name, keys, underlay,
+                               pending)
         keys[name] = planned.key
+        if planned.decision is not Decision.UP_TO_DATE:
+            pending.add(name)
         packages.append(planned)
     return BuildPlan(
         options=options,
@@ -140,11 +151,19 @@ def make_plan(selection: Selection, request: BuildRequest, session: Session) -> 
 
 def plan_package(selection: Selection, request: BuildRequest, options: BuildOptions,
                  session: Session, name: str, keys: dict[str, str],
-                 underlay: Mapping[str, list[str]]) -> PackagePlan:
+                 underlay: Mapping[str, list[str]], pending: Collection[str] = ()
+                 ) -> PackagePlan:
     """One package's decision, from its recorded state, its sources and its dependencies'
     keys (`keys`: what each workspace package's key is after this run, as far as known;
-    dependencies outside the selection are added as they are read)."""
-    from wsbuild.builder.fingerprint import digest_of, read_state, snapshot_sources
+    dependencies outside the selection are added as they are read; `pending`: the packages
+    this run builds or restores)."""
+    from wsbuild.builder.fingerprint import (
+        cutoff_note,
+        digest_of,
+        external_signatures,
+        read_state,
+        snapshot_sources,
+    )
 
     package = selection.packages[name]
     old = read_state(selection.workspace.build_base / name)
@@ -153,14 +172,26 @@ def plan_package(selection: Selection, request: BuildRequest, options: BuildOpti
     inputs = package_inputs(selection, options, name, prefix, underlay)
     settings = digest_of(inputs)
     dep_keys = dependency_keys(selection, selection.graph.build_closure(name), keys)
-    reason = rebuild_reason(selection, request, name, old, snapshot, settings, dep_keys, inputs)
+    reason = rebuild_reason(selection, request, name, old, snapshot, settings, dep_keys, inputs,
+                            pending)
     common = dict(name=name, build_type=package.build_type, prefix=prefix, inputs=inputs,
                   settings=settings, dependency_keys=dep_keys, snapshot=snapshot,
                   snapshot_root=package.path)
-    if reason is None and old is not None:
-        return PackagePlan(decision=Decision.UP_TO_DATE, reason=None, key=old.key, **common)
     key = BuildState.make_key(snapshot.digest, settings, dep_keys)
+    if reason is None and old is not None:
+        note = cutoff_note(old, dep_keys)
+        if not note:
+            return PackagePlan(decision=Decision.UP_TO_DATE, reason=None, key=old.key, **common)
+        # early cutoff: its dependencies were rebuilt, nothing it read of them changed; it
+        # takes the key its inputs now give (its dependents then decide for themselves)
+        refreshed = replace(old, key=key, dependencies=dict(dep_keys),
+                            external=external_signatures(old.external))
+        return PackagePlan(decision=Decision.UP_TO_DATE, reason=None, key=key, note=note,
+                           refreshed=refreshed, **common)
+    if reason is not None and reason.cutoff and old is not None:
+        common["refreshed"] = replace(old, key=key, dependencies=dict(dep_keys))
     common["backdated"] = _backdated(old, snapshot)
+    common["previous"] = old
     cache_key = session.cache.key(name, package.build_type, key, prefix, session.environ)
     found = None
     if cache_key is not None and reason is not None and reason.kind != "forced":
@@ -228,7 +259,8 @@ def dependency_keys(selection: Selection, closure: set[str],
 
 def rebuild_reason(selection: Selection, request: BuildRequest, name: str,
                    old: BuildState | None, snapshot: SourceSnapshot, settings: str,
-                   dep_keys: Mapping[str, str], inputs: Mapping[str, object]) -> Reason | None:
+                   dep_keys: Mapping[str, str], inputs: Mapping[str, object],
+                   pending: Collection[str] = ()) -> Reason | None:
     """Why `name` must be built (None: up to date)."""
     from wsbuild.builder.fingerprint import rebuild_reason as compare
 
@@ -238,7 +270,8 @@ def rebuild_reason(selection: Selection, request: BuildRequest, name: str,
     if request.force or options.cmake_force_configure or options.cmake_clean_cache \
             or options.cmake_clean_first:
         return Reason("forced", "forced")
-    return compare(old, snapshot, settings, dep_keys, selection.workspace.install_base, inputs)
+    return compare(old, snapshot, settings, dep_keys, selection.workspace.install_base, inputs,
+                   pending)
 
 
 def unbuilt_dependencies(selection: Selection, merged: bool) -> dict[str, list[str]]:

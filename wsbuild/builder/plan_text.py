@@ -45,6 +45,7 @@ def plan_json(build_plan: BuildPlan) -> dict[str, object]:
                 "build_type": p.build_type,
                 "up_to_date": p.decision is Decision.UP_TO_DATE,
                 "decision": p.decision.value,
+                "note": p.note or None,
                 "reason": None if p.reason is None else {
                     "kind": p.reason.kind, "text": p.reason.text,
                     "details": list(p.reason.details),
@@ -65,7 +66,7 @@ def plan_json(build_plan: BuildPlan) -> dict[str, object]:
 
 def _what(package: PackagePlan) -> str:
     if package.reason is None:
-        return "up to date"
+        return f"up to date: {package.note}" if package.note else "up to date"
     if package.decision is Decision.RESTORE:
         return f"restore from cache: {package.reason.text}"
     return f"build: {package.reason.text}"

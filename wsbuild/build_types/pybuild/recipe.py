@@ -12,6 +12,7 @@ runs `setup.py install` or `setup.py develop`, and nothing is written into the s
 from __future__ import annotations
 
 import configparser
+import os
 import sys
 from dataclasses import dataclass
 from pathlib import Path
@@ -96,6 +97,7 @@ def install(ctx: BuildContext, plan: PythonBuildPlan | None) -> None:
     if plan.fast:
         assert plan.setup is not None
         to_compile = install_plan(plan.setup, source_dir=source, target=target, origin=origin)
+        ctx.outputs.read_outside = _read_outside(ctx, plan.setup)
     else:
         to_compile = _install_built_wheel(ctx, plan, target, origin)
     if not target.symlink and not ctx.environ.get("PYTHONDONTWRITEBYTECODE"):
@@ -105,6 +107,22 @@ def install(ctx: BuildContext, plan: PythonBuildPlan | None) -> None:
                                   environ=ctx.environ, python_executable=target.python_executable)
         for error in errors:
             ctx.warn(f"byte-compiling failed: {error}")
+
+
+def _read_outside(ctx: BuildContext, setup: SetupPlan) -> tuple[str, ...]:
+    """What the fast path read outside the package: what setup.py opened (its imports of a
+    dependency included) and the files it installs from outside the package directory."""
+    inside = tuple({f"{spelling(directory)}{os.sep}"
+                    for directory in (ctx.source_dir, ctx.build_dir)
+                    for spelling in (os.path.abspath, os.path.realpath)})
+    read = set(setup.opened)
+    read.update(str(ctx.source_dir / f.source) for f in setup.files)
+    read.update(str(ctx.source_dir / name) for entry in setup.data_files for name in entry.sources)
+    # the package's own files (a symlink into it, too) are its snapshot's
+    outside = {os.path.abspath(path) for path in read
+               if not os.path.abspath(path).startswith(inside)
+               and not os.path.realpath(path).startswith(inside)}
+    return tuple(sorted(outside))
 
 
 def record(ctx: BuildContext) -> None:

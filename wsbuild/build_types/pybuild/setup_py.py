@@ -91,6 +91,8 @@ class SetupPlan:
     egg_info_basename: str | None = None
     #: why the package needs a real PEP 517 build; empty for the fast path
     fallback_reasons: tuple[str, ...] = ()
+    #: every file setup.py read (its imports included), absolute
+    opened: tuple[str, ...] = ()
 
     @property
     def fast(self) -> bool:
@@ -201,6 +203,7 @@ def _plan_from_json(data: dict) -> SetupPlan:
         egg_info_dir=Path(egg_info_dir) if egg_info_dir else None,
         egg_info_basename=data.get("egg_info_basename"),
         fallback_reasons=tuple(data.get("fallback", ())),
+        opened=tuple(str(p) for p in data.get("opened", ())),
     )
 
 

@@ -290,11 +290,15 @@ def _child(req: dict, channel_fd: int) -> int:
     os.environ.clear()
     os.environ.update(req["env"])
     sys.path[:] = _child_sys_path(req["source_dir"], req["env"])
+    opened = _watch_opened()
     try:
         result = _run_setup(req)
     except BaseException as exc:  # a broken setup.py must not take the helper down
         traceback.print_exc()
         result = {"error": f"{type(exc).__name__}: {exc}"}
+    # what setup.py read (its imports included): the build's dependency list, as a
+    # compiler's depfile is a C++ build's
+    result["opened"] = sorted(opened)
     sys.stdout.flush()
     sys.stderr.flush()
     tmp = req["result"] + ".tmp"
@@ -302,6 +306,28 @@ def _child(req: dict, channel_fd: int) -> int:
         json.dump(result, handle)
     os.replace(tmp, req["result"])
     return 0
+
+
+def _watch_opened() -> set:
+    """The absolute paths of every file this process opens for reading from now on (an
+    audit hook: Python-level opens and imports alike; a forked child's own)."""
+    opened: set = set()
+    cwd = os.getcwd()
+
+    def hook(event: str, args: tuple) -> None:
+        if event != "open" or not args or not isinstance(args[0], (str, bytes)):
+            return
+        mode = args[1] if len(args) > 1 else "r"
+        flags = args[2] if len(args) > 2 else 0
+        if isinstance(mode, str) and any(c in mode for c in "wax+"):
+            return  # written: an output
+        if isinstance(flags, int) and flags & (os.O_WRONLY | os.O_RDWR | os.O_CREAT):
+            return
+        path = os.fsdecode(args[0])
+        opened.add(path if os.path.isabs(path) else os.path.join(cwd, path))
+
+    sys.addaudithook(hook)
+    return opened
 
 
 def _read(req: dict, channel) -> dict:
