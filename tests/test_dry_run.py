@@ -53,7 +53,8 @@ def test_an_edit_shows_the_file_and_the_dependents_it_drags_along(built: Path) -
     assert [row[1] for row in rows] == ["pa", "pc", "pb"]  # critical path first, then by name
     assert rows[0][2] == "build: source changed: pa/main.py"
     assert rows[1][2] == "up to date"
-    assert rows[2][2] == "build: dependency rebuilt: pa"
+    assert rows[2][2] == ("build: dependency pa is built first; this package only if what it "
+                          "read of it changes")
     assert lines[4].startswith("critical path (about ") and lines[4].endswith(": pa → pb")
     assert snapshot(built) == before  # not one byte, not one mtime
     # and the build does what the dry run said
@@ -61,7 +62,9 @@ def test_an_edit_shows_the_file_and_the_dependents_it_drags_along(built: Path) -
     assert real.returncode == 0, real.stderr
     started = [line.split()[-1] for line in real.stdout.splitlines()
                if line.startswith("Starting >>>")]
-    assert started == ["pa", "pb"]
+    assert started == ["pa"]  # pb reads nothing of pa while building: cut off, as said
+    assert "1 package cut off (a dependency was rebuilt, nothing they build from changed): pb" \
+        in real.stdout
 
 
 def test_json_names_the_option_that_changed(built: Path) -> None:

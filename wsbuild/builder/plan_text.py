@@ -49,6 +49,8 @@ def plan_json(build_plan: BuildPlan) -> dict[str, object]:
                 "reason": None if p.reason is None else {
                     "kind": p.reason.kind, "text": p.reason.text,
                     "details": list(p.reason.details),
+                    # built only if what it read of those dependencies changes (cutoff)
+                    "cutoff": p.reason.cutoff,
                 },
             }
             for p in build_plan.packages
