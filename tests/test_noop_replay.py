@@ -208,10 +208,10 @@ def test_another_build_holding_the_lock_is_not_replayed_past(
     fd = os.open(ws / "build" / ".wsbuild.build.lock", os.O_RDWR)
     try:
         fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
-        assert replay.replay(["build"]) is None
+        assert replay.replay(["build"], launch._drawing) is None
     finally:
         os.close(fd)
-    assert replay.replay(["build"]) == 0
+    assert replay.replay(["build"], launch._drawing) == 0
 
 
 def test_inputs_changed_just_before_a_no_op_leave_no_record(
@@ -276,13 +276,13 @@ def test_list_is_replayed_while_the_workspace_is_unchanged(
     assert first.returncode == 0 and (built / replay.record_path("list")).is_file()
     monkeypatch.chdir(built)
     os.environ.pop(PYTEST_VARIABLE, None)
-    assert replay.replay(["list"]) == 0
+    assert replay.replay(["list"], launch._drawing) == 0
     assert capsys.readouterr().out == first.stdout
-    assert replay.replay(["graph"]) is None, "each verb has its own record"
-    assert replay.replay(["list", "--topological-order"]) is None
+    assert replay.replay(["graph"], launch._drawing) is None, "each verb has its own record"
+    assert replay.replay(["list", "--topological-order"], launch._drawing) is None
 
     write_package(built / "src", "pn", "cmake")
-    assert replay.replay(["list"]) is None
+    assert replay.replay(["list"], launch._drawing) is None
     again = run_wsbuild("list", cwd=built)
     assert again.returncode == 0 and "pn" in again.stdout
     failing = run_wsbuild("list", "--packages-select", "nothing_here", cwd=built)

@@ -8,6 +8,10 @@ from __future__ import annotations
 import os
 import sys
 
+TYPE_CHECKING = False
+if TYPE_CHECKING:
+    from wsbuild.report import ReplayDrawing
+
 
 def main() -> int:
     argv = sys.argv[1:]
@@ -24,7 +28,7 @@ def main() -> int:
 
         return run_command_line(argv)
     try:
-        replayed = replay.replay(argv)
+        replayed = replay.replay(argv, _drawing)
     except KeyboardInterrupt:
         print("wsbuild: interrupted", file=sys.stderr)
         return 130
@@ -38,6 +42,13 @@ def main() -> int:
         code = run_command_line(argv)
         finish(code)
     return code
+
+
+def _drawing() -> ReplayDrawing:
+    """The reporter's side of a replayed build (imported only when a build is replayed)."""
+    from wsbuild.report import ReplayDrawing
+
+    return ReplayDrawing()
 
 
 def search_pythonpath_last() -> None:

@@ -7,6 +7,7 @@ packages done of all, the time left estimated from recorded durations and the cr
 
 from __future__ import annotations
 
+import os
 import sys
 import threading
 import time
@@ -24,6 +25,7 @@ from wsbuild.events import (
     RunFinished,
     StepStarted,
     Summary,
+    event_from_data,
     event_to_data,
 )
 from wsbuild.engine.jobs import JobResult, Outcome
@@ -42,6 +44,50 @@ def _shown(kind: str, data: object) -> None:
     watcher = recorder()
     if watcher is not None:
         watcher.shown(kind, data)
+
+
+class ReplayDrawing:
+    """What a recorded no-op build showed, shown again through the same functions: its
+    warnings and notes, its reporter (same console options) and the reporter's events, the
+    summary with the replay's own time (engine/replay.py's `Drawing`)."""
+
+    KINDS = ("reporter", "event", "package_list", "warnings", "notes")
+
+    def decode(self, shown: list[list[object]]) -> list[tuple[str, object]]:
+        calls = []
+        for kind, data in shown:
+            if kind not in self.KINDS:
+                raise ValueError(kind)
+            calls.append((str(kind), event_from_data(data) if kind == "event" else data))
+        return calls
+
+    def draw(self, shown: list[list[object]], blank: str, run_log: str,
+             started: float) -> None:
+        from dataclasses import replace
+
+        from wsbuild.engine.replay import replaced
+
+        reporter = None
+        try:
+            for kind, data in self.decode(replaced(shown, blank, run_log)):
+                if kind == "warnings":
+                    print_warnings(data)  # type: ignore[arg-type]
+                elif kind == "notes":
+                    print_notes(data)  # type: ignore[arg-type]
+                elif kind == "reporter":
+                    assert isinstance(data, dict)
+                    reporter = Reporter(verb=data["verb"], console=Console(**data["console"]))
+                elif kind == "package_list" and reporter is not None:
+                    reporter.package_list([(str(n), str(t)) for n, t in data])  # type: ignore[attr-defined]
+                elif kind == "event" and reporter is not None:
+                    if isinstance(data, RunFinished):
+                        data = replace(data, seconds=time.monotonic() - started)
+                    reporter(data)  # type: ignore[arg-type]
+            if reporter is not None:
+                reporter.stop()
+            sys.stdout.flush()
+        except BrokenPipeError:  # a reader that went away (`| head -1`), as in cli.py
+            os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
 
 
 def print_warnings(warnings: Iterable[str], stream: TextIO | None = None) -> None:

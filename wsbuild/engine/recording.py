@@ -210,7 +210,8 @@ class Recorder:
             self._write(exit_code)
         except Exception:  # noqa: BLE001 - a record is never worth failing the run
             pass  # (a bug here shows as no record: tests/test_noop_replay.py)
-        if self.oracle is not None and self.outcome is not None and exit_code == 0:
+        if self.oracle is not None and self.outcome is not None and exit_code == 0 \
+                and not self.spoiled:  # (a spoiled run leaves no record)
             outputs = (self.outcome.get("log_base", ""), str(RECORDS.absolute()),
                        os.path.join(self.outcome["build_base"], ".wsbuild.build.lock"))
             self.oracle.report_undeclared(self.seen, self.listed, outputs)

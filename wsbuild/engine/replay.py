@@ -28,8 +28,21 @@ from pathlib import Path
 
 TYPE_CHECKING = False
 if TYPE_CHECKING:
-    from collections.abc import Sequence
-    from typing import Any
+    from collections.abc import Callable, Sequence
+    from typing import Any, Protocol
+
+    class Drawing(Protocol):
+        """How a build's recorded reporter calls are shown again (report.py: `ReplayDrawing`)."""
+
+        def decode(self, shown: Any) -> Any:
+            """The calls, their events decoded (ValueError: not a record this version wrote)."""
+            ...
+
+        def draw(self, shown: Any, blank: str, run_log: str, started: float) -> None:
+            """Make the recorded calls, `blank` in their text replaced by `run_log`, the
+            summary's time counted from `started`."""
+            ...
+
 
 #: relative to the working directory: under the default build base of a run started at the
 #: workspace root, one record per verb
@@ -140,8 +153,10 @@ def record_path(verb: str) -> Path:
     return RECORDS / f"{verb}.json"
 
 
-def replay(argv: Sequence[str]) -> int | None:
-    """Answer `wsbuild <argv>` from its record, or None: run it in full."""
+def replay(argv: Sequence[str], drawing: Callable[[], Drawing]) -> int | None:
+    """Answer `wsbuild <argv>` from its record, or None: run it in full. `drawing` makes what
+    shows a build's recorded reporter calls again (report.py's, handed down by launch.py:
+    this room imports nothing above it)."""
     record = _read_record(argv)
     if record is None:
         return None
@@ -154,8 +169,10 @@ def replay(argv: Sequence[str]) -> int | None:
     from wsbuild.engine.lock import workspace_lock
     from wsbuild.errors import WorkspaceError
 
+    shown = record["shown"]
     try:
-        shown = _decoded(record["shown"])
+        drawer = drawing()
+        drawer.decode(shown)
     except (TypeError, ValueError, KeyError):
         return None  # not a record this version wrote
     lock = workspace_lock(Path(record["build_base"]), wait=False, on_wait=lambda _: None)
@@ -170,7 +187,7 @@ def replay(argv: Sequence[str]) -> int | None:
             run_log = _write_log(record["log"], started)
         except OSError:
             return None  # the full run says what is wrong (a full disk, a read-only log/)
-        _draw(replaced(shown, RUN_LOG, str(run_log)), started)
+        drawer.draw(shown, RUN_LOG, str(run_log), started)
         return 0
     finally:
         lock.__exit__(None, None, None)
@@ -185,51 +202,6 @@ def replaced(data: Any, old: str, new: str) -> Any:
     if isinstance(data, dict):
         return {key: replaced(value, old, new) for key, value in data.items()}
     return data
-
-
-def _decoded(shown: list[list[Any]]) -> list[tuple[str, Any]]:
-    """The recorded build's reporter calls, their events decoded (ValueError: not a record
-    this version can draw)."""
-    from wsbuild.events import event_from_data
-
-    calls = []
-    for kind, data in shown:
-        if kind not in ("reporter", "event", "package_list", "warnings", "notes"):
-            raise ValueError(kind)
-        calls.append((kind, event_from_data(data) if kind == "event" else data))
-    return calls
-
-
-def _draw(shown: list[tuple[str, Any]], started: float) -> None:
-    """What the recorded build showed, drawn again by the reporter (report.py) the same way,
-    with this run's time in its summary. A reader that went away (`| head -1`) is no error,
-    as in cli.py."""
-    from dataclasses import replace
-
-    from wsbuild.events import RunFinished
-    from wsbuild.report import Console, Reporter, print_notes, print_warnings
-
-    reporter = None
-    try:
-        for kind, data in shown:
-            if kind == "warnings":
-                print_warnings(data)
-            elif kind == "notes":
-                print_notes(data)
-            elif kind == "reporter":
-                reporter = Reporter(verb=data["verb"], console=Console(**data["console"]))
-            elif kind == "package_list" and reporter is not None:
-                reporter.package_list([tuple(item) for item in data])
-            elif kind == "event" and reporter is not None:
-                event = data
-                if isinstance(event, RunFinished):
-                    event = replace(event, seconds=time.monotonic() - started)
-                reporter(event)
-        if reporter is not None:
-            reporter.stop()
-        sys.stdout.flush()
-    except BrokenPipeError:
-        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
 
 
 def _unchanged(record: dict[str, Any]) -> bool:
