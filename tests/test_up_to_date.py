@@ -358,3 +358,27 @@ def test_a_build_waiting_on_a_deleted_lock_never_runs_beside_another(tmp_path: P
 
     lines = marker.read_text().split()
     assert lines[:2] == ["start", "end"], f"two builds configured at once: {lines}"
+
+
+def test_a_compiler_flag_in_the_environment_rebuilds_from_a_fresh_configure(
+        tmp_path: Path) -> None:
+    """CXXFLAGS is read by CMake at the first configure only: a change rebuilds the package
+    from a fresh configure (colcon would keep the cached flags); its value is in no record."""
+    ws = tmp_path / "ws"
+    _cmake_program(ws / "src", "tagged", "",
+                   '#include <cstdio>\n#ifndef TAG\n#define TAG "plain"\n#endif\n'
+                   'int main() { std::puts(TAG); return 0; }\n')
+    _recorded_noop(ws)
+    assert _program(ws, "tagged") == "plain"
+
+    flagged = _env(CXXFLAGS='-DTAG=\\"flagged-by-env\\"')
+    result = _build(ws, env=flagged)
+
+    assert _rebuilt(result) == ["tagged"], output(result)
+    assert "CXXFLAGS changed since" in result.stdout + result.stderr, output(result)
+    assert _program(ws, "tagged") == "flagged-by-env"
+    assert "0 packages finished" in _build(ws, env=flagged).stdout
+    for path in (ws / "build" / "tagged" / ".wsbuild").rglob("*.json"):
+        assert "flagged-by-env" not in path.read_text(), path
+    dry = run("build", "--dry-run", cwd=ws, env=_env())
+    assert "CXXFLAGS: set:" in dry.stdout and "→ (none)" in dry.stdout, output(dry)

@@ -16,7 +16,7 @@ third-party type the defaults.
 
 from __future__ import annotations
 
-from collections.abc import Callable, Collection, Iterator, Mapping, Sequence
+from collections.abc import Callable, Collection, Iterable, Iterator, Mapping, Sequence
 from dataclasses import asdict, dataclass, field
 from enum import Enum
 from pathlib import Path
@@ -161,6 +161,11 @@ class BuildType(Protocol):
         """The options that shape what this build type installs (they enter the build key)."""
         ...
 
+    #: the environment variables its build system reads that change what it installs (they
+    #: enter the build key by digest; a value is never written). Optional for a third-party
+    #: type (BuildTypeBase: SOURCE_DATE_EPOCH)
+    key_environment: tuple[str, ...]
+
     def external_inputs(self, ctx: BuildContext) -> list[str] | None:
         """After a build: the absolute paths outside the package that its build system read
         (from the build system's own dependency lists), recorded with the package's state so
@@ -186,6 +191,7 @@ class BuildTypeBase:
     test_tool: TestTool | None = None
     hooks: EnvironmentHooks = EnvironmentHooks()
     estimate_base: float = 0.3
+    key_environment: tuple[str, ...] = ("SOURCE_DATE_EPOCH",)
 
     def steps(self, ctx: BuildContext) -> list[Step]:
         raise NotImplementedError(f"build type '{self.name}' defines no steps")
@@ -199,6 +205,21 @@ class BuildTypeBase:
         the Python builds' setup.py, by an audit hook), else None."""
         read = ctx.outputs.read_outside
         return sorted(read) if read is not None else None
+
+
+#: what a C/C++ toolchain reads from the environment (CMake at its first configure)
+COMPILER_ENVIRONMENT = ("CC", "CXX", "CFLAGS", "CXXFLAGS", "CPPFLAGS", "LDFLAGS")
+
+
+def environment_digests(environ: Mapping[str, str], names: Iterable[str]) -> dict[str, str | None]:
+    """Each variable by a short digest of its value (None: unset): what changed can be told
+    apart without any value being written down."""
+    import hashlib
+
+    return {name: None if name not in environ else
+            "set:" + hashlib.blake2b(environ[name].encode("utf-8", "surrogateescape"),
+                                     digest_size=8).hexdigest()
+            for name in names}
 
 
 def cmake_key_options(options: BuildOptions) -> dict[str, object]:

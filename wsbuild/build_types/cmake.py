@@ -25,7 +25,15 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
-from wsbuild.build_types import BuildContext, BuildOptions, Step, TestTool, cmake_key_options
+from wsbuild.build_types import (
+    COMPILER_ENVIRONMENT,
+    BuildContext,
+    BuildOptions,
+    Step,
+    TestTool,
+    cmake_key_options,
+    environment_digests,
+)
 from wsbuild.prefix.hooks import EnvironmentHooks
 from wsbuild.prefix.stage import direct_install
 
@@ -126,6 +134,12 @@ class CMakeBuildType:
     #: colcon-ros gives a plain CMake package with a package.xml its pkg-config paths
     hooks: EnvironmentHooks = EnvironmentHooks(cmake_prefix_path=True, pkg_config_path=True)
     estimate_base: float = 1.5
+    #: the compilers and their flags (CMake reads them at the first configure only, so a change
+    #: configures from scratch), its own defaults, pkg-config's path and reproducible dates
+    key_environment: tuple[str, ...] = (
+        *COMPILER_ENVIRONMENT, "CMAKE_BUILD_TYPE", "CMAKE_TOOLCHAIN_FILE",
+        "CMAKE_C_COMPILER_LAUNCHER", "CMAKE_CXX_COMPILER_LAUNCHER", "PKG_CONFIG_PATH",
+        "PKG_CONFIG_LIBDIR", "SOURCE_DATE_EPOCH")
 
     def key_options(self, options: BuildOptions) -> dict[str, object]:
         return cmake_key_options(options)
@@ -242,7 +256,8 @@ class CMakeBuildType:
         return self._record(ctx) != self._read_record(ctx)
 
     def _record(self, ctx: BuildContext) -> dict[str, object]:
-        return {"source": str(ctx.source_dir), "args": self.configure_args(ctx)}
+        return {"source": str(ctx.source_dir), "args": self.configure_args(ctx),
+                "environment": environment_digests(ctx.environ, COMPILER_ENVIRONMENT)}
 
     def _read_record(self, ctx: BuildContext) -> object:
         try:
@@ -257,14 +272,22 @@ class CMakeBuildType:
         if previous is not None and previous != wanted and not ctx.options.cmake_clean_cache:
             ctx.warn(f"{ctx.build_dir} was configured with the '{previous}' generator, this "
                      f"build uses '{wanted}': configuring it from scratch")
-        if cache.exists() and (ctx.options.cmake_clean_cache
+        record = ctx.build_dir / CONFIGURE_RECORD
+        before = self._read_record(ctx)
+        toolchain = environment_digests(ctx.environ, COMPILER_ENVIRONMENT)
+        changed = [name for name, digest in toolchain.items() if isinstance(before, dict)
+                   and isinstance(before.get("environment"), dict)
+                   and before["environment"].get(name) != digest]
+        if cache.exists() and changed:
+            ctx.warn(f"{', '.join(changed)} changed since {ctx.build_dir} was configured: "
+                     "configuring it from scratch (CMake reads them at the first configure)")
+        if cache.exists() and (ctx.options.cmake_clean_cache or changed
                                or (previous is not None and previous != wanted)):
             cache.unlink()
             shutil.rmtree(ctx.build_dir / "CMakeFiles", ignore_errors=True)
-        record = ctx.build_dir / CONFIGURE_RECORD
         # the arguments (and the record) are decided before the old record goes
         args = self.configure_args(ctx)
-        now = {"source": str(ctx.source_dir), "args": args}
+        now = {"source": str(ctx.source_dir), "args": args, "environment": toolchain}
         if record.exists():
             record.unlink()  # a failed configure must be retried next time
         ctx.run(["cmake", str(ctx.source_dir), *args], cwd=ctx.build_dir,

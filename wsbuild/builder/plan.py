@@ -15,7 +15,7 @@ from enum import Enum
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from wsbuild.build_types import BuildOptions, get_build_type
+from wsbuild.build_types import BuildOptions, environment_digests, get_build_type
 from wsbuild.builder.fingerprint import BuildState, Reason, SourceSnapshot
 from wsbuild.builder.overrides import Override
 from wsbuild.builder.request import BuildRequest
@@ -169,7 +169,7 @@ def plan_package(selection: Selection, request: BuildRequest, options: BuildOpti
     old = read_state(selection.workspace.build_base / name)
     snapshot = snapshot_sources(package.path, old.files if old else {})
     prefix = _prefix(selection, session, name)
-    inputs = package_inputs(selection, options, name, prefix, underlay)
+    inputs = package_inputs(selection, options, name, prefix, underlay, session.environ)
     settings = digest_of(inputs)
     dep_keys = dependency_keys(selection, selection.graph.build_closure(name), keys)
     reason = rebuild_reason(selection, request, name, old, snapshot, settings, dep_keys, inputs,
@@ -217,17 +217,21 @@ def _prefix(selection: Selection, session: Session, name: str) -> Path:
 
 
 def package_inputs(selection: Selection, options: BuildOptions, name: str, prefix: Path,
-                   underlay: Mapping[str, list[str]]) -> dict[str, object]:
+                   underlay: Mapping[str, list[str]],
+                   environ: Mapping[str, str]) -> dict[str, object]:
     """Everything besides sources and dependencies that shapes a package's build (recorded
-    with the build, to name what changed). The build type says which options count;
-    `underlay` is `underlay_paths()` of the run."""
+    with the build, to name what changed). The build type says which options and environment
+    variables count; `underlay` is `underlay_paths()` of the run."""
     from wsbuild import __version__
 
     build_type = selection.packages[name].build_type
+    kind = get_build_type(build_type)
     return {
         "wsbuild": __version__,
         "build_type": build_type,
-        "options": get_build_type(build_type).key_options(options),
+        "options": kind.key_options(options),
+        # by digest: a value is never written (state.json keeps these inputs)
+        "environment": environment_digests(environ, getattr(kind, "key_environment", ())),
         # the interpreter by its environment and version, not by how its path is spelled
         "python": [sys.prefix, sys.version],
         "ament_prefix_path": underlay["AMENT_PREFIX_PATH"],
