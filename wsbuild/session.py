@@ -83,7 +83,7 @@ def open_session(workspace: Workspace, options: SessionOptions, emit: Emit) -> I
     it, unless a dry run), make the run's log directory. Everything is released on exit."""
     from wsbuild.engine.lock import workspace_lock
     from wsbuild.engine.logs import new_run_log
-    from wsbuild.prefix.layout import resolve_layout
+    from wsbuild.prefix.layout import IGNORE_MARKER, resolve_layout
 
     merged = resolve_layout(workspace.install_base, options.merge_install, verb=options.verb,
                             build_base=workspace.build_base)
@@ -100,7 +100,9 @@ def open_session(workspace: Workspace, options: SessionOptions, emit: Emit) -> I
                                     notice=notices.append if options.dry_run
                                     else lambda text: emit(Notice(text)),
                                     dry_run=options.dry_run)
-        run_log = None if options.dry_run else new_run_log(workspace.log_base, options.verb)
+        # colcon's marker: a package crawl (colcon's, wsbuild's) never descends into log/
+        run_log = None if options.dry_run else new_run_log(
+            workspace.log_base, options.verb, markers=(IGNORE_MARKER,))
         cache = RunCache(options.cache, workspace, emit, symlink_install=options.symlink_install,
                          log=run_log / "cache.log" if run_log is not None else None)
         session = Session(workspace, options, merged, underlay, run_log, cache, tuple(notices))

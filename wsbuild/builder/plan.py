@@ -2,7 +2,10 @@
 (up to date, restore from the build cache, build), the reason, the build key it will have, the
 cache key, the inputs, the start order and the critical path — and whether the build must
 refuse to start. `build --dry-run` prints it; `build` executes it (builder/execute.py); neither
-decides anything else. Planning only reads: nothing in build/, install/ or log/ is touched."""
+decides anything else. Planning touches nothing in install/ or log/; what it writes is its
+memos: the dependency check's answers (build/.wsbuild/resolved.json, not under --dry-run), the
+compilers' versions (toolchain.json in the build cache's directory) and a cache entry's use
+time when it looks one up."""
 
 from __future__ import annotations
 

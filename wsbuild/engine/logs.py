@@ -10,10 +10,12 @@ from pathlib import Path
 KEEP_RUNS = 10
 
 
-def new_run_log(log_base: Path, verb: str) -> Path:
-    """Create `log/<verb>_<timestamp>/`, point `latest_<verb>` and `latest` at it, prune old runs."""
+def new_run_log(log_base: Path, verb: str, markers: tuple[str, ...] = ()) -> Path:
+    """Create `log/<verb>_<timestamp>/`, point `latest_<verb>` and `latest` at it, prune old
+    runs; `markers`: empty files the log base gets (the caller's tools' ignore markers)."""
     log_base.mkdir(parents=True, exist_ok=True)
-    (log_base / "COLCON_IGNORE").touch()
+    for marker in markers:
+        (log_base / marker).touch()
     name = f"{verb}_{time.strftime('%Y-%m-%d_%H-%M-%S')}"
     # runs within the same second count on from the highest number there (more than
     # KEEP_RUNS of them: the first ones are pruned, and their names must not be reused)
