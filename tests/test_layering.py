@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import ast
+import re
 from pathlib import Path
 
 import pytest
@@ -203,3 +204,18 @@ def test_the_size_check_finds_a_long_function(tmp_path: Path) -> None:
     assert oversized(module) == [f"m.py:4 long: {FUNCTION_LINES + 2} lines"]
     module.write_text(f'"""m."""\n\n\ndef long():\n    """Over 80 lines because.""" \n{body}\n')
     assert oversized(module) == []
+
+
+def test_the_modules_the_docs_and_docstrings_name_exist() -> None:
+    """A path like `builder/pipeline.py` in docs/architecture.md, README.md or a docstring
+    names a module that is there (a renamed module leaves no stale name behind)."""
+    pattern = re.compile(r"\b((?:[a-z_]+/)+[a-z_0-9]+\.py)\b")
+    repo = PACKAGE.parent
+    texts = [(path, path.read_text()) for path in sorted(PACKAGE.rglob("*.py"))]
+    texts += [(repo / name, (repo / name).read_text()) for name in ("README.md",
+                                                                   "docs/architecture.md")]
+    missing = sorted({f"{path.relative_to(repo)}: {name}" for path, text in texts
+                      for name in pattern.findall(text)
+                      if not any(base.joinpath(name).exists()
+                                 for base in (repo, PACKAGE, repo / "tests"))})
+    assert not missing, "\n".join(missing)

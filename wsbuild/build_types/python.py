@@ -1,6 +1,6 @@
 """The `python` build type: a setup.py / setup.cfg / pyproject.toml package, standards-based.
 
-Its steps come from `pybuild/recipe.py`, imported only when a package is built: deciding
+Its steps come from `build_types/pybuild/recipe.py`, imported only when a package is built: deciding
 that a package is up to date loads nothing of the Python packaging machinery.
 """
 

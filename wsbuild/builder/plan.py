@@ -1,7 +1,7 @@
 """The plan of a build, made once before anything runs: for every selected package the decision
 (up to date, restore from the build cache, build), the reason, the build key it will have, the
 cache key, the inputs, the start order and the critical path — and whether the build must
-refuse to start. `build --dry-run` prints it; `build` executes it (builder/execute.py); neither
+refuse to start. `build --dry-run` prints it; `build` executes it (builder/pipeline.py); neither
 decides anything else. Planning touches nothing in install/ or log/; what it writes is its
 memos: the dependency check's answers (build/.wsbuild/resolved.json, not under --dry-run), the
 compilers' versions (toolchain.json in the build cache's directory) and a cache entry's use
@@ -305,7 +305,9 @@ def _unresolved(selection: Selection, request: BuildRequest,
     from wsbuild.builder.resolved import unresolved
     from wsbuild.workspace.resolve import Resolver
 
-    resolver = Resolver.from_environment(session.environ, session.underlay_prefixes)
+    resolver = Resolver.from_environment(
+        session.environ, session.underlay_prefixes,
+        memo=selection.workspace.build_base / ".wsbuild" / "pkg_config.json")
     return unresolved((selection.packages[n] for n in selection.selected), selection.packages,
                       resolver, selection.workspace.build_base,
                       remember=not session.options.dry_run)

@@ -1,6 +1,6 @@
 """A run's `timings.json` and `timings.txt`: their names, their totals and summary line, and
 writing them. Kept apart from engine/timings.py (the recorder and its types) so that a replayed
-no-op (builder/noop.py) writes them without importing the rest."""
+no-op (engine/replay.py) writes them without importing the rest."""
 
 from __future__ import annotations
 

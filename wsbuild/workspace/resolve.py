@@ -111,6 +111,9 @@ class Resolver:
     #: name each source's answer as its metadata spells it, with its version (`wsbuild info`);
     #: otherwise answers come from directory listings and one pkg-config run (the build's check)
     detailed: bool = False
+    #: a file remembering pkg-config's compiled-in search path by the program's signature (a
+    #: no-op build then starts no process); None: ask the program
+    memo: Path | None = None
     _ament_index: dict[str, Path] | None = field(default=None, repr=False)
     _distributions: dict[str, str] | None = field(default=None, repr=False)
     _pkg_config_modules: frozenset[str] | None = field(default=None, repr=False)
@@ -118,8 +121,8 @@ class Resolver:
 
     @classmethod
     def from_environment(cls, environ: Mapping[str, str],
-                         extra_prefixes: Iterable[Path] = (), *, detailed: bool = False
-                         ) -> Resolver:
+                         extra_prefixes: Iterable[Path] = (), *, detailed: bool = False,
+                         memo: Path | None = None) -> Resolver:
         """The build's view: its environment, plus `extra_prefixes` (the venv underlay)."""
         extra = list(extra_prefixes)
         python_paths = _split_str(environ.get("PYTHONPATH", ""))
@@ -135,6 +138,7 @@ class Resolver:
             pkg_config_path=environ.get("PKG_CONFIG_PATH", ""),
             python_paths=tuple(dict.fromkeys(python_paths)),
             detailed=detailed,
+            memo=memo,
         )
 
     def resolve(self, name: str) -> tuple[Resolution, str]:
@@ -244,7 +248,7 @@ class Resolver:
         if libdir is not None:
             directories += _split_str(libdir)
         elif tool is not None:
-            directories += _split_str(_pkg_config_default_path(inputs.realpath(tool)))
+            directories += _split_str(_pkg_config_default_path(inputs.realpath(tool), self.memo))
         directories = list(dict.fromkeys(directories))
         for directory in directories:
             declare_directory(directory)
@@ -290,9 +294,40 @@ class Resolver:
         }
 
 
+def _pkg_config_default_path(tool: str, memo: Path | None) -> str:
+    """pkg-config's compiled-in search path (`pc_path`) of the program at `tool` (its real
+    path): from `memo` while the program's signature is the one remembered, else asked."""
+    import json
+
+    try:
+        st = inputs.stat(tool)
+    except OSError:
+        return ""
+    signature: list[object] = [st.st_ino, st.st_size, st.st_mtime_ns, st.st_ctime_ns]
+    known: dict[str, object] = {}
+    if memo is not None:
+        try:
+            loaded = json.loads(inputs.read_text(memo))
+            known = loaded if isinstance(loaded, dict) else {}
+        except (OSError, ValueError):
+            known = {}
+        entry = known.get(tool)
+        if isinstance(entry, list) and entry[:-1] == signature and isinstance(entry[-1], str):
+            return entry[-1]
+    found = _ask_pkg_config_default_path(tool)
+    if memo is not None:
+        from wsbuild.files import atomic_write, private_directory
+
+        try:
+            private_directory(memo.parent)
+            atomic_write(memo, json.dumps({**known, tool: [*signature, found]}, sort_keys=True))
+        except OSError:
+            pass  # asked again next time
+    return found
+
+
 @functools.lru_cache(maxsize=4)
-def _pkg_config_default_path(tool: str) -> str:
-    """pkg-config's compiled-in search path (`pc_path`), by the program's real path."""
+def _ask_pkg_config_default_path(tool: str) -> str:
     import subprocess
 
     try:
