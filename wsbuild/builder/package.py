@@ -9,6 +9,7 @@ import os
 import signal
 import time
 from collections.abc import Mapping, Sequence
+from contextlib import nullcontext
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
@@ -186,7 +187,20 @@ class PackageBuild:
         self._advance_backdated()
         for step in get_build_type(ctx.package.build_type).steps(ctx):
             self.run.emit(StepStarted(self.name, step.label))
-            step.action(ctx)
+            if step.before is not None:
+                step.before(ctx)
+            with step.around(ctx) if step.around is not None else nullcontext():
+                if step.command is not None:
+                    command = step.command
+                    self._run_command(command.argv, cwd=command.cwd,
+                                      env={**ctx.environ, **command.env, **command.run_env},
+                                      problems=command.problems,
+                                      shown_env={**ctx.environ, **command.env})
+                else:
+                    assert step.action is not None
+                    step.action(ctx)
+            if step.after is not None:
+                step.after(ctx)
 
     def _advance_backdated(self) -> None:
         """Files whose content changed while their modification time did not advance (`cp -p`,
@@ -279,12 +293,14 @@ class PackageBuild:
         return self.context
 
     def _run_command(self, command: Sequence[str], *, cwd: Path,
-                     env: Mapping[str, str] | None = None, problems: Problems | None = None
-                     ) -> None:
-        """A step's command: logged with what reproduces it, its stderr kept as warnings
-        (only the `problems` among them when the build type says which)."""
+                     env: Mapping[str, str] | None = None, problems: Problems | None = None,
+                     shown_env: Mapping[str, str] | None = None) -> None:
+        """A step's command: logged with what reproduces it in a fresh shell, its stderr kept
+        as warnings (only the `problems` among them when the build type says which).
+        `shown_env` is `env` without what only this run has (a stage's DESTDIR, a FIFO)."""
         use_env = dict(env) if env is not None else self._ctx().environ
-        delta = env_delta(use_env, os.environ)
+        delta = self._reproducible(env_delta(shown_env if shown_env is not None else use_env,
+                                             os.environ))
         self._log(f"Invoking command in '{cwd}': {format_command(command, cwd, delta)}")
         completed = run_command(command, cwd=cwd, env=use_env, log_dir=self.log_dir,
                                 pass_fds=self.run.jobserver.fds)
@@ -297,6 +313,15 @@ class PackageBuild:
                 exit_text(command[0], completed.returncode, completed.tail),
                 command=command, cwd=cwd, env_delta=delta, returncode=completed.returncode,
             )
+
+    def _reproducible(self, delta: Mapping[str, str]) -> dict[str, str]:
+        """`delta` without the variables that name this run's resources, which a shell
+        after the run does not have: the jobserver's descriptors, the compiler cache's
+        private directory (stats logs, the sccache server's socket)."""
+        private = str(self.run.compilers.private_dir) if self.run.compilers is not None else None
+        return {k: v for k, v in delta.items()
+                if not (k == "MAKEFLAGS" and v == self.run.jobserver.makeflags)
+                and not (private is not None and private in v)}
 
     def _failed(self, failure: StepFailed) -> JobResult:
         reproduce = ""
