@@ -6,6 +6,7 @@ shares only read-only run resources with the others."""
 from __future__ import annotations
 
 import os
+import shlex
 import signal
 import time
 from collections.abc import Mapping, Sequence
@@ -302,6 +303,10 @@ class PackageBuild:
         delta = self._reproducible(env_delta(shown_env if shown_env is not None else use_env,
                                              os.environ))
         self._log(f"Invoking command in '{cwd}': {format_command(command, cwd, delta)}")
+        run_only = {k: v for k, v in env_delta(use_env, os.environ).items() if delta.get(k) != v}
+        if run_only:
+            self._log("  and, for this run only: " + " ".join(
+                f"{k}={shlex.quote(v)}" for k, v in run_only.items()))
         completed = run_command(command, cwd=cwd, env=use_env, log_dir=self.log_dir,
                                 pass_fds=self.run.jobserver.fds)
         stderr = list(completed.stderr)

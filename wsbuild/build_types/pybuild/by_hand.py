@@ -5,13 +5,12 @@ wsbuild runs these steps in its own process (a warm setup.py helper, files place
 into the stage); this is what `--dry-run` prints for them and what reproduces one by hand. It
 runs the same functions, writing into the install prefix itself instead of a stage. `install`
 reads setup.py again (what `configure` learnt is not kept between processes). A standalone
-command like `setup_py_helper.py`: it prints its warnings and its error on stderr and sets its
-own exit status (0 done, 1 the step failed).
+command like `pep517_hook.py` (its arguments read the same plain way): it prints its warnings
+and its error on stderr and sets its own exit status (0 done, 1 the step failed, 2 usage).
 """
 
 from __future__ import annotations
 
-import argparse
 import subprocess
 import sys
 from collections.abc import Mapping, Sequence
@@ -47,20 +46,49 @@ def _run(command: Sequence[str], *, cwd: Path, env: Mapping[str, str] | None = N
                          cwd=cwd, returncode=done.returncode)
 
 
-def _context(args: argparse.Namespace, warnings: list[str]) -> BuildContext:
+#: the options that take a value, and the one flag
+_VALUED = ("--name", "--source", "--build", "--prefix", "--manifest", "--python")
+_FLAG = "--symlink-install"
+USAGE = (f"usage: python -m {MODULE} {{{','.join(STEPS)}}} --name NAME --source DIR "
+         "--build DIR --prefix DIR [--manifest FILE] [--python EXE] [--symlink-install]")
+
+
+def _parse(argv: Sequence[str]) -> tuple[str, dict[str, str], bool] | None:
+    """(step, option values, symlink install), or None when `argv` is not of that form."""
+    if not argv or argv[0] not in STEPS:
+        return None
+    values: dict[str, str] = {}
+    symlink = False
+    rest = iter(argv[1:])
+    for arg in rest:
+        if arg == _FLAG:
+            symlink = True
+        elif arg in _VALUED:
+            value = next(rest, None)
+            if value is None:
+                return None
+            values[arg[2:]] = value
+        else:
+            return None
+    if any(name not in values for name in ("name", "source", "build", "prefix")):
+        return None
+    return argv[0], values, symlink
+
+
+def _context(values: Mapping[str, str], symlink: bool, warnings: list[str]) -> BuildContext:
     import os
 
     from wsbuild.workspace.model import Package
 
-    source = Path(args.source).absolute()
-    build = Path(args.build).absolute()
-    prefix = Path(args.prefix).absolute()
+    source = Path(values["source"]).absolute()
+    build = Path(values["build"]).absolute()
+    prefix = Path(values["prefix"]).absolute()
     build.mkdir(parents=True, exist_ok=True)
     prefix.mkdir(parents=True, exist_ok=True)
-    manifest = Path(args.manifest).absolute() if args.manifest else None
-    package = Package(args.name, source, "", manifest=manifest)
-    options = BuildOptions(symlink_install=args.symlink_install,
-                           python_executable=args.python or sys.executable)
+    manifest = Path(values["manifest"]).absolute() if "manifest" in values else None
+    package = Package(values["name"], source, "", manifest=manifest)
+    options = BuildOptions(symlink_install=symlink,
+                           python_executable=values.get("python") or sys.executable)
     return BuildContext(package=package, build_dir=build, install_prefix=prefix,
                         stage_prefix=prefix, options=options, environ=dict(os.environ),
                         run=_run, warn=warnings.append)
@@ -81,21 +109,15 @@ def run_step(step: str, ctx: BuildContext) -> None:
         recipe.record(ctx)
 
 
-def main(argv: Sequence[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(prog=f"python -m {MODULE}",
-                                     description=__doc__.splitlines()[0] if __doc__ else None)
-    parser.add_argument("step", choices=STEPS)
-    parser.add_argument("--name", required=True, help="the package's name")
-    parser.add_argument("--source", required=True, help="the package's source directory")
-    parser.add_argument("--build", required=True, help="its build directory")
-    parser.add_argument("--prefix", required=True, help="its install prefix")
-    parser.add_argument("--manifest", help="its package.xml")
-    parser.add_argument("--python", help="the interpreter to build for (default: this one)")
-    parser.add_argument("--symlink-install", action="store_true")
-    args = parser.parse_args(argv)
+def main(argv: Sequence[str]) -> int:
+    parsed = _parse(argv)
+    if parsed is None:
+        sys.stderr.write(USAGE + "\n")
+        return 2
+    step, values, symlink = parsed
     warnings: list[str] = []
     try:
-        run_step(args.step, _context(args, warnings))
+        run_step(step, _context(values, symlink, warnings))
     except StepFailed as exc:
         sys.stderr.write("".join(f"warning: {w}\n" for w in warnings) + f"error: {exc}\n")
         return 1
@@ -108,4 +130,4 @@ def main(argv: Sequence[str] | None = None) -> int:
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    sys.exit(main(sys.argv[1:]))
