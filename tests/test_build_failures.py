@@ -179,6 +179,26 @@ def test_a_failed_cmake_packages_reproduce_line_fails_the_same_way_in_a_fresh_sh
     assert shown in again.stdout + again.stderr
 
 
+def test_a_merged_install_that_fails_is_reproduced_without_the_stage(tmp_path: Path) -> None:
+    """A merged install stages through DESTDIR, a directory of that run only: the reproduce
+    line installs where CMake was told to, and fails the same way."""
+    ws = tmp_path / "ws"
+    write_cmake(ws / "src", "halfway", "cmake_minimum_required(VERSION 3.14)\n"
+                "project(halfway NONE)\n"
+                'install(CODE "message(FATAL_ERROR \\"install broken on purpose\\")")\n')
+    result = wsbuild("build", "--merge-install", cwd=ws)
+    assert result.returncode == 1, output(result)
+    lines = result.stdout.splitlines()
+    reproduce = lines[lines.index("  reproduce by hand:") + 1].strip()
+    assert reproduce.endswith(f"cmake --install {ws / 'build' / 'halfway'}")
+    assert "DESTDIR" not in reproduce
+    assert "DESTDIR=" in (ws / "log" / "latest_build" / "halfway" / "command.log").read_text()
+    again = subprocess.run(["bash", "-c", reproduce], cwd=ws, env=clean_env(),
+                           capture_output=True, text=True, timeout=120)
+    assert again.returncode != 0
+    assert "install broken on purpose" in again.stdout + again.stderr
+
+
 def _failure_ws(root: Path) -> Path:
     """aa_broken fails; bb_fine and cc_fine do not need it; dd_needs_aa does."""
     src = root / "src"
