@@ -199,6 +199,26 @@ def test_a_merged_install_that_fails_is_reproduced_without_the_stage(tmp_path: P
     assert "install broken on purpose" in again.stdout + again.stderr
 
 
+def test_a_failed_python_step_is_reproduced_by_its_by_hand_command(tmp_path: Path) -> None:
+    """The Python build types' steps run inside wsbuild; a failed one is reproduced by the
+    command that runs the same step from a shell."""
+    ws = tmp_path / "ws"
+    pkg = write_ament_python(ws / "src", "nosetup", modules={"main.py": VICTIM_MAIN})
+    (pkg / "setup.py").unlink()
+    (pkg / "setup.cfg").unlink()
+    result = wsbuild("build", cwd=ws)
+    assert result.returncode == 1, output(result)
+    shown = f"{pkg}: no setup.py, setup.cfg or pyproject.toml to build"
+    assert shown in result.stdout
+    lines = result.stdout.splitlines()
+    reproduce = lines[lines.index("  reproduce by hand:") + 1].strip()
+    assert "-m wsbuild.build_types.pybuild.by_hand configure --name nosetup" in reproduce
+    again = subprocess.run(["bash", "-c", reproduce], cwd=ws, env=clean_env(),
+                           capture_output=True, text=True, timeout=120)
+    assert again.returncode == 1, again.stdout + again.stderr
+    assert again.stderr == f"error: {shown}\n"
+
+
 def _failure_ws(root: Path) -> Path:
     """aa_broken fails; bb_fine and cc_fine do not need it; dd_needs_aa does."""
     src = root / "src"

@@ -14,7 +14,14 @@ from contextlib import nullcontext
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
-from wsbuild.build_types import BuildContext, BuildOptions, Problems, StepFailed, get_build_type
+from wsbuild.build_types import (
+    BuildContext,
+    BuildOptions,
+    Problems,
+    Step,
+    StepFailed,
+    get_build_type,
+)
 from wsbuild.builder.compiler_cache import CompilerCache
 from wsbuild.builder.distribute import Distribution
 from wsbuild.builder.plan import BUILDING_MARKER, Decision, PackagePlan
@@ -199,9 +206,23 @@ class PackageBuild:
                                       shown_env={**ctx.environ, **command.env})
                 else:
                     assert step.action is not None
-                    step.action(ctx)
+                    self._run_action(step, ctx)
             if step.after is not None:
                 step.after(ctx)
+
+    def _run_action(self, step: Step, ctx: BuildContext) -> None:
+        """An in-process step; when it fails without a command of its own, its by-hand
+        command is what reproduces the failure."""
+        assert step.action is not None
+        try:
+            step.action(ctx)
+        except StepFailed as failure:
+            if failure.command or step.by_hand is None:
+                raise
+            by_hand = step.by_hand
+            delta = self._reproducible(env_delta({**ctx.environ, **by_hand.env}, os.environ))
+            raise StepFailed(str(failure), command=by_hand.argv, cwd=by_hand.cwd,
+                             env_delta=delta) from None
 
     def _advance_backdated(self) -> None:
         """Files whose content changed while their modification time did not advance (`cp -p`,
@@ -321,12 +342,14 @@ class PackageBuild:
 
     def _reproducible(self, delta: Mapping[str, str]) -> dict[str, str]:
         """`delta` without the variables that name this run's resources, which a shell
-        after the run does not have: the jobserver's descriptors, the compiler cache's
-        private directory (stats logs, the sccache server's socket)."""
-        private = str(self.run.compilers.private_dir) if self.run.compilers is not None else None
+        after the run does not have: the jobserver's descriptors, the private directories of
+        the compiler cache (stats logs, the sccache server's socket) and of distcc."""
+        private = [str(self.run.compilers.private_dir)] if self.run.compilers is not None else []
+        if self.run.distribution is not None:
+            private.append(str(self.run.distribution.private_dir))
         return {k: v for k, v in delta.items()
                 if not (k == "MAKEFLAGS" and v == self.run.jobserver.makeflags)
-                and not (private is not None and private in v)}
+                and not any(directory in v for directory in private)}
 
     def _failed(self, failure: StepFailed) -> JobResult:
         reproduce = ""
