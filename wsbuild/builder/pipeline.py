@@ -77,7 +77,8 @@ def dry_run(selection: Selection, request: BuildRequest, emit: Emit
     with open_session(selection.workspace, session_options(request, dry_run=True),
                       emit) as session:
         build_plan = make_plan(selection, request, session)
-        return build_plan, planned_commands(build_plan, selection, session)
+        return build_plan, planned_commands(build_plan, selection, session,
+                                            compiler_cache=request.compiler_cache)
 
 
 def run_build(selection: Selection, request: BuildRequest, emit: Emit) -> list[JobResult]:

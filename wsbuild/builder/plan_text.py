@@ -7,7 +7,7 @@ from __future__ import annotations
 import os
 import shlex
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 from wsbuild.build_types import BuildContext, Step, StepFailed, get_build_type
@@ -17,6 +17,12 @@ from wsbuild.engine.process import env_delta, format_command
 from wsbuild.session import Session
 from wsbuild.words import plural
 from wsbuild.workspace.selected import Selection
+
+
+#: stands for the jobserver every build has (engine/jobserver.py), so that the steps are
+#: decided as the build decides them (a Ninja that joins it gets no fixed `--parallel`); what
+#: names it is run-only and never printed
+RUN_JOBSERVER = Path("<the run's jobserver FIFO>")
 
 
 @dataclass(frozen=True, slots=True)
@@ -66,21 +72,35 @@ class PlannedCommands:
             if command is not None:
                 lines.append(format_command(command.argv, command.cwd,
                                             self.step_env(planned, command.env)))
+        lines.append("# register: wsbuild then writes package.xml, the index marker and the "
+                     "environment hooks, and commits the stage into install/ (no command)")
         return lines
 
     def step_env(self, planned: PlannedSteps, env: Mapping[str, str]) -> dict[str, str]:
         return env_delta({**planned.environ, **env}, self.session_environ)
 
 
-def planned_commands(build_plan: BuildPlan, selection: Selection, session: Session
-                     ) -> PlannedCommands:
+def planned_commands(build_plan: BuildPlan, selection: Selection, session: Session, *,
+                     compiler_cache: str) -> PlannedCommands:
     """The steps of every package the plan builds (a restore has none), decided as the build
     decides them but without touching anything: the build type reads the build directory
-    (whether CMake must configure), nothing is written. The run's own resources (jobserver,
-    compiler cache launcher, stage) are not there, so neither are they in the commands."""
+    (whether CMake must configure), nothing is written. The compiler cache the build would
+    choose (`--compiler-cache`) is the compilers' launcher; the run's own resources
+    (jobserver, the compiler cache's private directory, stage) are not there, so neither are
+    they in the commands. Distributed compiles (`--distribute`) are not foreseen: the build
+    probes its hosts first."""
+    from wsbuild.builder.compiler_cache import choose_tool
+    from wsbuild.errors import WsbuildError
     from wsbuild.prefix import environment_for
     from wsbuild.prefix.layout import package_prefix
 
+    try:
+        chosen = choose_tool(compiler_cache, session.environ)
+    except WsbuildError:
+        chosen = None  # the build says why; the dry run shows the commands without
+    options = build_plan.options
+    if chosen is not None:
+        options = replace(options, compiler_launcher=str(chosen[1]))
     workspace = selection.workspace
     order = selection.graph.topological_order()
     found: dict[str, PlannedSteps] = {}
@@ -96,8 +116,9 @@ def planned_commands(build_plan: BuildPlan, selection: Selection, session: Sessi
         ctx = BuildContext(
             package=selection.packages[planned.name], build_dir=build_dir,
             install_prefix=planned.prefix, stage_prefix=planned.prefix,
-            options=build_plan.options, environ=environ, run=_not_run, warn=lambda _text: None,
-            dependency_prefixes=tuple(prefix for prefix, _ in dependencies))
+            options=options, environ=environ, run=_not_run, warn=lambda _text: None,
+            dependency_prefixes=tuple(prefix for prefix, _ in dependencies),
+            jobserver_fifo=RUN_JOBSERVER)
         steps = tuple(get_build_type(planned.build_type).steps(ctx))
         found[planned.name] = PlannedSteps(build_dir, steps, environ)
     return PlannedCommands(env_delta(session.environ, os.environ), dict(session.environ), found)
