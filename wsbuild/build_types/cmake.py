@@ -341,7 +341,7 @@ class CMakeBuildType:
                     reads=(ctx.build_dir,), writes=writes)
 
 
-def _write_configure_record(ctx: BuildContext, record: dict[str, object]) -> None:
+def _write_configure_record(ctx: BuildContext, record: Mapping[str, object]) -> None:
     path = ctx.build_dir / CONFIGURE_RECORD
     path.parent.mkdir(parents=True, exist_ok=True)
     path.write_text(json.dumps(record, indent=1) + "\n")

@@ -10,7 +10,7 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, replace
 from pathlib import Path
 
-from wsbuild.build_types import BuildContext, Step, StepFailed, get_build_type
+from wsbuild.build_types import BuildContext, Problems, Step, StepFailed, get_build_type
 from wsbuild.builder.overrides import override_warning
 from wsbuild.builder.plan import BuildPlan, Decision, PackagePlan
 from wsbuild.engine.process import env_delta, format_command
@@ -124,8 +124,10 @@ def planned_commands(build_plan: BuildPlan, selection: Selection, session: Sessi
     return PlannedCommands(env_delta(session.environ, os.environ), dict(session.environ), found)
 
 
-def _not_run(command: Sequence[str], **_kwargs: object) -> None:
-    raise StepFailed("a dry run runs nothing", command=command)
+def _not_run(command: Sequence[str], *, cwd: Path, env: Mapping[str, str] | None = None,
+             problems: Problems | None = None) -> None:
+    """A dry run's `BuildContext.run`: deciding the steps runs no command."""
+    raise StepFailed("a dry run runs nothing", command=command, cwd=cwd)
 
 
 def _export_line(env: Mapping[str, str]) -> str:
