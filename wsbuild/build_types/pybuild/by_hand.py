@@ -17,6 +17,7 @@ from collections.abc import Mapping, Sequence
 from pathlib import Path
 
 from wsbuild.build_types import BuildContext, BuildOptions, Command, Problems, StepFailed
+from wsbuild.workspace.names import is_valid_dependency_name
 
 MODULE = "wsbuild.build_types.pybuild.by_hand"
 STEPS = ("configure", "install", "index", "record")
@@ -72,6 +73,8 @@ def _parse(argv: Sequence[str]) -> tuple[str, dict[str, str], bool] | None:
             return None
     if any(name not in values for name in ("name", "source", "build", "prefix")):
         return None
+    if not is_valid_dependency_name(values["name"]):
+        return None  # it names paths below the prefix: no separators, no leading dot
     return argv[0], values, symlink
 
 
