@@ -11,6 +11,7 @@ import pytest
 
 from test_build_helpers import (
     build,
+    clean_env,
     output,
     snapshot,
     write,
@@ -130,6 +131,92 @@ def test_reproduce_command_reproduces_the_failure(tmp_path: Path) -> None:
                            timeout=60)
     assert again.returncode != 0
     assert "Parse error" in again.stdout + again.stderr
+
+
+GREETER_CONFIG = """\
+cmake_minimum_required(VERSION 3.14)
+project(greeter NONE)
+file(WRITE ${CMAKE_BINARY_DIR}/greeterConfig.cmake "set(greeter_GREETING \\"from greeter\\")\\n")
+install(FILES ${CMAKE_BINARY_DIR}/greeterConfig.cmake DESTINATION share/greeter/cmake)
+"""
+#: configure needs greeter (found through the dependency environment); `step` says where it
+#: then fails: in configure, or compiling (under the compiler cache and the jobserver)
+BROKEN_USER = """\
+cmake_minimum_required(VERSION 3.14)
+project(user C)
+find_package(greeter REQUIRED)
+if(BREAK_IN STREQUAL "configure")
+  message(FATAL_ERROR "broken on purpose ${greeter_GREETING}")
+endif()
+add_executable(user user.c)
+"""
+
+
+@pytest.mark.parametrize("step", ["configure", "build"])
+def test_a_failed_cmake_packages_reproduce_line_fails_the_same_way_in_a_fresh_shell(
+        tmp_path: Path, step: str) -> None:
+    ws = tmp_path / "ws"
+    write_cmake(ws / "src", "greeter", GREETER_CONFIG)
+    write_cmake(ws / "src", "user", BROKEN_USER, depend=["greeter"], files={
+        "user.c": '#error "broken on purpose, compiling"\nint main(void) { return 0; }\n'})
+    result = wsbuild("build", "--compiler-cache", "ccache", "--cmake-args",
+                     f"-DBREAK_IN={step}", cwd=ws)
+    assert result.returncode == 1, output(result)
+    lines = result.stdout.splitlines()
+    reproduce = lines[lines.index("  reproduce by hand:") + 1].strip()
+    code = re.search(r"'cmake' exited with code (\d+)", result.stdout)
+    assert code is not None, output(result)
+    # nothing of this run's own: its jobserver's descriptors, the compiler cache's stats log
+    assert "--jobserver-auth" not in reproduce and "MAKEFLAGS" not in reproduce
+    assert "CCACHE_STATSLOG" not in reproduce and "wsbuild-" not in reproduce
+    shown = ("broken on purpose from greeter" if step == "configure"
+             else "broken on purpose, compiling")
+    assert shown in result.stdout
+
+    again = subprocess.run(["bash", "-c", reproduce], cwd=ws, env=clean_env(),
+                           capture_output=True, text=True, timeout=120)
+    assert again.returncode == int(code.group(1)), again.stdout + again.stderr
+    assert shown in again.stdout + again.stderr
+
+
+def test_a_merged_install_that_fails_is_reproduced_without_the_stage(tmp_path: Path) -> None:
+    """A merged install stages through DESTDIR, a directory of that run only: the reproduce
+    line installs where CMake was told to, and fails the same way."""
+    ws = tmp_path / "ws"
+    write_cmake(ws / "src", "halfway", "cmake_minimum_required(VERSION 3.14)\n"
+                "project(halfway NONE)\n"
+                'install(CODE "message(FATAL_ERROR \\"install broken on purpose\\")")\n')
+    result = wsbuild("build", "--merge-install", cwd=ws)
+    assert result.returncode == 1, output(result)
+    lines = result.stdout.splitlines()
+    reproduce = lines[lines.index("  reproduce by hand:") + 1].strip()
+    assert reproduce.endswith(f"cmake --install {ws / 'build' / 'halfway'}")
+    assert "DESTDIR" not in reproduce
+    assert "DESTDIR=" in (ws / "log" / "latest_build" / "halfway" / "command.log").read_text()
+    again = subprocess.run(["bash", "-c", reproduce], cwd=ws, env=clean_env(),
+                           capture_output=True, text=True, timeout=120)
+    assert again.returncode != 0
+    assert "install broken on purpose" in again.stdout + again.stderr
+
+
+def test_a_failed_python_step_is_reproduced_by_its_by_hand_command(tmp_path: Path) -> None:
+    """The Python build types' steps run inside wsbuild; a failed one is reproduced by the
+    command that runs the same step from a shell."""
+    ws = tmp_path / "ws"
+    pkg = write_ament_python(ws / "src", "nosetup", modules={"main.py": VICTIM_MAIN})
+    (pkg / "setup.py").unlink()
+    (pkg / "setup.cfg").unlink()
+    result = wsbuild("build", cwd=ws)
+    assert result.returncode == 1, output(result)
+    shown = f"{pkg}: no setup.py, setup.cfg or pyproject.toml to build"
+    assert shown in result.stdout
+    lines = result.stdout.splitlines()
+    reproduce = lines[lines.index("  reproduce by hand:") + 1].strip()
+    assert "-m wsbuild.build_types.pybuild.by_hand configure --name nosetup" in reproduce
+    again = subprocess.run(["bash", "-c", reproduce], cwd=ws, env=clean_env(),
+                           capture_output=True, text=True, timeout=120)
+    assert again.returncode == 1, again.stdout + again.stderr
+    assert again.stderr == f"error: {shown}\n"
 
 
 def _failure_ws(root: Path) -> Path:

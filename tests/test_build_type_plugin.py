@@ -100,6 +100,11 @@ def test_a_third_party_build_type_builds_gets_hooks_and_runs_its_tests(tmp_path:
     (package / "test" / "test_maps.py").write_text(PACKAGE_TEST)
     env = {**os.environ, "PYTHONPATH": str(plugins)}
 
+    # its step in the old form, `Step(label, action)`: in-process, said so by the dry run
+    planned = run_wsbuild("build", "--dry-run", cwd=ws, env=env)
+    assert planned.returncode == 0, planned.stdout + planned.stderr
+    assert "  # copy: runs inside wsbuild (no command to show)" in planned.stdout.splitlines()
+
     built = run_wsbuild("build", cwd=ws, env=env)
     assert built.returncode == 0, built.stdout + built.stderr
     prefix = ws / "install" / "maps"

@@ -1,5 +1,6 @@
 """`wsbuild build --dry-run`: the start order, why each package would build (the file, option or
-dependency that changed) or is up to date, unresolved dependencies, the critical path; and
+dependency that changed) or is up to date, unresolved dependencies, the critical path, the
+commands of each package that would build (pasted into a fresh shell, they build it); and
 build/, install/, log/ stay exactly as they were."""
 
 from __future__ import annotations
@@ -7,11 +8,22 @@ from __future__ import annotations
 import hashlib
 import json
 import os
+import shutil
 import stat
+import subprocess
 from collections.abc import Callable
 from pathlib import Path
 
-from conftest import SMALL_SPEC as SPEC, run_wsbuild
+from conftest import SMALL_SPEC as SPEC, run_wsbuild, write_package
+from test_build_helpers import clean_env, output
+
+HELLO_CMAKE = """cmake_minimum_required(VERSION 3.14)
+project(hello C)
+add_executable(hello hello.c)
+install(TARGETS hello DESTINATION bin)
+install(FILES package.xml DESTINATION share/hello)
+"""
+HELLO_C = '#include <stdio.h>\nint main(void) { puts("hello from C"); return 0; }\n'
 
 
 def snapshot(ws: Path) -> dict[str, tuple[object, ...]]:
@@ -125,3 +137,80 @@ def test_json_needs_dry_run(built: Path) -> None:
     result = run_wsbuild("build", "--json", cwd=built)
     assert result.returncode == 2
     assert "--json goes with --dry-run" in result.stderr
+
+
+def _commands(stdout: str) -> list[str]:
+    """The shell lines of the dry run's commands section."""
+    lines = stdout.splitlines()
+    start = next(i for i, line in enumerate(lines) if line.startswith("commands ("))
+    section = []
+    for line in lines[start + 1:]:
+        if not line.startswith("  "):
+            break
+        section.append(line[2:])
+    return section
+
+
+def test_the_printed_commands_pasted_into_a_fresh_shell_build_the_packages(
+        make_workspace: Callable[..., Path]) -> None:
+    ws = make_workspace({"pa": ("ament_python", [])})
+    hello = write_package(ws / "src", "hello", "cmake")
+    (hello / "CMakeLists.txt").write_text(HELLO_CMAKE)
+    (hello / "hello.c").write_text(HELLO_C)
+    first = run_wsbuild("build", cwd=ws, env=clean_env())
+    assert first.returncode == 0, output(first)
+    # gone as after `wsbuild clean`, but for what the build writes once (the lint stand-ins)
+    for base in ("build", "install"):
+        for name in ("hello", "pa"):
+            shutil.rmtree(ws / base / name)
+    result = run_wsbuild("build", "--dry-run", cwd=ws, env=clean_env())
+    assert result.returncode == 0, output(result)
+    commands = _commands(result.stdout)
+    assert "# hello" in commands and "# pa" in commands
+    assert not any("jobserver" in line or "wsbuild-" in line for line in commands)
+    assert not (ws / "install" / "hello").exists()  # a dry run still touches nothing
+
+    pasted = subprocess.run(["bash", "-c", "set -e\n" + "\n".join(commands)], cwd=ws,
+                            env=clean_env(), capture_output=True, text=True, timeout=300)
+    assert pasted.returncode == 0, pasted.stdout + pasted.stderr
+    ran = subprocess.run([str(ws / "install" / "hello" / "bin" / "hello")],
+                         capture_output=True, text=True, timeout=30)
+    assert ran.stdout == "hello from C\n"
+    site = next((ws / "install" / "pa" / "lib").glob("python3*/site-packages"))
+    assert (site / "pa" / "main.py").read_text() == \
+        (ws / "src" / "pa" / "pa" / "main.py").read_text()
+    assert (ws / "install" / "pa" / "lib" / "pa" / "pa_main").is_file()
+    assert (ws / "install" / "pa" / "share" / "ament_index" / "resource_index" / "packages"
+            / "pa").is_file()
+
+
+def test_json_carries_the_same_commands_and_steps(make_workspace: Callable[..., Path]) -> None:
+    ws = make_workspace(SPEC)
+    text = run_wsbuild("build", "--dry-run", cwd=ws)
+    assert text.returncode == 0, output(text)
+    plan = _plan(ws)
+    section = _commands(text.stdout)
+    for package in plan["packages"]:
+        start = section.index(f"# {package['name']}")
+        assert section[start + 1:start + 1 + len(package["commands"])] == package["commands"]
+    steps = {p["name"]: [(s["label"], s["in_process"]) for s in p["steps"]]
+             for p in plan["packages"]}
+    assert steps == {"pc": [("configure", False), ("build", False), ("install", False)],
+                     "pa": [("configure", True), ("install", True), ("index", True),
+                            ("record", True)],
+                     "pb": [("configure", True), ("install", True), ("index", True),
+                            ("record", True)]}
+    configure = plan["packages"][0]["steps"][0]
+    assert configure["argv"][:2] == ["cmake", str(ws / "src" / "pc")]
+    assert configure["cwd"] == str(ws / "build" / "pc")
+    assert configure["env"] == {"PYTHONHASHSEED": "0"}
+    # a fresh workspace: the commands name the lint stand-ins the first build writes
+    assert any(line.startswith("note: the commands read ") for line in text.stdout.splitlines())
+    assert sorted(os.listdir(ws)) == ["src"]
+
+
+def test_an_up_to_date_workspace_has_no_commands(built: Path) -> None:
+    result = run_wsbuild("build", "--dry-run", cwd=built)
+    assert result.returncode == 0, output(result)
+    assert "commands (" not in result.stdout
+    assert all("steps" not in p for p in _plan(built)["packages"])

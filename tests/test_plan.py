@@ -1,10 +1,12 @@
-"""One plan: what `build --dry-run` prints is what `build` then does, package by package."""
+"""One plan: what `build --dry-run` prints is what `build` then does, package by package, and
+the commands it prints are the ones the build runs."""
 
 from __future__ import annotations
 
 import json
 import os
 import re
+import shlex
 import subprocess
 from collections.abc import Callable
 from pathlib import Path
@@ -67,3 +69,33 @@ def test_every_decision_the_dry_run_prints_is_what_the_build_does(
     assert set(_planned(ws, env).values()) == {"up to date"}
     again = run_wsbuild("build", cwd=ws, env=env)
     assert again.returncode == 0 and _done(again) == {}
+
+
+def _invoked(ws: Path, name: str) -> list[str]:
+    """The commands the latest build ran for `name`, as its command.log shows them."""
+    log = (ws / "log" / "latest_build" / name / "command.log").read_text()
+    return [line.split(": ", 1)[1] for line in log.splitlines()
+            if line.startswith("Invoking command in ")]
+
+
+def test_the_commands_the_dry_run_prints_are_the_ones_the_build_runs(
+        make_workspace: Callable[..., Path]) -> None:
+    ws = make_workspace({"pc": ("cmake", []), "pa": ("ament_python", [])})
+    first = run_wsbuild("build", cwd=ws)
+    assert first.returncode == 0, first.stdout + first.stderr
+    # a changed CMake argument configures again: the dry run and the build agree on that too
+    for args, labels in ((["--cmake-args", "-DWSB_TEST_FLAG=1", "--"],
+                          ["configure", "build", "install"]),
+                         (["--cmake-args", "-DWSB_TEST_FLAG=1", "--", "--force"],
+                          ["build", "install"])):
+        planned = run_wsbuild("build", "--dry-run", "--json", *args, cwd=ws)
+        assert planned.returncode == 0, planned.stdout + planned.stderr
+        steps = {p["name"]: p.get("steps") for p in json.loads(planned.stdout)["packages"]}
+        assert [s["label"] for s in steps["pc"]] == labels
+        built = run_wsbuild("build", *args, cwd=ws)
+        assert built.returncode == 0, built.stdout + built.stderr
+        invoked = _invoked(ws, "pc")
+        assert len(invoked) == len(labels)
+        for line, step in zip(invoked, steps["pc"]):
+            assert line.startswith(f"cd {shlex.quote(step['cwd'])} && ")
+            assert line.endswith(" " + shlex.join(step["argv"])), (line, step["argv"])

@@ -2,7 +2,9 @@
 
 A build type owns everything wsbuild knows about its packages, so nothing outside this room
 asks which build type a package has:
-- `steps(ctx)`: the recipe, a short list of labelled steps (configure, build, install, ...);
+- `steps(ctx)`: the recipe, a short list of labelled steps (configure, build, install, ...),
+  each a value (`Step`): a command (argv, cwd, the environment it sets) the engine runs, or a
+  small in-process action with a description; both print (`--dry-run`, reproduce lines);
 - `test_tool`: how its tests run (`TestTool`), or None when it has none;
 - `hooks`: what its packages' environment needs (`prefix.hooks.EnvironmentHooks`);
 - `key_options(options)`: the build options that shape its output (they enter the build key);
@@ -17,6 +19,7 @@ third-party type the defaults.
 from __future__ import annotations
 
 from collections.abc import Callable, Collection, Iterable, Iterator, Mapping, Sequence
+from contextlib import AbstractContextManager
 from dataclasses import asdict, dataclass, field
 from enum import Enum
 from pathlib import Path
@@ -140,9 +143,50 @@ class BuildContext:
 
 
 @dataclass(frozen=True, slots=True)
+class Command:
+    """A program to run: what a step runs, or what reproduces an in-process step by hand."""
+
+    argv: tuple[str, ...]
+    cwd: Path
+    #: variables the command sets on top of the package's environment (its dependencies'
+    #: prefixes applied); they are printed in `--dry-run` and in reproduce lines
+    env: Mapping[str, str] = field(default_factory=dict)
+    #: variables set for this run only and never printed: they name a stage or a jobserver
+    #: that do not exist outside the run (DESTDIR of a stage, Ninja's jobserver FIFO)
+    run_env: Mapping[str, str] = field(default_factory=dict)
+    #: picks the warnings among its stderr lines (None: every line)
+    problems: Problems | None = None
+
+
+@dataclass(frozen=True, slots=True)
 class Step:
+    """One labelled step of a build type's recipe, as data: the engine runs it, `--dry-run`
+    prints it. Either a `command`, or an in-process `action` (`Step(label, action)`, the form
+    a third-party type may keep) with a `description` of what it does; `by_hand`, when known,
+    is the command that does the same from a shell. `before`, `around` and `after` are
+    in-process bookkeeping around the command (the stage, a configure record) that a by-hand
+    run does not need."""
+
     label: str
-    action: Callable[[BuildContext], None]
+    action: Callable[[BuildContext], None] | None = None
+    command: Command | None = None
+    description: str = ""
+    by_hand: Command | None = None
+    before: Callable[[BuildContext], None] | None = None
+    around: Callable[[BuildContext], AbstractContextManager[None]] | None = None
+    after: Callable[[BuildContext], None] | None = None
+    #: what it reads and writes, where known (informational: printed by `--dry-run --json`)
+    reads: tuple[Path, ...] = ()
+    writes: tuple[Path, ...] = ()
+
+    def __post_init__(self) -> None:
+        if (self.action is None) == (self.command is None):
+            raise ValueError(f"step '{self.label}' needs either a command or an action")
+
+    @property
+    def shown(self) -> Command | None:
+        """The command a person runs for this step: its own, or its by-hand equivalent."""
+        return self.command if self.command is not None else self.by_hand
 
 
 class BuildType(Protocol):

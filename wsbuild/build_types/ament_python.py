@@ -11,7 +11,7 @@ from dataclasses import dataclass
 from pathlib import PurePosixPath
 
 from wsbuild.build_types import BuildContext, BuildTypeBase, Step, StepFailed, TestTool
-from wsbuild.build_types.python import PythonBuild, record
+from wsbuild.build_types.python import python_steps
 from wsbuild.prefix.hooks import EnvironmentHooks
 
 INDEX_DIR = PurePosixPath("share/ament_index/resource_index/packages")
@@ -24,9 +24,7 @@ class AmentPythonBuildType(BuildTypeBase):
     hooks: EnvironmentHooks = EnvironmentHooks(ament=True)
 
     def steps(self, ctx: BuildContext) -> list[Step]:
-        build = PythonBuild()
-        return [Step("configure", build.configure), Step("install", build.install),
-                Step("index", register), Step("record", record)]
+        return python_steps(ctx, ament=True)
 
 
 BUILD_TYPE = AmentPythonBuildType()

@@ -29,6 +29,7 @@ from wsbuild.build_types import (
     COMPILER_ENVIRONMENT,
     BuildContext,
     BuildOptions,
+    Command,
     Step,
     TestTool,
     cmake_key_options,
@@ -147,9 +148,9 @@ class CMakeBuildType:
     def steps(self, ctx: BuildContext) -> list[Step]:
         steps = []
         if self.needs_configure(ctx):
-            steps.append(Step("configure", self.configure))
-        steps.append(Step("build", self.build))
-        steps.append(Step("install", self.install))
+            steps.append(self.configure_step(ctx))
+        steps.append(self.build_step(ctx))
+        steps.append(self.install_step(ctx))
         return steps
 
     def configure_args(self, ctx: BuildContext) -> list[str]:
@@ -265,14 +266,31 @@ class CMakeBuildType:
         except (OSError, ValueError):
             return None
 
-    def configure(self, ctx: BuildContext) -> None:
+    def configure_step(self, ctx: BuildContext) -> Step:
+        """`cmake SOURCE ARGS` in the build directory; before it, a cache of another generator
+        (or --cmake-clean-cache) goes and the configure record is dropped (a failed configure
+        is retried next time); after it, the record of these arguments is written."""
+        # the arguments (and the record) are decided before the old record goes
+        args = self.configure_args(ctx)
+        now = {"source": str(ctx.source_dir), "args": args,
+               "environment": environment_digests(ctx.environ, COMPILER_ENVIRONMENT)}
+        env, run_env = self._build_env(ctx)
+        return Step("configure", command=Command(
+            ("cmake", str(ctx.source_dir), *args), ctx.build_dir, env=env, run_env=run_env,
+            problems=configure_problems),
+            description="drop a cache of another generator and the configure record first; "
+            "write the record after",
+            before=self._prepare_configure,
+            after=lambda context: _write_configure_record(context, now),
+            reads=(ctx.source_dir,), writes=(ctx.build_dir,))
+
+    def _prepare_configure(self, ctx: BuildContext) -> None:
         cache = ctx.build_dir / "CMakeCache.txt"
         previous = cached_generator(ctx.build_dir)
         wanted = self.generator(ctx)
         if previous is not None and previous != wanted and not ctx.options.cmake_clean_cache:
             ctx.warn(f"{ctx.build_dir} was configured with the '{previous}' generator, this "
                      f"build uses '{wanted}': configuring it from scratch")
-        record = ctx.build_dir / CONFIGURE_RECORD
         before = self._read_record(ctx)
         toolchain = environment_digests(ctx.environ, COMPILER_ENVIRONMENT)
         changed = [name for name, digest in toolchain.items() if isinstance(before, dict)
@@ -285,52 +303,83 @@ class CMakeBuildType:
                                or (previous is not None and previous != wanted)):
             cache.unlink()
             shutil.rmtree(ctx.build_dir / "CMakeFiles", ignore_errors=True)
-        # the arguments (and the record) are decided before the old record goes
-        args = self.configure_args(ctx)
-        now = {"source": str(ctx.source_dir), "args": args, "environment": toolchain}
-        if record.exists():
-            record.unlink()  # a failed configure must be retried next time
-        ctx.run(["cmake", str(ctx.source_dir), *args], cwd=ctx.build_dir,
-                env=self.build_environ(ctx), problems=configure_problems)
-        record.parent.mkdir(parents=True, exist_ok=True)
-        record.write_text(json.dumps(now, indent=1) + "\n")
+        (ctx.build_dir / CONFIGURE_RECORD).unlink(missing_ok=True)
 
-    def build(self, ctx: BuildContext) -> None:
+    def build_step(self, ctx: BuildContext) -> Step:
         command = ["cmake", "--build", str(ctx.build_dir), *self.parallel_args(ctx)]
         if ctx.options.cmake_target:
             command += ["--target", ctx.options.cmake_target]
         if ctx.options.cmake_clean_first:
             command.append("--clean-first")
-        ctx.run(command, cwd=ctx.build_dir, env=self.build_environ(ctx))
+        env, run_env = self._build_env(ctx)
+        return Step("build", command=Command(tuple(command), ctx.build_dir, env=env,
+                                             run_env=run_env),
+                    reads=(ctx.source_dir, ctx.build_dir), writes=(ctx.build_dir,))
+
+    def _build_env(self, ctx: BuildContext) -> tuple[dict[str, str], dict[str, str]]:
+        """What configure and build set on top of the package environment (kept in reproduce
+        lines), and what only this run has (Ninja's jobserver FIFO)."""
+        full = self.build_environ(ctx)
+        changed = {k: v for k, v in full.items() if ctx.environ.get(k) != v}
+        run_env = {k: changed.pop(k) for k in ("MAKEFLAGS",) if k in changed}
+        return changed, run_env
 
     def installs_in_place(self, ctx: BuildContext) -> bool:
         """Whether `cmake --install` ignores DESTDIR (ament's symlink install); plain CMake
         has no symlink install and always stages."""
         return False
 
-    def install(self, ctx: BuildContext) -> None:
-        command = ["cmake", "--install", str(ctx.build_dir)]
+    def install_step(self, ctx: BuildContext) -> Step:
+        """`cmake --install`: into the prefix CMake was configured with. Isolated, wsbuild
+        parks the previous install and moves the new one into the stage afterwards; merged,
+        it stages through DESTDIR (this run's only: pasted by hand, it installs in place), or
+        (a symlink install, which ignores DESTDIR) keeps the manifests' list of what it wrote.
+        """
+        command = ("cmake", "--install", str(ctx.build_dir))
+        writes = (ctx.install_prefix,)
         if ctx.options.merge_install and not self.installs_in_place(ctx):
             # the shared prefix cannot be swapped: stage through DESTDIR instead
             destdir = ctx.build_dir / ".wsbuild" / "destdir"
-            if destdir.exists():
-                shutil.rmtree(destdir)
-            env = dict(ctx.environ, DESTDIR=str(destdir))
-            ctx.run(command, cwd=ctx.build_dir, env=env)
-            staged = destdir / str(ctx.install_prefix).lstrip(os.sep)
-            if staged.exists():
-                shutil.rmtree(ctx.stage_prefix)
-                os.rename(staged, ctx.stage_prefix)
-            shutil.rmtree(destdir, ignore_errors=True)
-        elif ctx.options.merge_install:
+            return Step("install", command=Command(command, ctx.build_dir,
+                                                   run_env={"DESTDIR": str(destdir)}),
+                        description="install through DESTDIR, then move it into the stage",
+                        before=lambda context: _remove_tree(destdir),
+                        after=lambda context: _take_destdir(context, destdir),
+                        reads=(ctx.build_dir,), writes=writes)
+        if ctx.options.merge_install:
             # symlink install into a merged prefix writes in place, as with colcon; the
             # manifests say what it wrote, so the merged record keeps (and later prunes) it
-            ctx.run(command, cwd=ctx.build_dir)
-            ctx.outputs.installed_in_place = tuple(_manifest_files(ctx))
-        else:
-            with direct_install(ctx.install_prefix, ctx.stage_prefix):
-                ctx.run(command, cwd=ctx.build_dir)
+            return Step("install", command=Command(command, ctx.build_dir),
+                        description="install in place; keep the manifests' list of files",
+                        after=_keep_installed_in_place, reads=(ctx.build_dir,), writes=writes)
+        return Step("install", command=Command(command, ctx.build_dir),
+                    description="park the previous install; move the new one into the stage",
+                    around=lambda context: direct_install(context.install_prefix,
+                                                          context.stage_prefix),
+                    reads=(ctx.build_dir,), writes=writes)
 
+
+def _write_configure_record(ctx: BuildContext, record: Mapping[str, object]) -> None:
+    path = ctx.build_dir / CONFIGURE_RECORD
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text(json.dumps(record, indent=1) + "\n")
+
+
+def _remove_tree(path: Path) -> None:
+    if path.exists():
+        shutil.rmtree(path)
+
+
+def _take_destdir(ctx: BuildContext, destdir: Path) -> None:
+    staged = destdir / str(ctx.install_prefix).lstrip(os.sep)
+    if staged.exists():
+        shutil.rmtree(ctx.stage_prefix)
+        os.rename(staged, ctx.stage_prefix)
+    shutil.rmtree(destdir, ignore_errors=True)
+
+
+def _keep_installed_in_place(ctx: BuildContext) -> None:
+    ctx.outputs.installed_in_place = tuple(_manifest_files(ctx))
 
 
 def configure_problems(lines: list[str]) -> list[str]:

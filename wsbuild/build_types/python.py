@@ -21,9 +21,7 @@ class PythonBuildType(BuildTypeBase):
     test_tool: TestTool | None = TestTool.PYTEST
 
     def steps(self, ctx: BuildContext) -> list[Step]:
-        build = PythonBuild()
-        return [Step("configure", build.configure), Step("install", build.install),
-                Step("record", record)]
+        return python_steps(ctx)
 
 
 BUILD_TYPE = PythonBuildType()
@@ -44,6 +42,37 @@ class PythonBuild:
         from wsbuild.build_types.pybuild.recipe import install
 
         install(ctx, self.plan)
+
+
+#: what each in-process step does (printed by `--dry-run` next to its by-hand command)
+DESCRIPTIONS = {
+    "configure": "read what setup() installs (setup.py in wsbuild's warm helper process) and "
+                 "choose between placing the files and a PEP 517 wheel",
+    "install": "place the files into the stage, or build the wheel and install it there",
+    "index": "install the ament index marker and package.xml if setup.py did not",
+    "record": "keep the list of installed files in the build directory",
+}
+
+
+def python_steps(ctx: BuildContext, *, ament: bool = False) -> list[Step]:
+    """The recipe's steps: in-process, because the helper stays warm across packages and the
+    files go straight into the stage; each with the by-hand command that does the same."""
+    from wsbuild.build_types.ament_python import register
+    from wsbuild.build_types.pybuild.by_hand import by_hand_command
+
+    build = PythonBuild()
+    actions = {"configure": build.configure, "install": build.install}
+    if ament:
+        actions["index"] = register
+    actions["record"] = record
+    source = ctx.source_dir.absolute()
+    reads = {"configure": (source,), "install": (source, ctx.build_dir), "index": (source,),
+             "record": (ctx.stage_prefix,)}
+    writes = {"configure": (ctx.build_dir,), "install": (ctx.install_prefix,),
+              "index": (ctx.install_prefix,), "record": (ctx.build_dir,)}
+    return [Step(label, action, description=DESCRIPTIONS[label],
+                 by_hand=by_hand_command(label, ctx), reads=reads[label], writes=writes[label])
+            for label, action in actions.items()]
 
 
 def record(ctx: BuildContext) -> None:

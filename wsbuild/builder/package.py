@@ -6,13 +6,22 @@ shares only read-only run resources with the others."""
 from __future__ import annotations
 
 import os
+import shlex
 import signal
 import time
 from collections.abc import Mapping, Sequence
+from contextlib import nullcontext
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
-from wsbuild.build_types import BuildContext, BuildOptions, Problems, StepFailed, get_build_type
+from wsbuild.build_types import (
+    BuildContext,
+    BuildOptions,
+    Problems,
+    Step,
+    StepFailed,
+    get_build_type,
+)
 from wsbuild.builder.compiler_cache import CompilerCache
 from wsbuild.builder.distribute import Distribution
 from wsbuild.builder.plan import BUILDING_MARKER, Decision, PackagePlan
@@ -190,7 +199,34 @@ class PackageBuild:
         self._advance_changed_outside()
         for step in get_build_type(ctx.package.build_type).steps(ctx):
             self.run.emit(StepStarted(self.name, step.label))
+            if step.before is not None:
+                step.before(ctx)
+            with step.around(ctx) if step.around is not None else nullcontext():
+                if step.command is not None:
+                    command = step.command
+                    self._run_command(command.argv, cwd=command.cwd,
+                                      env={**ctx.environ, **command.env, **command.run_env},
+                                      problems=command.problems,
+                                      shown_env={**ctx.environ, **command.env})
+                else:
+                    assert step.action is not None
+                    self._run_action(step, ctx)
+            if step.after is not None:
+                step.after(ctx)
+
+    def _run_action(self, step: Step, ctx: BuildContext) -> None:
+        """An in-process step; when it fails without a command of its own, its by-hand
+        command is what reproduces the failure."""
+        assert step.action is not None
+        try:
             step.action(ctx)
+        except StepFailed as failure:
+            if failure.command or step.by_hand is None:
+                raise
+            by_hand = step.by_hand
+            delta = self._reproducible(env_delta({**ctx.environ, **by_hand.env}, os.environ))
+            raise StepFailed(str(failure), command=by_hand.argv, cwd=by_hand.cwd,
+                             env_delta=delta) from None
 
     def _advance_backdated(self) -> None:
         """Files whose content changed while their modification time did not advance (`cp -p`,
@@ -333,13 +369,19 @@ class PackageBuild:
         return self.context
 
     def _run_command(self, command: Sequence[str], *, cwd: Path,
-                     env: Mapping[str, str] | None = None, problems: Problems | None = None
-                     ) -> None:
-        """A step's command: logged with what reproduces it, its stderr kept as warnings
-        (only the `problems` among them when the build type says which)."""
+                     env: Mapping[str, str] | None = None, problems: Problems | None = None,
+                     shown_env: Mapping[str, str] | None = None) -> None:
+        """A step's command: logged with what reproduces it in a fresh shell, its stderr kept
+        as warnings (only the `problems` among them when the build type says which).
+        `shown_env` is `env` without what only this run has (a stage's DESTDIR, a FIFO)."""
         use_env = dict(env) if env is not None else self._ctx().environ
-        delta = env_delta(use_env, os.environ)
+        delta = self._reproducible(env_delta(shown_env if shown_env is not None else use_env,
+                                             os.environ))
         self._log(f"Invoking command in '{cwd}': {format_command(command, cwd, delta)}")
+        run_only = {k: v for k, v in env_delta(use_env, os.environ).items() if delta.get(k) != v}
+        if run_only:
+            self._log("  and, for this run only: " + " ".join(
+                f"{k}={shlex.quote(v)}" for k, v in run_only.items()))
         completed = run_command(command, cwd=cwd, env=use_env, log_dir=self.log_dir,
                                 pass_fds=self.run.jobserver.fds)
         stderr = list(completed.stderr)
@@ -351,6 +393,17 @@ class PackageBuild:
                 exit_text(command[0], completed.returncode, completed.tail),
                 command=command, cwd=cwd, env_delta=delta, returncode=completed.returncode,
             )
+
+    def _reproducible(self, delta: Mapping[str, str]) -> dict[str, str]:
+        """`delta` without the variables that name this run's resources, which a shell
+        after the run does not have: the jobserver's descriptors, the private directories of
+        the compiler cache (stats logs, the sccache server's socket) and of distcc."""
+        private = [str(self.run.compilers.private_dir)] if self.run.compilers is not None else []
+        if self.run.distribution is not None:
+            private.append(str(self.run.distribution.private_dir))
+        return {k: v for k, v in delta.items()
+                if not (k == "MAKEFLAGS" and v == self.run.jobserver.makeflags)
+                and not any(directory in v for directory in private)}
 
     def _failed(self, failure: StepFailed) -> JobResult:
         reproduce = ""

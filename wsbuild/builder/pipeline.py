@@ -52,6 +52,7 @@ from wsbuild.runreport.write import start_sampler
 if TYPE_CHECKING:  # what only packages to build need: a no-op imports none of it
     from wsbuild.builder.compiler_cache import CacheCounts, CompilerCache
     from wsbuild.builder.distribute import Distribution
+    from wsbuild.builder.plan_text import PlannedCommands
 
 
 def session_options(request: BuildRequest, *, dry_run: bool = False) -> SessionOptions:
@@ -66,6 +67,18 @@ def plan_build(selection: Selection, request: BuildRequest, emit: Emit) -> Build
     with open_session(selection.workspace, session_options(request, dry_run=True),
                       emit) as session:
         return make_plan(selection, request, session)
+
+
+def dry_run(selection: Selection, request: BuildRequest, emit: Emit
+            ) -> tuple[BuildPlan, PlannedCommands]:
+    """`build --dry-run`: the plan, and the commands of each package it would build."""
+    from wsbuild.builder.plan_text import planned_commands
+
+    with open_session(selection.workspace, session_options(request, dry_run=True),
+                      emit) as session:
+        build_plan = make_plan(selection, request, session)
+        return build_plan, planned_commands(build_plan, selection, session,
+                                            compiler_cache=request.compiler_cache)
 
 
 def run_build(selection: Selection, request: BuildRequest, emit: Emit) -> list[JobResult]:

@@ -1,15 +1,155 @@
-"""The plan as `build --dry-run` shows it: lines for people, JSON for tools."""
+"""The plan as `build --dry-run` shows it: lines for people, JSON for tools; with each package
+that would build, the commands of its steps, which pasted in order into a fresh shell in the
+workspace build it."""
 
 from __future__ import annotations
 
 import os
+import shlex
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, replace
+from pathlib import Path
 
+from wsbuild.build_types import BuildContext, Problems, Step, StepFailed, get_build_type
 from wsbuild.builder.overrides import override_warning
 from wsbuild.builder.plan import BuildPlan, Decision, PackagePlan
+from wsbuild.engine.process import env_delta, format_command
+from wsbuild.session import Session
 from wsbuild.words import plural
+from wsbuild.workspace.selected import Selection
 
 
-def plan_lines(build_plan: BuildPlan) -> list[str]:
+#: stands for the jobserver every build has (engine/jobserver.py), so that the steps are
+#: decided as the build decides them (a Ninja that joins it gets no fixed `--parallel`); what
+#: names it is run-only and never printed
+RUN_JOBSERVER = Path("<the run's jobserver FIFO>")
+
+
+@dataclass(frozen=True, slots=True)
+class PlannedSteps:
+    """A package's steps as the build would run them now, and the environment they start
+    from (its dependencies' prefixes applied, as far as they are installed)."""
+
+    build_dir: Path
+    steps: tuple[Step, ...]
+    environ: Mapping[str, str]
+
+
+@dataclass(frozen=True, slots=True)
+class PlannedCommands:
+    """What `--dry-run` shows of the steps: the session's environment (the ROS underlay's)
+    as its difference from wsbuild's own, then each package's steps, in build order."""
+
+    #: the variables the session's environment sets (every command starts from it)
+    session_env: Mapping[str, str]
+    #: the session's environment itself, which the steps' variables are told against
+    session_environ: Mapping[str, str]
+    packages: Mapping[str, PlannedSteps]
+
+    def lines(self, names: Sequence[str]) -> list[str]:
+        """Shell lines that, pasted in order into a shell in the workspace, build `names`:
+        the session's environment exported once, then each package's lines."""
+        lines = ["# the environment every command starts from (the ROS underlay's)",
+                 _export_line(self.session_env)] if self.session_env else []
+        for name in names:
+            if name in self.packages:
+                lines.append(f"# {name}")
+                lines += self.package_lines(name)
+        return lines
+
+    def package_lines(self, name: str) -> list[str]:
+        """A package's build directory made, then each step's command (`cd DIR && VAR=value
+        … program args`, the variables it sets beyond the session's environment), an
+        in-process step's by-hand command after a comment saying what wsbuild does instead;
+        a step with neither, a comment."""
+        planned = self.packages[name]
+        lines = [f"mkdir -p -- {shlex.quote(str(planned.build_dir))}"]
+        for step in planned.steps:
+            command = step.shown
+            if step.command is None:
+                lines.append(f"# {step.label}: {step.description or 'runs inside wsbuild'}"
+                             + ("" if command is not None else " (no command to show)"))
+            if command is not None:
+                lines.append(format_command(command.argv, command.cwd,
+                                            self.step_env(planned, command.env)))
+        lines.append("# register: wsbuild then writes package.xml, the index marker and the "
+                     "environment hooks, and commits the stage into install/ (no command)")
+        return lines
+
+    def step_env(self, planned: PlannedSteps, env: Mapping[str, str]) -> dict[str, str]:
+        return env_delta({**planned.environ, **env}, self.session_environ)
+
+
+def planned_commands(build_plan: BuildPlan, selection: Selection, session: Session, *,
+                     compiler_cache: str) -> PlannedCommands:
+    """The steps of every package the plan builds (a restore has none), decided as the build
+    decides them but without touching anything: the build type reads the build directory
+    (whether CMake must configure), nothing is written. The compiler cache the build would
+    choose (`--compiler-cache`) is the compilers' launcher; the run's own resources
+    (jobserver, the compiler cache's private directory, stage) are not there, so neither are
+    they in the commands. Distributed compiles (`--distribute`) are not foreseen: the build
+    probes its hosts first."""
+    from wsbuild.builder.compiler_cache import choose_tool
+    from wsbuild.errors import WsbuildError
+    from wsbuild.prefix import environment_for
+    from wsbuild.prefix.layout import package_prefix
+
+    try:
+        chosen = choose_tool(compiler_cache, session.environ)
+    except WsbuildError:
+        chosen = None  # the build says why; the dry run shows the commands without
+    options = build_plan.options
+    if chosen is not None:
+        options = replace(options, compiler_launcher=str(chosen[1]))
+    workspace = selection.workspace
+    order = selection.graph.topological_order()
+    found: dict[str, PlannedSteps] = {}
+    for planned in build_plan.to_do():
+        if planned.decision is not Decision.BUILD:
+            continue
+        closure = selection.graph.build_closure(planned.name)
+        dependencies = [(prefix, dep) for dep in order if dep in closure
+                        if (prefix := package_prefix(workspace.install_base, dep,
+                                                     merged=session.merged)).is_dir()]
+        environ = environment_for(dependencies, session.environ)
+        build_dir = workspace.build_base / planned.name
+        ctx = BuildContext(
+            package=selection.packages[planned.name], build_dir=build_dir,
+            install_prefix=planned.prefix, stage_prefix=planned.prefix,
+            options=options, environ=environ, run=_not_run, warn=lambda _text: None,
+            dependency_prefixes=tuple(prefix for prefix, _ in dependencies),
+            jobserver_fifo=RUN_JOBSERVER)
+        steps = tuple(get_build_type(planned.build_type).steps(ctx))
+        found[planned.name] = PlannedSteps(build_dir, steps, environ)
+    return PlannedCommands(env_delta(session.environ, os.environ), dict(session.environ), found)
+
+
+def _not_run(command: Sequence[str], *, cwd: Path, env: Mapping[str, str] | None = None,
+             problems: Problems | None = None) -> None:
+    """A dry run's `BuildContext.run`: deciding the steps runs no command."""
+    raise StepFailed("a dry run runs nothing", command=command, cwd=cwd)
+
+
+def _export_line(env: Mapping[str, str]) -> str:
+    return "export " + " ".join(f"{k}={shlex.quote(v)}" for k, v in env.items())
+
+
+def _missing_scripts(commands: PlannedCommands) -> list[str]:
+    """CMake initial-cache scripts (`-C FILE`) the commands name that do not exist yet: the
+    build writes them before it starts (the lint stand-ins, colcon.meta's arguments)."""
+    missing: list[str] = []
+    for planned in commands.packages.values():
+        for step in planned.steps:
+            argv = step.shown.argv if step.shown is not None else ()
+            for index, arg in enumerate(argv):
+                path = argv[index + 1] if arg == "-C" and index + 1 < len(argv) else \
+                    arg[2:] if arg.startswith("-C") and len(arg) > 2 else ""
+                if path and not Path(path).exists() and path not in missing:
+                    missing.append(path)
+    return missing
+
+
+def plan_lines(build_plan: BuildPlan, commands: PlannedCommands | None = None) -> list[str]:
     """The plan as a person reads it."""
     packages = build_plan.packages
     building = build_plan.to_do()
@@ -30,14 +170,24 @@ def plan_lines(build_plan: BuildPlan) -> list[str]:
         lines += [f"  {name}: {', '.join(deps)}" for name, deps in build_plan.unresolved.items()]
     if build_plan.overrides:
         lines += ["warning: " + override_warning(build_plan.overrides)]
+    if commands is not None and commands.packages:
+        lines.append("commands (pasted in order into a shell in the workspace, they build "
+                     "what would build):")
+        lines += [f"  {line}" for line in commands.lines([p.name for p in packages])]
+        lines += [f"note: the commands read {path}, which `wsbuild build` writes before it "
+                  "builds (a dry run writes nothing)" for path in _missing_scripts(commands)]
     lines += [f"note: {text}" for text in build_plan.notices]
     if build_plan.refusal:
         lines.append(f"the build would refuse to start: {build_plan.refusal.summary}")
     return lines
 
 
-def plan_json(build_plan: BuildPlan) -> dict[str, object]:
-    """The plan for tools (`--dry-run --json`)."""
+def plan_json(build_plan: BuildPlan,
+              commands: PlannedCommands | None = None) -> dict[str, object]:
+    """The plan for tools (`--dry-run --json`); a package that would build has its `steps`
+    (each step's `env`: what it sets beyond the session's environment, `environment`) and
+    `commands` (its shell lines as `--dry-run` prints them)."""
+    steps = {} if commands is None else commands.packages
     return {
         "packages": [
             {
@@ -52,6 +202,11 @@ def plan_json(build_plan: BuildPlan) -> dict[str, object]:
                     # built only if what it read of those dependencies changes (cutoff)
                     "cutoff": p.reason.cutoff,
                 },
+                **({} if commands is None or p.name not in steps else {
+                    "steps": [_step_json(step, commands.step_env(steps[p.name], step.shown.env)
+                                         if step.shown is not None else None)
+                              for step in steps[p.name].steps],
+                    "commands": commands.package_lines(p.name)}),
             }
             for p in build_plan.packages
         ],
@@ -63,6 +218,7 @@ def plan_json(build_plan: BuildPlan) -> dict[str, object]:
                        "users": list(o.users)} for o in build_plan.overrides],
         "refusal": build_plan.refusal.summary if build_plan.refusal else None,
         "notices": list(build_plan.notices),
+        "environment": {} if commands is None else dict(commands.session_env),
     }
 
 
@@ -72,3 +228,17 @@ def _what(package: PackagePlan) -> str:
     if package.decision is Decision.RESTORE:
         return f"restore from cache: {package.reason.text}"
     return f"build: {package.reason.text}"
+
+
+def _step_json(step: Step, env: Mapping[str, str] | None) -> dict[str, object]:
+    command = step.shown
+    return {
+        "label": step.label,
+        "in_process": step.command is None,
+        "description": step.description,
+        "argv": None if command is None else list(command.argv),
+        "cwd": None if command is None else os.fspath(command.cwd),
+        "env": None if env is None else dict(env),
+        "reads": [os.fspath(path) for path in step.reads],
+        "writes": [os.fspath(path) for path in step.writes],
+    }

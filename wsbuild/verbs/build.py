@@ -229,14 +229,14 @@ def _dry_run(selection: Selection, request: BuildRequest, *, json_output: bool) 
     """Print what the build would do; exit 2 when it would refuse to start."""
     import json
 
-    from wsbuild.builder.pipeline import plan_build
+    from wsbuild.builder.pipeline import dry_run
     from wsbuild.builder.plan_text import plan_json, plan_lines
     from wsbuild.report import Reporter
 
     # the plan goes to stdout (JSON for tools): a cache's warnings go to stderr
-    build_plan = plan_build(selection, request, Reporter(sys.stderr))
+    build_plan, steps = dry_run(selection, request, Reporter(sys.stderr))
     if json_output:
-        print(json.dumps(plan_json(build_plan), indent=2))
+        print(json.dumps(plan_json(build_plan, steps), indent=2))
     else:
-        print("\n".join(plan_lines(build_plan)))
+        print("\n".join(plan_lines(build_plan, steps)))
     return 2 if build_plan.refusal else 0
