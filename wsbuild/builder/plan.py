@@ -307,7 +307,8 @@ def _unresolved(selection: Selection, request: BuildRequest,
 
     resolver = Resolver.from_environment(
         session.environ, session.underlay_prefixes,
-        memo=selection.workspace.build_base / ".wsbuild" / "pkg_config.json")
+        memo=selection.workspace.build_base / ".wsbuild" / "pkg_config.json",
+        remember=not session.options.dry_run)
     return unresolved((selection.packages[n] for n in selection.selected), selection.packages,
                       resolver, selection.workspace.build_base,
                       remember=not session.options.dry_run)

@@ -114,6 +114,8 @@ class Resolver:
     #: a file remembering pkg-config's compiled-in search path by the program's signature (a
     #: no-op build then starts no process); None: ask the program
     memo: Path | None = None
+    #: whether a new answer is written to `memo` (not by a dry run)
+    remember: bool = True
     _ament_index: dict[str, Path] | None = field(default=None, repr=False)
     _distributions: dict[str, str] | None = field(default=None, repr=False)
     _pkg_config_modules: frozenset[str] | None = field(default=None, repr=False)
@@ -122,7 +124,7 @@ class Resolver:
     @classmethod
     def from_environment(cls, environ: Mapping[str, str],
                          extra_prefixes: Iterable[Path] = (), *, detailed: bool = False,
-                         memo: Path | None = None) -> Resolver:
+                         memo: Path | None = None, remember: bool = True) -> Resolver:
         """The build's view: its environment, plus `extra_prefixes` (the venv underlay)."""
         extra = list(extra_prefixes)
         python_paths = _split_str(environ.get("PYTHONPATH", ""))
@@ -139,6 +141,7 @@ class Resolver:
             python_paths=tuple(dict.fromkeys(python_paths)),
             detailed=detailed,
             memo=memo,
+            remember=remember,
         )
 
     def resolve(self, name: str) -> tuple[Resolution, str]:
@@ -248,7 +251,8 @@ class Resolver:
         if libdir is not None:
             directories += _split_str(libdir)
         elif tool is not None:
-            directories += _split_str(_pkg_config_default_path(inputs.realpath(tool), self.memo))
+            directories += _split_str(_pkg_config_default_path(inputs.realpath(tool), self.memo,
+                                                                  write=self.remember))
         directories = list(dict.fromkeys(directories))
         for directory in directories:
             declare_directory(directory)
@@ -294,7 +298,7 @@ class Resolver:
         }
 
 
-def _pkg_config_default_path(tool: str, memo: Path | None) -> str:
+def _pkg_config_default_path(tool: str, memo: Path | None, *, write: bool = True) -> str:
     """pkg-config's compiled-in search path (`pc_path`) of the program at `tool` (its real
     path): from `memo` while the program's signature is the one remembered, else asked."""
     import json
@@ -315,7 +319,7 @@ def _pkg_config_default_path(tool: str, memo: Path | None) -> str:
         if isinstance(entry, list) and entry[:-1] == signature and isinstance(entry[-1], str):
             return entry[-1]
     found = _ask_pkg_config_default_path(tool)
-    if memo is not None:
+    if memo is not None and write:
         from wsbuild.files import atomic_write, private_directory
 
         try:
