@@ -42,9 +42,11 @@ RECORD_FORMAT = 1
 
 #: environment variables whose value a test can observe, by exact name ...
 OBSERVED_NAMES = frozenset({
-    "PATH", "LD_LIBRARY_PATH", "LD_PRELOAD", "CMAKE_PREFIX_PATH", "PKG_CONFIG_PATH",
+    "PATH", "LD_PRELOAD", "CMAKE_PREFIX_PATH", "PKG_CONFIG_PATH",
     "LANG", "LANGUAGE", "TZ", "DISPLAY",
 })
+#: ... compared as a set of directories (see observed_environment) ...
+UNORDERED_NAMES = frozenset({"LD_LIBRARY_PATH"})
 #: ... and by prefix: ROS and its middlewares, Python and pytest (PYTEST_ADDOPTS,
 #: PYTEST_PLUGINS, ...), CTest and GoogleTest, the locale
 OBSERVED_PREFIXES = (
@@ -80,9 +82,18 @@ def build_key(build_dir: Path) -> str | None:
 
 
 def observed_environment(env: Mapping[str, str]) -> dict[str, str]:
-    """A digest of each variable a test can observe (the values are never kept)."""
-    return {name: _digest(value) for name, value in sorted(env.items())
-            if name in OBSERVED_NAMES or name.startswith(OBSERVED_PREFIXES)}
+    """A digest of each variable a test can observe (the values are never kept).
+
+    `LD_LIBRARY_PATH` counts as the set of its directories: the ROS wheels' bootstrapper,
+    which re-executes the interpreter with its library directories added, adds them in set
+    order, a different one in every process."""
+    digests = {}
+    for name, value in sorted(env.items()):
+        if name in UNORDERED_NAMES:
+            digests[name] = _digest(sorted(set(value.split(os.pathsep))))
+        elif name in OBSERVED_NAMES or name.startswith(OBSERVED_PREFIXES):
+            digests[name] = _digest(value)
+    return digests
 
 
 def source_signature(root: Path, extra: Iterable[Path] = ()) -> str:
