@@ -280,3 +280,33 @@ def test_cache_selection_on_test_means_the_cached_result_applies(ws: Path) -> No
     changed = _test(ws, "--packages-skip-cache-valid", ROS_DOMAIN_ID="73")
     assert changed.returncode == 0, changed.stdout + changed.stderr
     assert ran_since(ws, before) == ["cm", "leaf", "mid", "other", "root"]
+
+
+# ------------------------------------------------------------------ the key's pure logic
+
+
+def test_the_environment_is_kept_as_digests_of_the_variables_that_matter() -> None:
+    from wsbuild.testing.cached_result import observed_environment
+
+    env = {"ROS_DOMAIN_ID": "5", "PYTEST_ADDOPTS": "-x", "HOME": "/root", "AWS_SECRET": "s3cr3t",
+           "LD_LIBRARY_PATH": "/a:/b", "PATH": "/bin:/usr/bin"}
+    kept = observed_environment(env)
+    assert sorted(kept) == ["LD_LIBRARY_PATH", "PATH", "PYTEST_ADDOPTS", "ROS_DOMAIN_ID"]
+    assert not set(env.values()) & set(kept.values())
+    # the wheels' bootstrapper orders LD_LIBRARY_PATH anew in every process; PATH's order counts
+    assert observed_environment({**env, "LD_LIBRARY_PATH": "/b:/a"}) == kept
+    assert observed_environment({**env, "PATH": "/usr/bin:/bin"}) != kept
+
+
+def test_a_changed_key_says_what_changed_first() -> None:
+    from wsbuild.testing.cached_result import TestKey
+
+    key = TestKey(build="b", closure={"dep": "1"}, sources="s", options="o",
+                  environment={"ROS_DOMAIN_ID": "x"}, tools="t")
+    assert key.changed_since(key) == ""
+    assert TestKey("b", {"dep": "2"}, "s", "o", {}, "t").changed_since(key) == \
+        "rebuilt on its test environment: dep"
+    assert TestKey("b", {"dep": "1"}, "s", "o", {}, "t").changed_since(key) == \
+        "environment variables changed: ROS_DOMAIN_ID"
+    assert TestKey("c", {"dep": "1"}, "s2", "o", {}, "t").changed_since(key) == \
+        "the package was rebuilt"

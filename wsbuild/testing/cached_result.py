@@ -11,8 +11,9 @@ The key's parts, each compared as written here:
 - `sources`: the stat signature (size, mtime, ctime, inode, mode) of every file of the package's
   source directory, as the builder walks it, and for CTest its CTestTestfile.cmake and ninja's
   log: a test edited without a rebuild runs again;
-- `options`: what `wsbuild test` hands the tool (pytest and ctest arguments, the retest counts,
-  --strict-linters, where results go, the install layout, the interpreter);
+- `options`: what `wsbuild test` hands the tool (its own arguments: --pytest-args or
+  --ctest-args, the retest counts, --strict-linters, where results go, the install layout, the
+  interpreter) and wsbuild's version;
 - `environment`: one digest per variable a test can observe (`OBSERVED_NAMES`, and names starting
   with `OBSERVED_PREFIXES`), taken from the environment the tool starts with;
 - `tools`: the interpreter, the versions of the distributions it and the ROS tests' pytest hold

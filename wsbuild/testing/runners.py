@@ -46,7 +46,7 @@ from wsbuild.engine.process import (
 from wsbuild.errors import WorkspaceError
 from wsbuild.prefix.layout import is_installed, package_prefix
 from wsbuild.events import Emit, Event, JobFinished, Notice, StepStarted
-from wsbuild import inputs
+from wsbuild import __version__, inputs
 from wsbuild.testing.cached_result import (
     CachedResult,
     TestKey,
@@ -371,7 +371,7 @@ class _Tester:
             extra = [build_dir / "CTestTestfile.cmake", build_dir / ".ninja_log"]
         # each tool's own arguments only: --pytest-args leave CTest's results valid
         passed = request.pytest_args if tool is TestTool.PYTEST else request.ctest_args
-        options = [tool.value, list(passed),
+        options = [__version__, tool.value, list(passed),
                    request.retest_until_fail, request.retest_until_pass, request.strict_linters,
                    str(results_dir(self.plan.workspace, name, request.test_result_base)),
                    self.merged, request.python_executable]
