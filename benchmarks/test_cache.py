@@ -162,6 +162,11 @@ class TestCacheBench:
         self.wsbuild(workspace.root, "build")
         tested = self.wsbuild(workspace.root, "test")
         started = sorted(_STARTED.findall(tested.output))
+        others = [name for name in started if name != leaf]
+        if others:  # why, as the package's log says (e.g. the system's packages changed)
+            run_log = sorted((workspace.root / "log").glob("test_*"))[-1]
+            why = (run_log / others[0] / "command.log").read_text().splitlines()[0]
+            self.notes.append(f"after the leaf edit {others[0]} ran too: {why}")
         self.rows.append([f"`test` after editing leaf {leaf} (and building)", "",
                           f"{tested.seconds:.2f} s", "",
                           "only that package's tests run",
