@@ -310,3 +310,19 @@ def test_a_changed_key_says_what_changed_first() -> None:
         "environment variables changed: ROS_DOMAIN_ID"
     assert TestKey("c", {"dep": "1"}, "s2", "o", {}, "t").changed_since(key) == \
         "the package was rebuilt"
+
+
+def test_with_a_symlink_install_an_edited_dependency_reruns_its_users_unbuilt(
+        tmp_path: Path) -> None:
+    """A symlink install links to the sources: an edit reaches the users' tests at once."""
+    ws = _workspace(tmp_path)
+    built = run_wsbuild("build", "--symlink-install", cwd=ws, env=_env())
+    assert built.returncode == 0, built.stdout + built.stderr
+    assert _test(ws).returncode == 0
+    before = runs(ws)
+    main = ws / "src" / "root" / "root" / "main.py"
+    main.write_text(main.read_text() + "# edited, not rebuilt\n")
+    again = _test(ws)
+    assert again.returncode == 0, again.stdout + again.stderr
+    assert ran_since(ws, before) == ["leaf", "mid", "root"]
+    assert sorted(cached(again)) == ["cm", "other"]

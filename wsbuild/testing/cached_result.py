@@ -7,7 +7,8 @@ The key's parts, each compared as written here:
   builder writes: read here by its field name, since builder/ ranks beside testing/);
 - `closure`: the build key of every workspace package of its test closure (its direct
   dependencies and, recursively, their run dependencies), standing in for their installed
-  output; a package built by another tool (no state.json) is never reused;
+  output, and for one built with --symlink-install also its sources' signature (its install
+  links to them); a package built by another tool (no state.json) is never reused;
 - `sources`: the stat signature (size, mtime, ctime, inode, mode) of every file of the package's
   source directory, as the builder walks it, and for CTest its CTestTestfile.cmake and ninja's
   log: a test edited without a rebuild runs again;
@@ -73,13 +74,26 @@ def stat_signature(path: str | os.PathLike[str]) -> list[int]:
     return [st.st_mode, st.st_ino, st.st_size, st.st_mtime_ns, st.st_ctime_ns]
 
 
-def build_key(build_dir: Path) -> str | None:
-    """The key of the package's last build, None when wsbuild did not build it."""
+@dataclass(frozen=True, slots=True)
+class BuildRecord:
+    """What the key takes of a package's last build (builder/fingerprint.py's state.json)."""
+
+    key: str
+    #: built with --symlink-install: its install points into its sources, so an edit there
+    #: reaches the tests of everything that uses it without a rebuild
+    symlink_install: bool
+
+
+def read_build_record(build_dir: Path) -> BuildRecord | None:
+    """The package's last build, None when wsbuild did not build it."""
     try:
-        key = json.loads(inputs.read_text(build_dir / STATE_FILE))["key"]
-    except (OSError, ValueError, KeyError, TypeError):
+        data = json.loads(inputs.read_text(build_dir / STATE_FILE))
+        key = data["key"]
+        options = (data.get("inputs") or {}).get("options") or {}
+        symlinked = bool(options.get("symlink_install", False))
+    except (OSError, ValueError, KeyError, TypeError, AttributeError):
         return None
-    return key if isinstance(key, str) and key else None
+    return BuildRecord(key, symlinked) if isinstance(key, str) and key else None
 
 
 def observed_environment(env: Mapping[str, str]) -> dict[str, str]:

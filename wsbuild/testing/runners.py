@@ -50,11 +50,12 @@ from wsbuild import __version__, inputs
 from wsbuild.testing.cached_result import (
     CachedResult,
     TestKey,
-    build_key,
+    BuildRecord,
     file_stamps,
     forget_cached_result,
     interpreter_tools,
     observed_environment,
+    read_build_record,
     read_cached_result,
     source_signature,
     stat_signature,
@@ -339,8 +340,10 @@ class _Tester:
     base_env: Mapping[str, str]
     run_log: Path
     order: list[str] = field(default_factory=list)
-    #: memos shared by the packages' keys: each package's build key, the interpreter's tools
-    _build_keys: dict[str, str | None] = field(default_factory=dict)
+    #: memos shared by the packages' keys: each package's build record and source signature,
+    #: the interpreter's tools
+    _builds: dict[str, BuildRecord | None] = field(default_factory=dict)
+    _sources: dict[str, str] = field(default_factory=dict)
     _tools: str = ""
 
     def __post_init__(self) -> None:
@@ -348,16 +351,28 @@ class _Tester:
         self._tools = interpreter_tools(self.request.python_executable,
                                         ros_pytest_dir(self.request.python_executable))
 
-    def _build_key(self, name: str) -> str | None:
-        if name not in self._build_keys:
-            self._build_keys[name] = build_key(self.plan.workspace.build_base / name)
-        return self._build_keys[name]
+    def _build(self, name: str) -> BuildRecord | None:
+        if name not in self._builds:
+            self._builds[name] = read_build_record(self.plan.workspace.build_base / name)
+        return self._builds[name]
+
+    def _installed_output(self, name: str) -> str | None:
+        """What stands in for a package's installed output: its build key, and with a
+        symlink install also its sources (which the install links to)."""
+        build = self._build(name)
+        if build is None:
+            return None
+        if not build.symlink_install:
+            return build.key
+        if name not in self._sources:
+            self._sources[name] = source_signature(self.plan.packages[name].path)
+        return f"{build.key}+{self._sources[name]}"
 
     def test_key(self, name: str, tool: TestTool, env: Mapping[str, str]) -> TestKey | None:
         """What the package's tests can observe (cached_result.py); None when a package of
         its test closure was not built by wsbuild (no build key to compare)."""
-        own = self._build_key(name)
-        closure = {dep: self._build_key(dep) for dep in
+        own = self._build(name)
+        closure = {dep: self._installed_output(dep) for dep in
                    closure_under_test(self.plan.graph, name) if dep in self.plan.packages}
         if own is None or None in closure.values():
             return None
@@ -376,7 +391,7 @@ class _Tester:
                    str(results_dir(self.plan.workspace, name, request.test_result_base)),
                    self.merged, request.python_executable]
         return TestKey(
-            build=own, closure={dep: key for dep, key in closure.items() if key is not None},
+            build=own.key, closure={dep: key for dep, key in closure.items() if key is not None},
             sources=source_signature(self.plan.packages[name].path, extra),
             options=json.dumps(options), environment=observed_environment(env),
             tools=json.dumps(tools))
