@@ -326,3 +326,20 @@ def test_with_a_symlink_install_an_edited_dependency_reruns_its_users_unbuilt(
     assert again.returncode == 0, again.stdout + again.stderr
     assert ran_since(ws, before) == ["leaf", "mid", "root"]
     assert sorted(cached(again)) == ["cm", "other"]
+
+
+def test_tests_skipped_for_a_missing_linter_run_again(ws: Path) -> None:
+    """ament_copyright has no distribution: its test module is skipped by the tooling, not
+    passed, so the package is tested again while its other tests' results stand."""
+    (ws / "src" / "other" / "test" / "test_copyright.py").write_text(
+        "from ament_copyright.main import main\n\n\n"
+        "def test_copyright():\n    assert main(argv=['.', 'test']) == 0\n")
+    first = _test(ws)
+    assert first.returncode == 0, first.stdout + first.stderr
+    assert "not installed, not run: ament_copyright (1 package): counted as skipped" \
+        in first.stdout
+    before = runs(ws)
+    again = _test(ws)
+    assert again.returncode == 0, again.stdout + again.stderr
+    assert ran_since(ws, before) == ["other"]
+    assert sorted(cached(again)) == ["cm", "leaf", "mid", "root"]
