@@ -82,7 +82,8 @@ def add_tests(workspace: GeneratedWorkspace) -> None:
         else:
             cmakelists = base / "CMakeLists.txt"
             text = cmakelists.read_text()
-            cmakelists.write_text(text.replace("ament_package()", CMAKE_TESTS + "\nament_package()"))
+            cmakelists.write_text(text.replace("ament_package()",
+                                               CMAKE_TESTS + "\nament_package()"))
 
 
 @dataclass(slots=True)

@@ -6,7 +6,9 @@ The stages, in order:
 3. session.py     the run's context, as a build's: lock, the ROS underlay's environment, the log
 4. schedule       packages in dependency order and in parallel (engine/schedule.py); failing tests never
                   stop the other packages (only --abort-on-error does)
-5. per package    the tool its build type names (build_types' `test_tool`): `python -m pytest`
+5. per package    its last passing result reused when nothing its tests observe changed
+                  (cached_result.py; else its record is forgotten, and written again on a pass);
+                  the tool its build type names (build_types' `test_tool`): `python -m pytest`
                   in the source directory, or `ctest` in the build directory; both with the
                   package's own install and its dependencies' applied as colcon does
                   (prefix/environment.py) and the pytest Jazzy's plugins accept (pytest_env.py),
