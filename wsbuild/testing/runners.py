@@ -6,7 +6,9 @@ The stages, in order:
 3. session.py     the run's context, as a build's: lock, the ROS underlay's environment, the log
 4. schedule       packages in dependency order and in parallel (engine/schedule.py); failing tests never
                   stop the other packages (only --abort-on-error does)
-5. per package    the tool its build type names (build_types' `test_tool`): `python -m pytest`
+5. per package    its last passing result reused when nothing its tests observe changed
+                  (cached_result.py; else its record is forgotten, and written again on a pass);
+                  the tool its build type names (build_types' `test_tool`): `python -m pytest`
                   in the source directory, or `ctest` in the build directory; both with the
                   package's own install and its dependencies' applied as colcon does
                   (prefix/environment.py) and the pytest Jazzy's plugins accept (pytest_env.py),
@@ -46,7 +48,22 @@ from wsbuild.engine.process import (
 from wsbuild.errors import WorkspaceError
 from wsbuild.prefix.layout import is_installed, package_prefix
 from wsbuild.events import Emit, Event, JobFinished, Notice, StepStarted
-from wsbuild.testing.pytest_env import with_ros_pytest
+from wsbuild import __version__, inputs
+from wsbuild.testing.cached_result import (
+    CachedResult,
+    TestKey,
+    BuildRecord,
+    file_stamps,
+    forget_cached_result,
+    interpreter_tools,
+    observed_environment,
+    read_build_record,
+    read_cached_result,
+    source_signature,
+    stat_signature,
+    write_cached_result,
+)
+from wsbuild.testing.pytest_env import ros_pytest_dir, with_ros_pytest
 from wsbuild.testing.linters import MISSING_LINTER_PREFIX
 from wsbuild.testing.tooling import ToolingFailure, is_tooling, tooling_failures
 from wsbuild.testing.junit import (
@@ -100,6 +117,9 @@ class TestRequest:
     python_executable: str = sys.executable
     #: a test module importing an ament linter that is not installed is an error, not a skip
     strict_linters: bool = False
+    #: reuse a package's last passing result while nothing its tests observe changed
+    #: (cached_result.py); False: --no-test-cache
+    reuse_results: bool = True
 
     @property
     def max_attempts(self) -> int:
@@ -137,6 +157,8 @@ class PackageTests:
     missing_linters: tuple[str, ...] = ()
     #: the test tooling failing to start (as opposed to tests failing)
     tooling: tuple[ToolingFailure, ...] = ()
+    #: the result of an earlier run, reused (`log_dir` and `result_files` are that run's)
+    cached: bool = False
 
 
 @dataclass(frozen=True, slots=True)
@@ -239,6 +261,8 @@ def run_tests(plan: Selection, request: TestRequest, emit: Emit) -> TestRun:
                 report = reports[event.result.package]
                 if report.status is PackageStatus.NO_TESTS:
                     emit(Notice(report.message or "no tests", package=report.package))
+                elif report.cached:
+                    emit(Notice(cached_text(report, Path.cwd()), package=report.package))
 
         selected = set(plan.selected)
         dependencies = {n: closure_under_test(plan.graph, n) & selected for n in plan.selected}
@@ -253,6 +277,39 @@ def run_tests(plan: Selection, request: TestRequest, emit: Emit) -> TestRun:
     return TestRun(final, time.monotonic() - started, session.run_log, interrupted)
 
 
+def reusable_results(plan: Selection, request: TestRequest) -> set[str]:
+    """The selected packages whose last passing result `run_tests` would reuse now (what
+    colcon-cache's selection options call a valid test cache). Takes no lock, writes nothing."""
+    from wsbuild.prefix.layout import resolve_layout
+    from wsbuild.session import LINT_SHIM
+    from wsbuild.underlay.environment import prepare_underlay
+
+    ws = plan.workspace
+    try:
+        merged = resolve_layout(ws.install_base, request.merge_install, verb="test")
+    except WorkspaceError:
+        return set()
+    underlay = prepare_underlay(os.environ, executable=sys.executable, repair=False,
+                                shim_dir=ws.build_base / LINT_SHIM, notice=lambda _text: None,
+                                dry_run=True)
+    tester = _Tester(plan, request, merged, underlay.environ, ws.log_base)
+    valid = set()
+    for name in plan.selected:
+        test_tool = get_build_type(plan.packages[name].build_type).test_tool
+        if test_tool is None:
+            continue
+        for dep in (name, *closure_under_test(plan.graph, name)):
+            # what environment_for reads of each prefix (package.dsv, its hooks): declared,
+            # as every read of a run that only plans (wsbuild/inputs.py)
+            share = package_prefix(ws.install_base, dep, merged=merged) / "share" / dep
+            for path in inputs.walk_files(share):
+                inputs.declare_file(path)
+        env = with_ros_pytest(tester.environment(name), request.python_executable)
+        if tester.reusable(name, tester.test_key(name, test_tool, env), None) is not None:
+            valid.add(name)
+    return valid
+
+
 def _shown(report: PackageTests) -> JobResult:
     """How the reporter shows a package: failing tests as a failed package, with its log."""
     if report.status is PackageStatus.FAILED:
@@ -261,6 +318,8 @@ def _shown(report: PackageTests) -> JobResult:
                            log_dir=report.log_dir)
     if report.status is PackageStatus.INTERRUPTED:
         return JobResult(report.package, Outcome.INTERRUPTED, report.seconds)
+    if report.cached:  # drawn by its notice (cached_text), as an up-to-date build is by none
+        return JobResult(report.package, Outcome.UP_TO_DATE, report.seconds)
     return JobResult(report.package, Outcome.FINISHED, report.seconds, log_dir=report.log_dir)
 
 
@@ -283,9 +342,79 @@ class _Tester:
     base_env: Mapping[str, str]
     run_log: Path
     order: list[str] = field(default_factory=list)
+    #: memos shared by the packages' keys: each package's build record and source signature,
+    #: the interpreter's tools
+    _builds: dict[str, BuildRecord | None] = field(default_factory=dict)
+    _sources: dict[str, str] = field(default_factory=dict)
+    _tools: str = ""
 
     def __post_init__(self) -> None:
         self.order = self.plan.graph.topological_order()
+        self._tools = interpreter_tools(self.request.python_executable,
+                                        ros_pytest_dir(self.request.python_executable))
+
+    def _build(self, name: str) -> BuildRecord | None:
+        if name not in self._builds:
+            self._builds[name] = read_build_record(self.plan.workspace.build_base / name)
+        return self._builds[name]
+
+    def _installed_output(self, name: str) -> str | None:
+        """What stands in for a package's installed output: its build key, and with a
+        symlink install also its sources (which the install links to)."""
+        build = self._build(name)
+        if build is None:
+            return None
+        if not build.symlink_install:
+            return build.key
+        if name not in self._sources:
+            self._sources[name] = source_signature(self.plan.packages[name].path)
+        return f"{build.key}+{self._sources[name]}"
+
+    def test_key(self, name: str, tool: TestTool, env: Mapping[str, str]) -> TestKey | None:
+        """What the package's tests can observe (cached_result.py); None when a package of
+        its test closure was not built by wsbuild (no build key to compare)."""
+        own = self._build(name)
+        closure = {dep: self._installed_output(dep) for dep in
+                   closure_under_test(self.plan.graph, name) if dep in self.plan.packages}
+        if own is None or None in closure.values():
+            return None
+        build_dir = self.plan.workspace.build_base / name
+        request = self.request
+        tools = [self._tools]
+        extra: list[Path] = []
+        if tool is TestTool.CTEST:
+            ctest = inputs.which("ctest", path=env.get("PATH"))
+            tools.append(f"{ctest}:{stat_signature(ctest) if ctest else ''}")
+            extra = [build_dir / "CTestTestfile.cmake", build_dir / ".ninja_log"]
+        # each tool's own arguments only: --pytest-args leave CTest's results valid
+        passed = request.pytest_args if tool is TestTool.PYTEST else request.ctest_args
+        options = [__version__, tool.value, list(passed),
+                   request.retest_until_fail, request.retest_until_pass, request.strict_linters,
+                   str(results_dir(self.plan.workspace, name, request.test_result_base)),
+                   self.merged, request.python_executable]
+        return TestKey(
+            build=own.key, closure={dep: key for dep, key in closure.items() if key is not None},
+            sources=source_signature(self.plan.packages[name].path, extra),
+            options=json.dumps(options), environment=observed_environment(env),
+            tools=json.dumps(tools))
+
+    def reusable(self, name: str, key: TestKey | None, log_dir: Path | None) -> CachedResult | None:
+        """The package's last passing result, when it applies to `key`; why not, in its log."""
+        if key is None:
+            why = "not built by wsbuild (no build key), nor all of its test closure"
+        else:
+            cached = read_cached_result(self.plan.workspace.build_base / name)
+            if cached is None:
+                why = "no passing result recorded"
+            elif cached.key != key:
+                why = key.changed_since(cached.key) or "its key changed"
+            elif not cached.files_unchanged():
+                why = "its result files changed or are gone"
+            else:
+                return cached
+        if log_dir is not None:
+            _log(log_dir, f"test result not reused: {why}")
+        return None
 
     def environment(self, name: str) -> dict[str, str]:
         """The package's install last, after its test closure in dependency order."""
@@ -312,6 +441,18 @@ class _Tester:
             return PackageTests(name, PackageStatus.NO_TESTS, log_dir=log_dir,
                                 message=f"wsbuild cannot test '{package.build_type}' packages")
         env = with_ros_pytest(self.environment(name), self.request.python_executable)
+        build_dir = self.plan.workspace.build_base / name
+        key = self.test_key(name, test_tool, env)
+        if self.request.reuse_results:
+            cached = self.reusable(name, key, log_dir)
+            if cached is not None:
+                _log(log_dir, f"test result reused from {cached.log_dir}: nothing its tests "
+                              "observe changed")
+                return PackageTests(name, PackageStatus.PASSED, cached.counts,
+                                    result_files=tuple(Path(p) for p in cached.result_files),
+                                    log_dir=cached.log_dir, cached=True,
+                                    seconds=time.monotonic() - started)
+        forget_cached_result(build_dir)
         target = results_dir(self.plan.workspace, name, self.request.test_result_base)
         target.mkdir(parents=True, exist_ok=True)
         attempts = self.request.max_attempts
@@ -333,8 +474,12 @@ class _Tester:
                 break
         flaky = attempt > 1 and report.status is (
             PackageStatus.PASSED if self.request.retest_until_pass else PackageStatus.FAILED)
-        return replace(report, log_dir=log_dir, attempts=attempt, max_attempts=attempts,
-                       flaky=flaky, seconds=time.monotonic() - started)
+        report = replace(report, log_dir=log_dir, attempts=attempt, max_attempts=attempts,
+                         flaky=flaky, seconds=time.monotonic() - started)
+        if key is not None and _reusable_later(report):
+            write_cached_result(build_dir, CachedResult(
+                key, report.counts, file_stamps(report.result_files), log_dir, report.seconds))
+        return report
 
     def _run(self, command: Sequence[str], *, cwd: Path, env: Mapping[str, str], log_dir: Path,
              on_line: Callable[[str, bool], None] | None = None, logged: bool = True) -> Completed:
@@ -575,6 +720,14 @@ def _package_result(name: str, files: Sequence[ResultFile],
                         tooling=tooling_failures(problems, python_executable))
 
 
+def _reusable_later(report: PackageTests) -> bool:
+    """Only a plain pass is kept: not one that needed a retry (flaky), nor one where tests
+    were skipped because their linter is missing or the tooling failed."""
+    return (report.status is PackageStatus.PASSED and not report.flaky
+            and not report.missing_linters and not report.tooling
+            and not REGISTRY.cancelled.is_set())
+
+
 def _log(log_dir: Path, line: str) -> None:
     with open(log_dir / "command.log", "a") as handle:
         handle.write(line + "\n")
@@ -610,6 +763,10 @@ def summary_lines(run: TestRun, *, shown: Path) -> list[str]:
         names = sorted(r.package for r in run.results if r.status is status)
         if names:
             lines.append(f"  {plural(len(names), 'package')} {label}: {' '.join(names)}")
+        cached = sorted(r.package for r in run.results if r.status is status and r.cached)
+        if cached:
+            lines.append(f"    of which cached (nothing their tests observe changed; "
+                         f"--no-test-cache runs them): {' '.join(cached)}")
     for result in run.results:
         if result.flaky:
             lines.append(f"  flaky: {result.package} {result.status.value} on attempt "
@@ -639,6 +796,18 @@ def summary_lines(run: TestRun, *, shown: Path) -> list[str]:
             lines.append(f"    {failure.what}: {failure.cause}")
             lines.append(f"      fix: {failure.fix}")
     return lines
+
+
+def cached_text(result: PackageTests, shown: Path) -> str:
+    """`cached: 3 tests, ... (log: ..., results: ...)`: a reused result, as it was."""
+    places = []
+    if result.log_dir is not None:
+        places.append(f"log: {display_path(result.log_dir / 'stdout_stderr.log', shown)}")
+    folders = sorted({display_path(path.parent, shown) for path in result.result_files})
+    if folders:
+        places.append(f"results: {' '.join(folders)}")
+    where = f" ({', '.join(places)})" if places else ""
+    return f"cached: {result.counts.describe()}{where}"
 
 
 def _log_of(result: PackageTests, shown: Path) -> str:

@@ -1,8 +1,10 @@
 """colcon-cache's package selection options (`--packages-select-cache-invalid`,
 `--packages-skip-cache-valid`, `--packages-select-cache-key KEY`), mapped onto wsbuild's own
 fingerprints: a package's `build` cache is valid when the plan of `wsbuild build`
-(builder/plan.py) finds it up to date; its `test` cache when, besides, its last tests passed
-after its last build. colcon-cache's lockfiles (`colcon cache lock`) are not read.
+(builder/plan.py) finds it up to date; its `test` cache when, besides, `wsbuild test` would
+reuse its last passing result now (testing/cached_result.py: nothing its tests can observe
+changed, judged with `test`'s own options). colcon-cache's lockfiles (`colcon cache lock`) are
+not read.
 
 `build` judges with the command line's own build options; the other verbs with those of a
 plain `wsbuild build` (a package built with other options counts as invalid: it is processed,
@@ -13,7 +15,6 @@ from __future__ import annotations
 
 import argparse
 import sys
-from pathlib import Path
 from typing import TYPE_CHECKING
 
 from wsbuild.verbs.arguments import secondary
@@ -61,8 +62,7 @@ def select_by_cache(args: argparse.Namespace, selection: Selection) -> list[str]
     plan = plan_build(selection, _request(args), lambda _event: None)
     valid = {p.name for p in plan.packages if p.decision is Decision.UP_TO_DATE}
     if key == "test":
-        valid = {name for name in valid if _tests_passed_since_built(
-            selection.workspace.build_base / name)}
+        valid &= _cached_results_apply(args, selection)
     return [name for name in selection.selected if name not in valid]
 
 
@@ -84,16 +84,12 @@ def _request(args: argparse.Namespace) -> BuildRequest:
                        wait_for_lock=True))
 
 
-def _tests_passed_since_built(build_dir: Path) -> bool:
-    """The package's last test run passed, and its results are newer than its last build."""
-    from wsbuild.builder.fingerprint import STATE_FILE
-    from wsbuild.testing.junit import collect_results
+def _cached_results_apply(args: argparse.Namespace, selection: Selection) -> set[str]:
+    """The packages whose last passing test result `wsbuild test` would reuse now (testing/
+    cached_result.py), judged with the command line's test options for `test`, else a plain
+    `wsbuild test`'s; a run with --no-test-cache still judges by the cached results."""
+    from wsbuild.testing.runners import reusable_results
+    from wsbuild.verbs.test import request_from_args
 
-    collected = collect_results(build_dir)
-    if not collected.results or collected.counts.failed:
-        return False
-    try:
-        built = (build_dir / STATE_FILE).stat().st_mtime
-    except OSError:
-        return False
-    return min(Path(result.path).stat().st_mtime for result in collected.results) >= built
+    request = request_from_args(args, selection.workspace.root)
+    return reusable_results(selection, request)

@@ -26,6 +26,10 @@ TEST_DOC = """Run the tests of the packages against the built workspace.
 In dependency order and in parallel, as colcon does: pytest in the source directory of
 Python packages, CTest in the build directory of CMake ones. JUnit results go to
 build/<pkg>/test_results/<pkg>/. Unlike colcon, a failing test makes the exit code 1.
+A package's last passing result is reused ("cached", with its counts and log) while
+nothing its tests can observe changed: its build and those of its test dependencies, its
+files, the test options, the environment variables that matter, the test tools.
+--no-test-cache runs every test.
 
 examples:
   wsbuild test --packages-select my_driver --pytest-args -k 'not slow' --
@@ -64,6 +68,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     secondary(how.add_argument(
         "--strict-linters", action="store_true",
         help="a test of an ament linter that is not installed fails (default: skip)"))
+    how.add_argument("--no-test-cache", action="store_true",
+                     help="run every test, even where the last passing result still applies")
     how.add_argument("--abort-on-error", action="store_true",
                      help="start no more packages once one has failing tests")
     how.add_argument("--pytest-args", action="append", metavar="ARG",
@@ -124,6 +130,7 @@ def request_from_args(args: argparse.Namespace, root: Path) -> TestRequest:
         wait_for_lock=not getattr(args, "no_wait", False),
         python_executable=sys.executable,
         strict_linters=getattr(args, "strict_linters", False),
+        reuse_results=not getattr(args, "no_test_cache", False),
     )
 
 

@@ -1,0 +1,345 @@
+"""Cached test results on real workspaces (testing/cached_result.py): a package's last passing
+result is reused while nothing its tests can observe changed, and runs again after anything
+they could observe did. Each package's test counts its runs in <ws>/ran/<pkg> (outside every
+package, so counting changes no package's files): what ran is measured, not guessed."""
+
+from __future__ import annotations
+
+import json
+import os
+import re
+import stat
+import subprocess
+from pathlib import Path
+
+import pytest
+
+from conftest import run_wsbuild, write_package
+
+#: a test that counts its runs, and fails on the runs its plan says (`fail` / `pass` per run)
+COUNTING_TEST = '''from pathlib import Path
+
+RAN = Path(__file__).resolve().parents[3] / "ran"
+
+
+def test_counts_its_runs():
+    RAN.mkdir(exist_ok=True)
+    counter = RAN / "{name}"
+    runs = int(counter.read_text()) if counter.exists() else 0
+    counter.write_text(str(runs + 1))
+    plan = "{plan}".split()
+    assert plan[min(runs, len(plan) - 1)] == "pass", "planned to fail on run " + str(runs + 1)
+
+
+def test_imports_what_it_tests():
+    import {name}.main  # noqa: F401
+'''
+
+CM_CMAKELISTS = """cmake_minimum_required(VERSION 3.14)
+project(cm NONE)
+enable_testing()
+add_test(NAME counts COMMAND sh -c "mkdir -p ${{RAN}} && echo x >> ${{RAN}}/cm")
+install(FILES package.xml DESTINATION share/cm)
+"""
+
+#: root ← mid ← leaf (leaf only exec-depends on mid: its tests still see root), other, cm
+SPEC = {"root": [], "mid": ["root"], "other": []}
+
+
+def _env(**extra: str) -> dict[str, str]:
+    env = dict(os.environ)
+    env.update(ROS_AUTOMATIC_DISCOVERY_RANGE="LOCALHOST", ROS_DOMAIN_ID="71")
+    env.update(extra)
+    return env
+
+
+def _test(ws: Path, *args: str, **env: str) -> subprocess.CompletedProcess[str]:
+    return run_wsbuild("test", *args, cwd=ws, env=_env(**env))
+
+
+def _build(ws: Path) -> None:
+    done = run_wsbuild("build", cwd=ws, env=_env())
+    assert done.returncode == 0, done.stdout + done.stderr
+
+
+def _counting(package: Path, name: str, plan: str = "pass") -> None:
+    (package / "test").mkdir(exist_ok=True)
+    (package / "test" / "test_counts.py").write_text(COUNTING_TEST.format(name=name, plan=plan))
+
+
+def _workspace(root: Path, plans: dict[str, str] | None = None) -> Path:
+    ws = root / "ws"
+    src = ws / "src"
+    for name, deps in SPEC.items():
+        _counting(write_package(src, name, deps=deps), name, (plans or {}).get(name, "pass"))
+    _counting(write_package(src, "leaf", kinds={"exec_depend": ["mid"]}), "leaf")
+    cm = write_package(src, "cm", "cmake")
+    (cm / "CMakeLists.txt").write_text(CM_CMAKELISTS.format().replace(
+        "${RAN}", str(ws / "ran")))
+    _build(ws)
+    return ws
+
+
+def runs(ws: Path) -> dict[str, int]:
+    """How often each package's tests have run so far."""
+    ran = ws / "ran"
+    counts = {}
+    for counter in sorted(ran.iterdir()) if ran.is_dir() else []:
+        text = counter.read_text()
+        counts[counter.name] = len(text.split()) if counter.name == "cm" else int(text)
+    return counts
+
+
+def ran_since(ws: Path, before: dict[str, int]) -> list[str]:
+    return sorted(name for name, count in runs(ws).items() if count != before.get(name, 0))
+
+
+def cached(result: subprocess.CompletedProcess[str]) -> dict[str, str]:
+    """package -> its `cached: ...` line."""
+    return dict(re.findall(r"^\[(\w+)\] cached: (.*)$", result.stdout, re.MULTILINE))
+
+
+def summary(result: subprocess.CompletedProcess[str]) -> str:
+    line = next(line for line in result.stdout.splitlines() if line.startswith("Summary:"))
+    return re.sub(r" \[[\d.]+s\]$", "", line)
+
+
+@pytest.fixture
+def ws(tmp_path: Path) -> Path:
+    return _workspace(tmp_path)
+
+
+def test_a_second_test_reruns_nothing_and_shows_the_results_as_they_were(ws: Path) -> None:
+    first = _test(ws, ROS_SECRET_PROBE="never-on-disk-3141")
+    assert first.returncode == 0, first.stdout + first.stderr
+    assert runs(ws) == {"cm": 1, "leaf": 1, "mid": 1, "other": 1, "root": 1}
+    assert cached(first) == {}
+    before = runs(ws)
+    results_before = run_wsbuild("test-result", "--all", cwd=ws).stdout
+
+    again = _test(ws, ROS_SECRET_PROBE="never-on-disk-3141")
+    assert again.returncode == 0, again.stdout + again.stderr
+    assert ran_since(ws, before) == []
+    assert "Starting >>>" not in again.stdout
+    shown = cached(again)
+    assert sorted(shown) == ["cm", "leaf", "mid", "other", "root"]
+    assert summary(again) == summary(first) == \
+        "Summary: 5 packages tested, 9 tests, 0 errors, 0 failures, 0 skipped"
+    assert "    of which cached (nothing their tests observe changed; --no-test-cache runs " \
+           "them): cm leaf mid other root" in again.stdout.splitlines()
+    # the original counts, the original log and the JUnit files, which are still there
+    log = re.fullmatch(r"2 tests, 0 errors, 0 failures, 0 skipped "
+                       r"\(log: (\S+), results: (\S+)\)", shown["root"])
+    assert log, shown["root"]
+    assert "2 passed" in (ws / log[1]).read_text()
+    first_log = sorted((ws / "log").glob("test_*"))[0]
+    assert (ws / log[1]).parent == first_log / "root"
+    assert (ws / log[2] / "pytest.xml").is_file()
+    assert shown["cm"].startswith("1 test, 0 errors, 0 failures, 0 skipped (log: ")
+    # test-result reports them as what they were
+    assert run_wsbuild("test-result", "--all", cwd=ws).stdout == results_before
+    # the record: private, digests only
+    record = ws / "build" / "root" / ".wsbuild" / "test_result.json"
+    assert stat.S_IMODE(record.stat().st_mode) == 0o600
+    assert stat.S_IMODE(record.parent.stat().st_mode) == 0o700
+    text = record.read_text()
+    assert "never-on-disk-3141" not in text and "LOCALHOST" not in text
+    assert "ROS_SECRET_PROBE" in json.loads(text)["key"]["environment"]
+
+
+def test_after_a_leaf_package_is_edited_only_its_tests_run(ws: Path) -> None:
+    assert _test(ws).returncode == 0
+    before = runs(ws)
+    main = ws / "src" / "leaf" / "leaf" / "main.py"
+    main.write_text(main.read_text() + "# edited\n")
+    _build(ws)
+    again = _test(ws)
+    assert again.returncode == 0, again.stdout + again.stderr
+    assert ran_since(ws, before) == ["leaf"]
+    assert sorted(cached(again)) == ["cm", "mid", "other", "root"]
+
+
+def test_after_a_root_package_is_edited_everything_that_sees_it_runs(ws: Path) -> None:
+    assert _test(ws).returncode == 0
+    before = runs(ws)
+    main = ws / "src" / "root" / "root" / "main.py"
+    main.write_text(main.read_text() + "# edited\n")
+    _build(ws)
+    again = _test(ws)
+    assert again.returncode == 0, again.stdout + again.stderr
+    # leaf only exec-depends on mid, whose run dependency root is on leaf's test environment
+    assert ran_since(ws, before) == ["leaf", "mid", "root"]
+    assert sorted(cached(again)) == ["cm", "other"]
+    log = sorted((ws / "log").glob("test_*"))[-1] / "mid" / "command.log"
+    assert re.search(r"^test result not reused: (the package was rebuilt|rebuilt on its test "
+                     r"environment: root)$", log.read_text(), re.MULTILINE)
+
+
+def test_a_test_edited_without_a_rebuild_runs_again(ws: Path) -> None:
+    assert _test(ws).returncode == 0
+    before = runs(ws)
+    test_file = ws / "src" / "other" / "test" / "test_counts.py"
+    test_file.write_text(test_file.read_text() + "\n\ndef test_added():\n    pass\n")
+    again = _test(ws)
+    assert again.returncode == 0, again.stdout + again.stderr
+    assert ran_since(ws, before) == ["other"]
+    assert "Summary: 5 packages tested, 10 tests," in again.stdout
+
+
+def test_a_flaky_test_that_failed_once_runs_again(tmp_path: Path) -> None:
+    ws = _workspace(tmp_path, {"other": "fail pass"})
+    first = _test(ws)
+    assert first.returncode == 1
+    before = runs(ws)
+    second = _test(ws)
+    assert second.returncode == 0, second.stdout + second.stderr
+    assert ran_since(ws, before) == ["other"]
+    assert "other" not in cached(second)
+    # now it passed: the next run reuses that
+    before = runs(ws)
+    assert _test(ws).returncode == 0
+    assert ran_since(ws, before) == []
+
+
+def test_a_pass_that_needed_a_retry_is_not_kept(tmp_path: Path) -> None:
+    ws = _workspace(tmp_path, {"other": "fail pass"})
+    first = _test(ws, "--retest-until-pass", "1")
+    assert first.returncode == 0, first.stdout + first.stderr
+    assert "flaky: other passed on attempt 2 of 2" in first.stdout
+    before = runs(ws)
+    again = _test(ws, "--retest-until-pass", "1")
+    assert ran_since(ws, before) == ["other"]
+    assert sorted(cached(again)) == ["cm", "leaf", "mid", "root"]
+
+
+def test_no_test_cache_and_its_defaults_key_run_everything(ws: Path) -> None:
+    assert _test(ws).returncode == 0
+    before = runs(ws)
+    forced = _test(ws, "--no-test-cache")
+    assert forced.returncode == 0
+    assert ran_since(ws, before) == ["cm", "leaf", "mid", "other", "root"]
+    assert cached(forced) == {}
+    (ws / "wsbuild.yaml").write_text("test:\n  no-test-cache: true\n")
+    before = runs(ws)
+    assert _test(ws).returncode == 0
+    assert ran_since(ws, before) == ["cm", "leaf", "mid", "other", "root"]
+    (ws / "wsbuild.yaml").unlink()
+    # what those runs passed is kept: the next plain run reuses it
+    before = runs(ws)
+    assert _test(ws).returncode == 0
+    assert ran_since(ws, before) == []
+
+
+def test_a_variable_that_matters_reruns_one_that_does_not_is_ignored(ws: Path) -> None:
+    assert _test(ws).returncode == 0
+    before = runs(ws)
+    assert _test(ws, UNRELATED_TO_TESTS="1").returncode == 0
+    assert ran_since(ws, before) == []
+    for changed in ({"ROS_DOMAIN_ID": "72"}, {"PYTEST_ADDOPTS": "-q"},
+                    {"RMW_IMPLEMENTATION": "rmw_fastrtps_cpp"}):
+        before = runs(ws)
+        again = _test(ws, **changed)
+        assert again.returncode == 0, again.stdout + again.stderr
+        assert ran_since(ws, before) == ["cm", "leaf", "mid", "other", "root"], changed
+    log = sorted((ws / "log").glob("test_*"))[-1] / "root" / "command.log"
+    # the run before had PYTEST_ADDOPTS, this one has not
+    assert "test result not reused: environment variables changed: PYTEST_ADDOPTS " \
+           "RMW_IMPLEMENTATION" \
+        in log.read_text()
+
+
+def test_other_test_options_rerun(ws: Path) -> None:
+    assert _test(ws).returncode == 0
+    before = runs(ws)
+    assert _test(ws, "--pytest-args", "-v", "--").returncode == 0
+    assert ran_since(ws, before) == ["leaf", "mid", "other", "root"]
+    before = runs(ws)
+    # the pytest arguments as before, other CTest ones: only CTest's package runs
+    again = _test(ws, "--pytest-args", "-v", "--", "--ctest-args", "--timeout", "60", "--")
+    assert again.returncode == 0, again.stdout + again.stderr
+    assert ran_since(ws, before) == ["cm"]
+
+
+def test_deleted_results_run_again(ws: Path) -> None:
+    assert _test(ws).returncode == 0
+    (ws / "build" / "mid" / "test_results" / "mid" / "pytest.xml").unlink()
+    before = runs(ws)
+    assert _test(ws).returncode == 0
+    assert ran_since(ws, before) == ["mid"]
+
+
+def test_cache_selection_on_test_means_the_cached_result_applies(ws: Path) -> None:
+    assert _test(ws).returncode == 0
+    valid = run_wsbuild("list", "-n", "--packages-select-cache-invalid",
+                        "--packages-select-cache-key", "test", cwd=ws, env=_env())
+    assert valid.returncode == 0 and valid.stdout.split() == []
+    before = runs(ws)
+    again = _test(ws, "--packages-select-cache-invalid")
+    assert again.returncode == 0 and ran_since(ws, before) == []
+    # a variable that matters changed: no cached result applies, all are selected and run
+    changed = _test(ws, "--packages-skip-cache-valid", ROS_DOMAIN_ID="73")
+    assert changed.returncode == 0, changed.stdout + changed.stderr
+    assert ran_since(ws, before) == ["cm", "leaf", "mid", "other", "root"]
+
+
+# ------------------------------------------------------------------ the key's pure logic
+
+
+def test_the_environment_is_kept_as_digests_of_the_variables_that_matter() -> None:
+    from wsbuild.testing.cached_result import observed_environment
+
+    env = {"ROS_DOMAIN_ID": "5", "PYTEST_ADDOPTS": "-x", "HOME": "/root", "AWS_SECRET": "s3cr3t",
+           "LD_LIBRARY_PATH": "/a:/b", "PATH": "/bin:/usr/bin"}
+    kept = observed_environment(env)
+    assert sorted(kept) == ["LD_LIBRARY_PATH", "PATH", "PYTEST_ADDOPTS", "ROS_DOMAIN_ID"]
+    assert not set(env.values()) & set(kept.values())
+    # the wheels' bootstrapper orders LD_LIBRARY_PATH anew in every process; PATH's order counts
+    assert observed_environment({**env, "LD_LIBRARY_PATH": "/b:/a"}) == kept
+    assert observed_environment({**env, "PATH": "/usr/bin:/bin"}) != kept
+
+
+def test_a_changed_key_says_what_changed_first() -> None:
+    from wsbuild.testing.cached_result import TestKey
+
+    key = TestKey(build="b", closure={"dep": "1"}, sources="s", options="o",
+                  environment={"ROS_DOMAIN_ID": "x"}, tools="t")
+    assert key.changed_since(key) == ""
+    assert TestKey("b", {"dep": "2"}, "s", "o", {}, "t").changed_since(key) == \
+        "rebuilt on its test environment: dep"
+    assert TestKey("b", {"dep": "1"}, "s", "o", {}, "t").changed_since(key) == \
+        "environment variables changed: ROS_DOMAIN_ID"
+    assert TestKey("c", {"dep": "1"}, "s2", "o", {}, "t").changed_since(key) == \
+        "the package was rebuilt"
+
+
+def test_with_a_symlink_install_an_edited_dependency_reruns_its_users_unbuilt(
+        tmp_path: Path) -> None:
+    """A symlink install links to the sources: an edit reaches the users' tests at once."""
+    ws = _workspace(tmp_path)
+    built = run_wsbuild("build", "--symlink-install", cwd=ws, env=_env())
+    assert built.returncode == 0, built.stdout + built.stderr
+    assert _test(ws).returncode == 0
+    before = runs(ws)
+    main = ws / "src" / "root" / "root" / "main.py"
+    main.write_text(main.read_text() + "# edited, not rebuilt\n")
+    again = _test(ws)
+    assert again.returncode == 0, again.stdout + again.stderr
+    assert ran_since(ws, before) == ["leaf", "mid", "root"]
+    assert sorted(cached(again)) == ["cm", "other"]
+
+
+def test_tests_skipped_for_a_missing_linter_run_again(ws: Path) -> None:
+    """ament_copyright has no distribution: its test module is skipped by the tooling, not
+    passed, so the package is tested again while its other tests' results stand."""
+    (ws / "src" / "other" / "test" / "test_copyright.py").write_text(
+        "from ament_copyright.main import main\n\n\n"
+        "def test_copyright():\n    assert main(argv=['.', 'test']) == 0\n")
+    first = _test(ws)
+    assert first.returncode == 0, first.stdout + first.stderr
+    assert "not installed, not run: ament_copyright (1 package): counted as skipped" \
+        in first.stdout
+    before = runs(ws)
+    again = _test(ws)
+    assert again.returncode == 0, again.stdout + again.stderr
+    assert ran_since(ws, before) == ["other"]
+    assert sorted(cached(again)) == ["cm", "leaf", "mid", "root"]

@@ -1,0 +1,279 @@
+"""A package's last passing test result, reused while nothing its tests can observe changed:
+what enters the key (`TestKey`), and the record kept of it in build/<pkg>/.wsbuild/test_result.json
+(digests only, never an environment value; the directory is private to the user).
+
+The key's parts, each compared as written here:
+- `build`: the package's own build key (the `key` of build/<pkg>/.wsbuild/state.json, which the
+  builder writes: read here by its field name, since builder/ ranks beside testing/);
+- `closure`: the build key of every workspace package of its test closure (its direct
+  dependencies and, recursively, their run dependencies), standing in for their installed
+  output, and for one built with --symlink-install also its sources' signature (its install
+  links to them); a package built by another tool (no state.json) is never reused;
+- `sources`: the stat signature (size, mtime, ctime, inode, mode) of every file of the package's
+  source directory, as the builder walks it, and for CTest its CTestTestfile.cmake and ninja's
+  log: a test edited without a rebuild runs again;
+- `options`: what `wsbuild test` hands the tool (its own arguments: --pytest-args or
+  --ctest-args, the retest counts, --strict-linters, where results go, the install layout, the
+  interpreter) and wsbuild's version;
+- `environment`: one digest per variable a test can observe (`OBSERVED_NAMES`, and names starting
+  with `OBSERVED_PREFIXES`), taken from the environment the tool starts with;
+- `tools`: the interpreter, the versions of the distributions it and the ROS tests' pytest hold
+  (their dist-info names), dpkg's status file, and ctest's binary (CTest packages).
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+import sys
+import sysconfig
+from collections.abc import Iterable, Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from wsbuild import inputs
+from wsbuild.files import atomic_write, private_directory
+from wsbuild.testing.junit import Counts
+
+#: builder/fingerprint.py's record of a package's last build (its `key` field is read here)
+STATE_FILE = Path(".wsbuild") / "state.json"
+#: the record of the package's last passing test result
+TEST_RECORD = Path(".wsbuild") / "test_result.json"
+RECORD_FORMAT = 1
+
+#: environment variables whose value a test can observe, by exact name ...
+OBSERVED_NAMES = frozenset({
+    "PATH", "LD_PRELOAD", "CMAKE_PREFIX_PATH", "PKG_CONFIG_PATH",
+    "LANG", "LANGUAGE", "TZ", "DISPLAY",
+})
+#: ... compared as a set of directories (see observed_environment) ...
+UNORDERED_NAMES = frozenset({"LD_LIBRARY_PATH"})
+#: ... and by prefix: ROS and its middlewares, Python and pytest (PYTEST_ADDOPTS,
+#: PYTEST_PLUGINS, ...), CTest and GoogleTest, the locale
+OBSERVED_PREFIXES = (
+    "ROS_", "RMW_", "RCUTILS_", "RCL_", "AMENT_", "COLCON_", "PYTHON", "PYTEST_", "CTEST_",
+    "GTEST_", "LC_", "FASTRTPS_", "FASTDDS_", "CYCLONEDDS_", "ZENOH_", "LAUNCH_",
+)
+
+_SKIP_DIRS = frozenset({"__pycache__", "build", "install", "log"})
+_SKIP_SUFFIXES = (".pyc", ".pyo", ".swp", "~")
+
+
+def _digest(value: object) -> str:
+    return hashlib.blake2b(json.dumps(value, sort_keys=True).encode(),
+                           digest_size=16).hexdigest()
+
+
+def stat_signature(path: str | os.PathLike[str]) -> list[int]:
+    """Type and mode, inode, size, modification and change times of `path` (through links)."""
+    try:
+        st = inputs.stat(path)
+    except OSError:
+        return [0, 0, 0, 0, 0]
+    return [st.st_mode, st.st_ino, st.st_size, st.st_mtime_ns, st.st_ctime_ns]
+
+
+@dataclass(frozen=True, slots=True)
+class BuildRecord:
+    """What the key takes of a package's last build (builder/fingerprint.py's state.json)."""
+
+    key: str
+    #: built with --symlink-install: its install points into its sources, so an edit there
+    #: reaches the tests of everything that uses it without a rebuild
+    symlink_install: bool
+
+
+def read_build_record(build_dir: Path) -> BuildRecord | None:
+    """The package's last build, None when wsbuild did not build it."""
+    try:
+        data = json.loads(inputs.read_text(build_dir / STATE_FILE))
+        key = data["key"]
+        options = (data.get("inputs") or {}).get("options") or {}
+        symlinked = bool(options.get("symlink_install", False))
+    except (OSError, ValueError, KeyError, TypeError, AttributeError):
+        return None
+    return BuildRecord(key, symlinked) if isinstance(key, str) and key else None
+
+
+def observed_environment(env: Mapping[str, str]) -> dict[str, str]:
+    """A digest of each variable a test can observe (the values are never kept).
+
+    `LD_LIBRARY_PATH` counts as the set of its directories: the ROS wheels' bootstrapper,
+    which re-executes the interpreter with its library directories added, adds them in set
+    order, a different one in every process."""
+    digests = {}
+    for name, value in sorted(env.items()):
+        if name in UNORDERED_NAMES:
+            digests[name] = _digest(sorted(set(value.split(os.pathsep))))
+        elif name in OBSERVED_NAMES or name.startswith(OBSERVED_PREFIXES):
+            digests[name] = _digest(value)
+    return digests
+
+
+def source_signature(root: Path, extra: Iterable[Path] = ()) -> str:
+    """The stat signatures of the package's files (hidden files, caches and build/, install/,
+    log/ left out, as the builder walks sources), and of `extra` files."""
+    found: list[tuple[str, list[int]]] = []
+    stack = [""]
+    while stack:
+        rel_dir = stack.pop()
+        directory = os.path.join(root, rel_dir) if rel_dir else str(root)
+        try:
+            entries = inputs.scandir(directory)
+        except OSError:
+            found.append((rel_dir + "/\0unreadable", []))
+            continue
+        if rel_dir and any(e.name == "COLCON_IGNORE" for e in entries):
+            continue
+        for entry in entries:
+            name = entry.name
+            if name.startswith(".") or name.endswith(_SKIP_SUFFIXES):
+                continue
+            rel = f"{rel_dir}/{name}" if rel_dir else name
+            if entry.is_dir():
+                if name not in _SKIP_DIRS and not name.endswith(".egg-info"):
+                    stack.append(rel)
+                continue
+            found.append((rel, stat_signature(entry.path)))
+    found += [(str(path), stat_signature(path)) for path in extra]
+    return _digest(sorted(found))
+
+
+def distributions(directory: Path) -> list[str]:
+    """The distributions installed in a site directory, with their versions."""
+    try:
+        return sorted(e.name for e in inputs.scandir(directory)
+                      if e.name.endswith((".dist-info", ".egg-info", ".egg-link", ".pth")))
+    except OSError:
+        return []
+
+
+def interpreter_tools(python_executable: str, ros_pytest: Path) -> str:
+    """What every package's test tools share: the interpreter, its distributions' versions,
+    the ROS tests' pytest, the system's packages (dpkg's status file)."""
+    sites: list[str] = []
+    if Path(python_executable) == Path(sys.executable):
+        paths = sysconfig.get_paths()
+        for site in sorted({paths["purelib"], paths["platlib"]}):
+            sites += distributions(Path(site))
+    return _digest([python_executable, stat_signature(python_executable),
+                    stat_signature(inputs.realpath(python_executable)), sites,
+                    str(ros_pytest), distributions(ros_pytest),
+                    stat_signature("/var/lib/dpkg/status")])
+
+
+@dataclass(frozen=True, slots=True)
+class TestKey:
+    """Everything a package's tests can observe, as digests (see the module's docstring)."""
+
+    __test__ = False  # not a pytest test class
+
+    build: str
+    closure: dict[str, str]
+    sources: str
+    options: str
+    environment: dict[str, str]
+    tools: str
+
+    @property
+    def digest(self) -> str:
+        return _digest([self.build, sorted(self.closure.items()), self.sources, self.options,
+                        sorted(self.environment.items()), self.tools])
+
+    def changed_since(self, old: TestKey) -> str:
+        """What changed from `old`, in words (the first of the parts, in the key's order)."""
+        if self.build != old.build:
+            return "the package was rebuilt"
+        if self.closure != old.closure:
+            names = sorted(n for n in set(self.closure) | set(old.closure)
+                           if self.closure.get(n) != old.closure.get(n))
+            return f"rebuilt on its test environment: {' '.join(names)}"
+        if self.sources != old.sources:
+            return "a file of the package changed"
+        if self.options != old.options:
+            return "other test options"
+        if self.environment != old.environment:
+            names = sorted(n for n in set(self.environment) | set(old.environment)
+                           if self.environment.get(n) != old.environment.get(n))
+            return f"environment variables changed: {' '.join(names)}"
+        if self.tools != old.tools:
+            return "the test tools or the installed distributions changed"
+        return ""
+
+
+@dataclass(frozen=True, slots=True)
+class CachedResult:
+    """A passing result kept for reuse: its key, its counts, and where its files are."""
+
+    key: TestKey
+    counts: Counts
+    #: the JUnit files, each with its size and mtime when the run wrote it
+    result_files: dict[str, tuple[int, int]] = field(default_factory=dict)
+    #: the log directory of the run that produced it
+    log_dir: Path | None = None
+    seconds: float = 0.0
+
+    def files_unchanged(self) -> bool:
+        """The JUnit files are still those the run wrote (what `test-result` reads)."""
+        for path, (size, mtime_ns) in self.result_files.items():
+            try:
+                st = inputs.stat(path)
+            except OSError:
+                return False
+            if (st.st_size, st.st_mtime_ns) != (size, mtime_ns):
+                return False
+        return True
+
+
+def file_stamps(paths: Iterable[Path]) -> dict[str, tuple[int, int]]:
+    stamps = {}
+    for path in paths:
+        st = inputs.stat(path)
+        stamps[str(path)] = (st.st_size, st.st_mtime_ns)
+    return stamps
+
+
+def read_cached_result(build_dir: Path) -> CachedResult | None:
+    try:
+        data = json.loads(inputs.read_text(build_dir / TEST_RECORD))
+        if data.get("format") != RECORD_FORMAT:
+            return None
+        key = data["key"]
+        return CachedResult(
+            key=TestKey(build=key["build"], closure=dict(key["closure"]),
+                        sources=key["sources"], options=key["options"],
+                        environment=dict(key["environment"]), tools=key["tools"]),
+            counts=Counts(**data["counts"]),
+            result_files={p: (int(s), int(m)) for p, (s, m) in data["result_files"].items()},
+            log_dir=Path(data["log_dir"]) if data.get("log_dir") else None,
+            seconds=float(data.get("seconds", 0.0)),
+        )
+    except (OSError, ValueError, KeyError, TypeError, AttributeError):
+        return None
+
+
+def write_cached_result(build_dir: Path, result: CachedResult) -> None:
+    key = result.key
+    data = {
+        "format": RECORD_FORMAT,
+        "digest": key.digest,
+        "key": {"build": key.build, "closure": dict(sorted(key.closure.items())),
+                "sources": key.sources, "options": key.options,
+                "environment": dict(sorted(key.environment.items())), "tools": key.tools},
+        "counts": {"tests": result.counts.tests, "errors": result.counts.errors,
+                   "failures": result.counts.failures, "skipped": result.counts.skipped},
+        "result_files": {p: list(s) for p, s in sorted(result.result_files.items())},
+        "log_dir": str(result.log_dir) if result.log_dir else "",
+        "seconds": round(result.seconds, 3),
+    }
+    private_directory(build_dir / TEST_RECORD.parent)
+    atomic_write(build_dir / TEST_RECORD, json.dumps(data, indent=1) + "\n", mode=0o600)
+
+
+def forget_cached_result(build_dir: Path) -> None:
+    """Called before a package's tests run: only a run that passed leaves a record."""
+    try:
+        (build_dir / TEST_RECORD).unlink()
+    except FileNotFoundError:
+        pass
