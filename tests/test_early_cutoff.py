@@ -173,3 +173,19 @@ def test_the_dry_run_says_why_a_package_whose_dependency_was_rebuilt_is_up_to_da
                                       "builds from changed → up to date")
     text = run("build", "--dry-run", cwd=ws, env=_env()).stdout
     assert "user_1" in text and "nothing this package builds from changed" in text
+
+
+def test_the_report_page_says_which_packages_were_cut_off(tmp_path: Path) -> None:
+    ws = tmp_path / "ws"
+    _cpp_workspace(ws)
+    _build(ws)
+    source = ws / "src" / "libroot" / "src" / "root.cpp"
+    source.write_text(source.read_text() + "// a comment\n")
+    _build(ws)
+
+    record = json.loads((ws / "log" / "latest_build" / "report.json").read_text())
+    outcomes = {p["name"]: (p["outcome"], p["message"]) for p in record["packages"]}
+    assert outcomes["app_a"] == ("up to date", "dependency libroot rebuilt; nothing this "
+                                 "package builds from changed → up to date")
+    page = (ws / "log" / "latest_build" / "report.html").read_text()
+    assert page.count("nothing this package builds from changed") >= 2  # app_a, app_b rows

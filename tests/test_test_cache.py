@@ -138,6 +138,11 @@ def test_a_second_test_reruns_nothing_and_shows_the_results_as_they_were(ws: Pat
     assert shown["cm"].startswith("1 test, 0 errors, 0 failures, 0 skipped (log: ")
     # test-result reports them as what they were
     assert run_wsbuild("test-result", "--all", cwd=ws).stdout == results_before
+    # and the run's report page says which results were cached
+    record = json.loads((ws / "log" / "latest_test" / "report.json").read_text())
+    assert {p["name"] for p in record["packages"] if p["tests"]["cached"]} == set(shown)
+    page = (ws / "log" / "latest_test" / "report.html").read_text()
+    assert page.count("cached: the result of an earlier run") >= len(shown)
     # the record: private, digests only
     record = ws / "build" / "root" / ".wsbuild" / "test_result.json"
     assert stat.S_IMODE(record.stat().st_mode) == 0o600

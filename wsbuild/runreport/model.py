@@ -157,9 +157,14 @@ def _reason(entry: Mapping[str, object], log_text: str, up_to_date: Mapping[str,
             testing: bool) -> str:
     outcome = entry["outcome"]
     if testing:
+        tests = entry.get("tests")
+        if isinstance(tests, Mapping) and tests.get("cached"):
+            return ("cached: the result of an earlier run, shown as it was (nothing its tests "
+                    "observe changed)")
         return "" if outcome != "not run" else "not run (--abort-on-error or Ctrl-C)"
     if outcome == "up to date":
-        return up_to_date.get(str(entry["name"]), "up to date")
+        # a package cut off after its dependencies' builds says so in its result
+        return up_to_date.get(str(entry["name"])) or str(entry.get("message") or "up to date")
     if outcome == "skipped":
         return "not processed: a package it depends on failed"
     for line in log_text.splitlines():

@@ -170,7 +170,7 @@ def _table(report: RunReport) -> str:
     phases = [p for p in ("configure", "build", "install", "test", "other")
               if any(p in row.phases for row in report.packages)]
     heads = ["package", "outcome", "duration", "waiting", *phases]
-    heads += ["passed", "failed", "skipped"] if testing else \
+    heads += ["passed", "failed", "skipped", "note"] if testing else \
         ["reason to build", "compiler cache", "build cache"]
     heads.append("log")
     numeric = {"duration", "waiting", "passed", "failed", "skipped", *phases}
@@ -193,7 +193,9 @@ def _table(report: RunReport) -> str:
             skipped = tests.get("skipped", 0)
             passed = tests.get("tests", 0) - failed - skipped
             cells += [_cell(str(passed), passed, num=True), _cell(str(failed), failed, num=True),
-                      _cell(str(skipped), skipped, num=True)]
+                      _cell(str(skipped), skipped, num=True),
+                      # a cached result, or why a package's tests did not run
+                      _cell(escape(row.reason), row.reason)]
         else:
             cells += [_cell(escape(row.reason), row.reason),
                       _cell(escape(row.compiler_cache), row.compiler_cache),

@@ -162,7 +162,7 @@ def test_run_record(plan: Plan, run: TestRun, workers: int, cores: int,
             "log_dir": _relative(result.log_dir, run_log),
             "tests": {"tests": result.counts.tests, "failures": result.counts.failures,
                       "errors": result.counts.errors, "skipped": result.counts.skipped,
-                      "flaky": result.flaky,
+                      "flaky": result.flaky, "cached": result.cached,
                       "failing": _failing(result.problems, result.result_files, run_log)},
         })
     return {
