@@ -217,11 +217,18 @@ def external_signatures(paths: Iterable[str]) -> dict[str, tuple[int, ...]]:
 
 
 def changed_external(external: Mapping[str, tuple[int, ...]],
-                     digests: Mapping[str, str] | None = None) -> str | None:
+                     digests: Mapping[str, str] | None = None,
+                     seen: dict[str, tuple[int, ...]] | None = None) -> str | None:
     """The first recorded outside file that changed, if any: its signature, or, where
-    `digests` has its content's digest, its content."""
+    `digests` has its content's digest, its content. `seen`: the signatures one plan has
+    already taken (packages share most of their outside files: the setuptools a setup.py
+    imports, CMake's modules; each is stat'ed once per plan)."""
+    seen = {} if seen is None else seen
     for path, signature in external.items():
-        if stat_signature(path) != signature:
+        now = seen.get(path)
+        if now is None:
+            now = seen[path] = stat_signature(path)
+        if now != signature:
             recorded = (digests or {}).get(path)
             if recorded is None or content_digest(path) != recorded:
                 return path
@@ -326,10 +333,12 @@ def _shown(value: object) -> str:
 def rebuild_reason(old: BuildState | None, snapshot: SourceSnapshot, settings: str,
                    dependencies: Mapping[str, str], install_base: Path,
                    inputs: Mapping[str, object] | None = None,
-                   pending: Collection[str] = ()) -> Reason | None:
+                   pending: Collection[str] = (),
+                   seen: dict[str, tuple[int, ...]] | None = None) -> Reason | None:
     """None when up to date, else why not. `inputs` (what `settings` digests) lets the
     reason name the options that changed, when the last build recorded its own; `pending`:
-    the dependencies this run builds or restores before this package."""
+    the dependencies this run builds or restores before this package; `seen`: the outside
+    files' signatures this plan has taken (changed_external)."""
     if old is None:
         return Reason("new", "no previous build")
     if old.settings != settings:
@@ -354,7 +363,7 @@ def rebuild_reason(old: BuildState | None, snapshot: SourceSnapshot, settings: s
     if waiting:
         return Reason("dependency", f"dependency {', '.join(waiting)} is built first; this "
                       "package only if what it read of it changes", tuple(waiting), cutoff=True)
-    outside = changed_external(old.external, old.external_digests)
+    outside = changed_external(old.external, old.external_digests, seen)
     if outside is not None and changed_deps:
         return Reason("dependency", "dependency rebuilt: " + ", ".join(changed_deps)
                       + f" (read while building: {outside})", tuple(changed_deps))

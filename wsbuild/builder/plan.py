@@ -130,9 +130,11 @@ def make_plan(selection: Selection, request: BuildRequest, session: Session) -> 
     keys: dict[str, str] = {}
     packages: list[PackagePlan] = []
     pending: set[str] = set()
+    #: the outside files' signatures, each taken once (packages share most of them)
+    seen: dict[str, tuple[int, ...]] = {}
     for name in order:
         planned = plan_package(selection, request, options, session, name, keys, underlay,
-                               pending)
+                               pending, seen)
         keys[name] = planned.key
         if planned.decision is not Decision.UP_TO_DATE:
             pending.add(name)
@@ -154,8 +156,8 @@ def make_plan(selection: Selection, request: BuildRequest, session: Session) -> 
 
 def plan_package(selection: Selection, request: BuildRequest, options: BuildOptions,
                  session: Session, name: str, keys: dict[str, str],
-                 underlay: Mapping[str, list[str]], pending: Collection[str] = ()
-                 ) -> PackagePlan:
+                 underlay: Mapping[str, list[str]], pending: Collection[str] = (),
+                 seen: dict[str, tuple[int, ...]] | None = None) -> PackagePlan:
     """One package's decision, from its recorded state, its sources and its dependencies'
     keys (`keys`: what each workspace package's key is after this run, as far as known;
     dependencies outside the selection are added as they are read; `pending`: the packages
@@ -176,15 +178,16 @@ def plan_package(selection: Selection, request: BuildRequest, options: BuildOpti
     settings = digest_of(inputs)
     dep_keys = dependency_keys(selection, selection.graph.build_closure(name), keys)
     reason = rebuild_reason(selection, request, name, old, snapshot, settings, dep_keys, inputs,
-                            pending)
+                            pending, seen)
     common = dict(name=name, build_type=package.build_type, prefix=prefix, inputs=inputs,
                   settings=settings, dependency_keys=dep_keys, snapshot=snapshot,
                   snapshot_root=package.path)
-    key = BuildState.make_key(snapshot.digest, settings, dep_keys)
     if reason is None and old is not None:
         note = cutoff_note(old, dep_keys)
         if not note:
             return PackagePlan(decision=Decision.UP_TO_DATE, reason=None, key=old.key, **common)
+    key = BuildState.make_key(snapshot.digest, settings, dep_keys)
+    if reason is None and old is not None:
         # early cutoff: its dependencies were rebuilt, nothing it read of them changed; it
         # takes the key its inputs now give (its dependents then decide for themselves)
         refreshed = replace(old, key=key, dependencies=dict(dep_keys),
@@ -267,7 +270,8 @@ def dependency_keys(selection: Selection, closure: set[str],
 def rebuild_reason(selection: Selection, request: BuildRequest, name: str,
                    old: BuildState | None, snapshot: SourceSnapshot, settings: str,
                    dep_keys: Mapping[str, str], inputs: Mapping[str, object],
-                   pending: Collection[str] = ()) -> Reason | None:
+                   pending: Collection[str] = (),
+                   seen: dict[str, tuple[int, ...]] | None = None) -> Reason | None:
     """Why `name` must be built (None: up to date)."""
     from wsbuild.builder.fingerprint import rebuild_reason as compare
 
@@ -278,7 +282,7 @@ def rebuild_reason(selection: Selection, request: BuildRequest, name: str,
             or options.cmake_clean_first:
         return Reason("forced", "forced")
     return compare(old, snapshot, settings, dep_keys, selection.workspace.install_base, inputs,
-                   pending)
+                   pending, seen)
 
 
 def unbuilt_dependencies(selection: Selection, merged: bool) -> dict[str, list[str]]:

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from collections.abc import Callable, Collection, Iterable, Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 from wsbuild.errors import CycleError
 from wsbuild.workspace.model import CATEGORY_KINDS, DepCategory, DepKind, Package
@@ -18,6 +18,9 @@ class Graph:
     packages: Mapping[str, Package]
     #: package -> category -> names of workspace packages it depends on
     edges: Mapping[str, Mapping[DepCategory, frozenset[str]]]
+    #: build_closure's answers (a plan asks for each package's twice)
+    _closures: dict[str, frozenset[str]] = field(default_factory=dict, compare=False,
+                                                 repr=False)
 
     def direct(self, name: str, categories: Collection[DepCategory] = ALL_CATEGORIES) -> set[str]:
         per_category = self.edges[name]
@@ -31,6 +34,12 @@ class Graph:
     def build_closure(self, name: str) -> set[str]:
         """What must be on a package's environment to build it: its build and run
         dependencies, plus the run dependencies of those, recursively (colcon's rule)."""
+        known = self._closures.get(name)
+        if known is None:
+            known = self._closures[name] = frozenset(self._build_closure(name))
+        return set(known)
+
+    def _build_closure(self, name: str) -> set[str]:
         result: set[str] = set()
         stack = list(self.direct(name, (DepCategory.BUILD, DepCategory.RUN)))
         while stack:
