@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import ast
+import os
 import re
 from pathlib import Path
 
@@ -219,3 +220,12 @@ def test_the_modules_the_docs_and_docstrings_name_exist() -> None:
                       if not any(base.joinpath(name).exists()
                                  for base in (repo, PACKAGE, repo / "tests"))})
     assert not missing, "\n".join(missing)
+
+
+def test_as_root_a_skip_for_mounting_fails_the_run() -> None:
+    """The full-disk and read-only-install tests skip where no mount is allowed; CI runs as
+    root, where they can mount: there that skip is not on the allow-list."""
+    from conftest import ALLOWED_SKIPS
+
+    mount_skip = "this machine lets tests mount nothing"
+    assert (mount_skip in ALLOWED_SKIPS) == (os.geteuid() != 0)

@@ -97,3 +97,29 @@ def test_the_ros_pytest_goes_first_on_pythonpath_only_when_installed(
         f"{tmp_path / 'ros-pytest'}:/ws/install/pkg/lib/python3/site-packages")
     monkeypatch.delenv(ROS_PYTEST_VAR)
     assert ros_pytest_dir("/venv/bin/python") == Path("/venv/ros-pytest")
+
+
+def test_wsbuild_test_says_in_one_line_when_the_ros_pytest_is_missing(
+        make_workspace, tmp_path: Path) -> None:  # type: ignore[no-untyped-def]
+    """`wsbuild test` of a package with pytest tests, where Jazzy's pytest is not installed
+    where it looks: one warning naming the folder and how to install it; the tests still run."""
+    from conftest import run_wsbuild
+
+    ws = make_workspace({"probe": ("ament_python", [])})
+    tests = ws / "src" / "probe" / "test"
+    tests.mkdir()
+    (tests / "test_probe.py").write_text("def test_probe():\n    assert True\n")
+    built = run_wsbuild("build", cwd=ws)
+    assert built.returncode == 0, built.stdout + built.stderr
+    empty = tmp_path / "no-ros-pytest"
+    env = {**__import__("os").environ, ROS_PYTEST_VAR: str(empty)}
+
+    result = run_wsbuild("test", cwd=ws, env=env)
+
+    assert result.returncode == 0, result.stdout + result.stderr
+    lines = [line for line in result.stdout.splitlines() if "which ROS 2 Jazzy's pytest" in line]
+    assert len(lines) == 1, result.stdout
+    assert str(empty) in lines[0] and "wsbuild deps install" in lines[0]
+    assert "1 test" in result.stdout
+    installed = run_wsbuild("test", cwd=ws)  # the suite's venv has it: no such line
+    assert "which ROS 2 Jazzy's pytest" not in installed.stdout

@@ -19,6 +19,7 @@ from wsbuild.verbs.arguments import (
 from wsbuild.workspace.root import BUILD_BASE
 
 if TYPE_CHECKING:  # the modules of the work are imported when the verb runs, not to parse
+    from wsbuild.verbs.load import Loaded
     from wsbuild.testing.runners import TestRequest
 
 TEST_DOC = """Run the tests of the packages against the built workspace.
@@ -163,6 +164,9 @@ def run_test_verb(args: argparse.Namespace) -> int:
     reporter = Reporter(verb="test", console=console, log_base=loaded.workspace.log_base,
                         progress=progress_of(plan, request.workers, durations=False))
     reporter.package_list([(n, loaded.packages[n].build_type) for n in loaded.selected])
+    missing = _missing_ros_pytest(loaded, request.python_executable)
+    if missing:
+        reporter(Notice(missing, warning=True))
     watch = RunWatch(test_dependencies(plan), enabled=not getattr(args, "no_report", False))
     reporter.start_ticker()
     try:
@@ -177,6 +181,22 @@ def run_test_verb(args: argparse.Namespace) -> int:
     if run.interrupted:
         raise Interrupted("tests interrupted")
     return 1 if run.failed else 0
+
+
+def _missing_ros_pytest(loaded: Loaded, python_executable: str) -> str:
+    """One line when a selected package has pytest tests and the pytest the distro's plugins
+    need is not where `wsbuild test` looks ("" otherwise)."""
+    from wsbuild.build_types import TestTool, get_build_type
+    from wsbuild.testing.pytest_env import ROS_PYTEST_VERSION, install_hint
+    from wsbuild.underlay.constraints import ros_pytest_dir, ros_pytest_installed
+
+    if ros_pytest_installed(python_executable) or not any(
+            get_build_type(loaded.packages[n].build_type).test_tool is TestTool.PYTEST
+            for n in loaded.selected):
+        return ""
+    return (f"pytest {ROS_PYTEST_VERSION}, which ROS 2 Jazzy's pytest plugins need, is not in "
+            f"{ros_pytest_dir(python_executable)}: tests run with the venv's pytest; install it "
+            f"with {install_hint(python_executable)}")
 
 
 def run_test_result_verb(args: argparse.Namespace) -> int:
