@@ -20,12 +20,10 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from wsbuild.files import atomic_write
+from wsbuild.workspace.package_files import package_files
 from wsbuild import inputs
 
 STATE_FILE = Path(".wsbuild") / "state.json"
-#: directories inside a package that never affect its build
-_SKIP_DIRS = frozenset({"__pycache__", "build", "install", "log"})
-_SKIP_SUFFIXES = (".pyc", ".pyo", ".swp", "~")
 #: what a symlink's own entry, a dangling link and an unreadable path are recorded as
 _LINK, _DANGLING, _UNREADABLE = "\0link", "\0dangling", "\0unreadable"
 
@@ -52,39 +50,25 @@ class SourceSnapshot:
 
 
 def _walk(root: Path) -> Iterable[tuple[str, os.stat_result]]:
-    stack = [""]
-    while stack:
-        rel_dir = stack.pop()
-        directory = os.path.join(root, rel_dir) if rel_dir else str(root)
+    """Each file of the package (workspace/package_files.py) with its signature through
+    symlinks; a symlink's own entry, a dangling link and an unreadable file as well."""
+    for rel, entry in package_files(root):
+        if entry is None:  # a directory that cannot be listed: as before, nothing of it
+            continue
         try:
-            entries = inputs.scandir(directory)
-        except OSError:
+            # os.stat, not entry.stat(): through a symlink to its target (what the build
+            # reads), and declared as the run's input
+            stat = inputs.stat(entry.path)
+        except FileNotFoundError:
+            if entry.is_symlink():  # a dangling link: the build sees it missing
+                yield rel + _DANGLING, inputs.lstat(entry.path)
             continue
-        if rel_dir and any(e.name == "COLCON_IGNORE" for e in entries):
+        except OSError:  # a link loop, an unreadable file: never up to date
+            yield rel + _UNREADABLE, inputs.lstat(entry.path)
             continue
-        for entry in entries:
-            name = entry.name
-            if name.startswith(".") or name.endswith(_SKIP_SUFFIXES):
-                continue
-            rel = f"{rel_dir}/{name}" if rel_dir else name
-            try:
-                if entry.is_dir():
-                    if name not in _SKIP_DIRS and not name.endswith(".egg-info"):
-                        stack.append(rel)
-                    continue
-                # os.stat, not entry.stat(): through a symlink to its target (what the build
-                # reads), and seen by whatever watches this process's reads
-                stat = inputs.stat(entry.path)
-            except FileNotFoundError:
-                if entry.is_symlink():  # a dangling link: the build sees it missing
-                    yield rel + _DANGLING, inputs.lstat(entry.path)
-                continue
-            except OSError:  # a link loop, an unreadable file: never up to date
-                yield rel + _UNREADABLE, inputs.lstat(entry.path)
-                continue
-            yield rel, stat
-            if entry.is_symlink():  # where it points counts too (the target may be unchanged)
-                yield rel + _LINK, inputs.lstat(entry.path)
+        yield rel, stat
+        if entry.is_symlink():  # where it points counts too (the target may be unchanged)
+            yield rel + _LINK, inputs.lstat(entry.path)
 
 
 def _hash_file(path: str) -> str:

@@ -35,6 +35,7 @@ from pathlib import Path
 from wsbuild import inputs
 from wsbuild.files import atomic_write, private_directory
 from wsbuild.testing.junit import Counts
+from wsbuild.workspace.package_files import package_files
 
 #: builder/fingerprint.py's record of a package's last build (its `key` field is read here)
 STATE_FILE = Path(".wsbuild") / "state.json"
@@ -56,8 +57,6 @@ OBSERVED_PREFIXES = (
     "GTEST_", "LC_", "FASTRTPS_", "FASTDDS_", "CYCLONEDDS_", "ZENOH_", "LAUNCH_",
 )
 
-_SKIP_DIRS = frozenset({"__pycache__", "build", "install", "log"})
-_SKIP_SUFFIXES = (".pyc", ".pyo", ".swp", "~")
 
 
 def _digest(value: object) -> str:
@@ -114,28 +113,9 @@ def observed_environment(env: Mapping[str, str]) -> dict[str, str]:
 def source_signature(root: Path, extra: Iterable[Path] = ()) -> str:
     """The stat signatures of the package's files (hidden files, caches and build/, install/,
     log/ left out, as the builder walks sources), and of `extra` files."""
-    found: list[tuple[str, list[int]]] = []
-    stack = [""]
-    while stack:
-        rel_dir = stack.pop()
-        directory = os.path.join(root, rel_dir) if rel_dir else str(root)
-        try:
-            entries = inputs.scandir(directory)
-        except OSError:
-            found.append((rel_dir + "/\0unreadable", []))
-            continue
-        if rel_dir and any(e.name == "COLCON_IGNORE" for e in entries):
-            continue
-        for entry in entries:
-            name = entry.name
-            if name.startswith(".") or name.endswith(_SKIP_SUFFIXES):
-                continue
-            rel = f"{rel_dir}/{name}" if rel_dir else name
-            if entry.is_dir():
-                if name not in _SKIP_DIRS and not name.endswith(".egg-info"):
-                    stack.append(rel)
-                continue
-            found.append((rel, stat_signature(entry.path)))
+    found: list[tuple[str, list[int]]] = [
+        (rel, stat_signature(entry.path) if entry is not None else [])
+        for rel, entry in package_files(root)]
     found += [(str(path), stat_signature(path)) for path in extra]
     return _digest(sorted(found))
 
