@@ -23,8 +23,10 @@ file accesses and writes down any that no declaration covers: a test fails namin
 from __future__ import annotations
 
 import os
+import stat as modes
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
+from typing import TypeVar
 
 #: (absolute or relative path, kind, what the run saw: a stat signature, ABSENT or None)
 Listener = Callable[[str, str, "tuple[int, ...] | None"], None]
@@ -45,23 +47,42 @@ def _signature(st: os.stat_result) -> tuple[int, ...]:
     return (st.st_mode, st.st_ino, st.st_size, st.st_mtime_ns, st.st_ctime_ns)
 
 
-def stat(path: str | os.PathLike[str], *, follow_symlinks: bool = True) -> os.stat_result:
-    """os.stat, declared."""
-    kind = STAT if follow_symlinks else LSTAT
+_T = TypeVar("_T")
+
+
+def _declared(path: str | os.PathLike[str], kind: str, access: Callable[[], _T],
+              seen: Callable[[_T], tuple[int, ...] | None] = lambda _: None) -> _T:
+    """`access()` of `path`, declared as `kind` (a missing path as absent, an unreadable one
+    as unreadable); `seen`: what the run saw of it, from the result."""
     try:
-        st = os.stat(path, follow_symlinks=follow_symlinks)
+        result = access()
     except (FileNotFoundError, NotADirectoryError):
-        _notify(path, kind, ABSENT)
+        _notify(path, STAT if kind in (FILE, LISTING) else kind, ABSENT)
         raise
     except OSError:
         _notify(path, UNREADABLE, None)
         raise
-    _notify(path, kind, _signature(st))
-    return st
+    _notify(path, kind, seen(result))
+    return result
+
+
+def stat(path: str | os.PathLike[str], *, follow_symlinks: bool = True) -> os.stat_result:
+    """os.stat, declared."""
+    return _declared(path, STAT if follow_symlinks else LSTAT,
+                     lambda: os.stat(path, follow_symlinks=follow_symlinks), _signature)
 
 
 def lstat(path: str | os.PathLike[str]) -> os.stat_result:
     return stat(path, follow_symlinks=False)
+
+
+def signature(path: str | os.PathLike[str]) -> tuple[int, ...]:
+    """What a change to the file at `path` (through symlinks) changes: type and mode, inode,
+    size, modification and change times; ABSENT when it cannot be stat'ed. Declared."""
+    try:
+        return _signature(stat(path))
+    except OSError:
+        return ABSENT
 
 
 def exists(path: str | os.PathLike[str]) -> bool:
@@ -73,8 +94,6 @@ def exists(path: str | os.PathLike[str]) -> bool:
 
 
 def is_file(path: str | os.PathLike[str]) -> bool:
-    import stat as modes
-
     try:
         return modes.S_ISREG(stat(path).st_mode)
     except OSError:
@@ -82,8 +101,6 @@ def is_file(path: str | os.PathLike[str]) -> bool:
 
 
 def is_dir(path: str | os.PathLike[str]) -> bool:
-    import stat as modes
-
     try:
         return modes.S_ISDIR(stat(path).st_mode)
     except OSError:
@@ -92,17 +109,11 @@ def is_dir(path: str | os.PathLike[str]) -> bool:
 
 def read_bytes(path: str | os.PathLike[str]) -> bytes:
     """The file's content, declared (its signature is taken at the run's end)."""
-    try:
+    def read() -> bytes:
         with open(path, "rb") as handle:
-            data = handle.read()
-    except (FileNotFoundError, NotADirectoryError):
-        _notify(path, STAT, ABSENT)
-        raise
-    except OSError:
-        _notify(path, UNREADABLE, None)
-        raise
-    _notify(path, FILE, None)
-    return data
+            return handle.read()
+
+    return _declared(path, FILE, read)
 
 
 def read_text(path: str | os.PathLike[str], encoding: str = "utf-8",
@@ -112,17 +123,11 @@ def read_text(path: str | os.PathLike[str], encoding: str = "utf-8",
 
 def scandir(path: str | os.PathLike[str]) -> list[os.DirEntry[str]]:
     """The directory's entries (a list), declared as a listing."""
-    try:
+    def listing() -> list[os.DirEntry[str]]:
         with os.scandir(path) as entries:
-            listed = list(entries)
-    except (FileNotFoundError, NotADirectoryError):
-        _notify(path, STAT, ABSENT)
-        raise
-    except OSError:
-        _notify(path, UNREADABLE, None)
-        raise
-    _notify(path, LISTING, None)
-    return listed
+            return list(entries)
+
+    return _declared(path, LISTING, listing)
 
 
 def listdir(path: str | os.PathLike[str]) -> list[str]:
@@ -131,8 +136,6 @@ def listdir(path: str | os.PathLike[str]) -> list[str]:
 
 def which(name: str, path: str | None = None) -> str | None:
     """shutil.which for a plain program name, every candidate declared."""
-    import stat as modes
-
     if os.sep in name:
         return name if is_file(name) and os.access(name, os.X_OK) else None
     search = os.environ.get("PATH", os.defpath) if path is None else path

@@ -24,6 +24,7 @@ import sys
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 from wsbuild.build_types import (
     COMPILER_ENVIRONMENT,
@@ -256,7 +257,7 @@ class CMakeBuildType:
             return True
         return self._record(ctx) != self._read_record(ctx)
 
-    def _record(self, ctx: BuildContext) -> dict[str, object]:
+    def _record(self, ctx: BuildContext) -> dict[str, Any]:
         return {"source": str(ctx.source_dir), "args": self.configure_args(ctx),
                 "environment": environment_digests(ctx.environ, COMPILER_ENVIRONMENT)}
 
@@ -271,9 +272,8 @@ class CMakeBuildType:
         (or --cmake-clean-cache) goes and the configure record is dropped (a failed configure
         is retried next time); after it, the record of these arguments is written."""
         # the arguments (and the record) are decided before the old record goes
-        args = self.configure_args(ctx)
-        now = {"source": str(ctx.source_dir), "args": args,
-               "environment": environment_digests(ctx.environ, COMPILER_ENVIRONMENT)}
+        now = self._record(ctx)
+        args = now["args"]
         env, run_env = self._build_env(ctx)
         return Step("configure", command=Command(
             ("cmake", str(ctx.source_dir), *args), ctx.build_dir, env=env, run_env=run_env,

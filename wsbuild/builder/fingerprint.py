@@ -183,17 +183,9 @@ def write_state(build_dir: Path, state: BuildState) -> None:
 
 
 #: the signature of a path that does not exist (or cannot be stat'ed)
-ABSENT: tuple[int, ...] = (0, 0, 0, 0, 0)
-
-
-def stat_signature(path: str) -> tuple[int, ...]:
-    """What a change to the file at `path` (through symlinks) changes: type and mode, inode,
-    size, modification and change times; ABSENT when it cannot be stat'ed."""
-    try:
-        st = inputs.stat(path)
-    except OSError:
-        return ABSENT
-    return (st.st_mode, st.st_ino, st.st_size, st.st_mtime_ns, st.st_ctime_ns)
+ABSENT = inputs.ABSENT
+#: a file's stat signature, through symlinks (declared)
+stat_signature = inputs.signature
 
 
 def external_signatures(paths: Iterable[str]) -> dict[str, tuple[int, ...]]:

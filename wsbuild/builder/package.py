@@ -195,8 +195,7 @@ class PackageBuild:
                 self.run.compilers.start()
             except WsbuildError as exc:
                 raise StepFailed(f"{exc}") from None
-        self._advance_backdated()
-        self._advance_changed_outside()
+        self._advance_changed_files()
         for step in get_build_type(ctx.package.build_type).steps(ctx):
             self.run.emit(StepStarted(self.name, step.label))
             if step.before is not None:
@@ -228,37 +227,29 @@ class PackageBuild:
             raise StepFailed(str(failure), command=by_hand.argv, cwd=by_hand.cwd,
                              env_delta=delta) from None
 
-    def _advance_backdated(self) -> None:
-        """Files whose content changed while their modification time did not advance (`cp -p`,
-        `touch -d`, some sync tools) get the current time: make and Ninja compare times only
-        and would keep the outputs built from the old content."""
-        for rel in self.planned.backdated:
-            path = self.planned.snapshot_root / rel
+    def _advance_changed_files(self) -> None:
+        """Files whose content changed while their modification time did not advance get the
+        current time, since make and Ninja compare times only and would keep the outputs built
+        from the old content: the package's own sources edited so (`cp -p`, `touch -d`, some
+        sync tools), and a dependency's installed file it read (CMake installs a file with its
+        source's time cut to the second, so a header edited in the second this package last
+        compiled looks older than its objects; only files of the workspace's install base,
+        wsbuild's own, are touched)."""
+        from wsbuild.builder.fingerprint import content_digest, stat_signature
+
+        planned, previous = self.planned, self.planned.previous
+        changed = [planned.snapshot_root / rel for rel in planned.backdated]
+        if previous is not None:
+            changed += [Path(path) for path, recorded in previous.external_digests.items()
+                        if stat_signature(path) != previous.external.get(path)
+                        and content_digest(path) != recorded]
+        for path in changed:
             try:
                 os.utime(path)
             except OSError:
                 continue
             self._log(f"Set the modification time of {path} to now: its content changed, its "
                       "time did not advance, and the build system compares times only")
-
-    def _advance_changed_outside(self) -> None:
-        """A dependency's installed file this package read, changed in content, gets the
-        current time: CMake installs a file with its source's time cut to the second, so a
-        header edited in the second this package last compiled would look older than its
-        objects to Ninja and make. Only files in the workspace's install base (wsbuild's own)
-        are touched."""
-        from wsbuild.builder.fingerprint import content_digest, stat_signature
-
-        previous = self.planned.previous
-        if previous is None:
-            return
-        for path, recorded in previous.external_digests.items():
-            if stat_signature(path) != previous.external.get(path) \
-                    and content_digest(path) != recorded:
-                try:
-                    os.utime(path)
-                except OSError:
-                    continue
 
     def register(self) -> None:
         """package.xml, the index marker and the environment hooks, into the stage."""
@@ -332,20 +323,16 @@ class PackageBuild:
     def _cut_off(self) -> JobResult | None:
         """A package planned to build only if what it read of its dependencies (built before
         it in this run) changed: up to date when nothing did, its state refreshed."""
-        from wsbuild.builder.fingerprint import changed_external, external_signatures, write_state
+        from wsbuild.builder.fingerprint import changed_external, cutoff_note, write_state
 
-        planned = self.planned
-        refreshed = planned.refreshed
-        if planned.reason is None or not planned.reason.cutoff or refreshed is None:
+        planned, previous = self.planned, self.planned.previous
+        if planned.reason is None or not planned.reason.cutoff or previous is None:
             return None
-        if changed_external(refreshed.external, refreshed.external_digests) is not None:
+        if changed_external(previous.external, previous.external_digests) is not None:
             return None
-        write_state(self.build_dir, replace(
-            refreshed, external=external_signatures(refreshed.external)))
-        deps = ", ".join(planned.reason.details)
+        write_state(self.build_dir, planned.cut_off_state())
         return JobResult(self.name, Outcome.UP_TO_DATE, self._seconds(),
-                         message=f"dependency {deps} rebuilt; nothing this package builds from "
-                         "changed → up to date")
+                         message=cutoff_note(previous, planned.dependency_keys))
 
     def store(self) -> None:
         """Into the build cache (when on), for the next machine or branch that needs it."""

@@ -224,10 +224,11 @@ def _settle_up_to_date(plan: BuildPlan, session: Session, emit: Emit) -> dict[st
         if planned.decision is Decision.UP_TO_DATE:
             emit(JobStarted(planned.name))
             result = JobResult(planned.name, Outcome.UP_TO_DATE, message=planned.note)
-            if planned.refreshed is not None:  # cut off: its dependencies' new keys
+            if planned.note:  # cut off: the state of its dependencies' new keys
                 from wsbuild.builder.fingerprint import write_state
 
-                write_state(session.workspace.build_base / planned.name, planned.refreshed)
+                write_state(session.workspace.build_base / planned.name,
+                            planned.cut_off_state())
             emit(JobFinished(result))
             results[planned.name] = result
             lines.append(f"{planned.name}: up to date, "

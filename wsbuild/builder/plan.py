@@ -65,13 +65,20 @@ class PackagePlan:
     snapshot_root: Path = Path()
     #: source files whose content changed but whose modification time did not advance
     backdated: tuple[str, ...] = ()
-    #: why an up-to-date package whose dependencies were rebuilt is still up to date
+    #: why an up-to-date package whose dependencies were rebuilt is still up to date (its
+    #: state then becomes `cut_off_state()`)
     note: str = ""
-    #: the state an up-to-date package gets (its dependencies' new keys), or the one a
-    #: package cut off after its dependencies' builds gets (Reason.cutoff)
-    refreshed: BuildState | None = None
-    #: what the last build recorded (a package to build or restore)
+    #: what the last build recorded (a package to build or restore, or one cut off)
     previous: BuildState | None = None
+
+    def cut_off_state(self) -> BuildState:
+        """The state of a package early cutoff keeps: what it last recorded, with the key and
+        dependency keys of this run and its outside files' signatures as they are now."""
+        from wsbuild.builder.fingerprint import external_signatures
+
+        assert self.previous is not None
+        return replace(self.previous, key=self.key, dependencies=dict(self.dependency_keys),
+                       external=external_signatures(self.previous.external))
 
 
 @dataclass(frozen=True, slots=True)
@@ -162,13 +169,7 @@ def plan_package(selection: Selection, request: BuildRequest, options: BuildOpti
     keys (`keys`: what each workspace package's key is after this run, as far as known;
     dependencies outside the selection are added as they are read; `pending`: the packages
     this run builds or restores)."""
-    from wsbuild.builder.fingerprint import (
-        cutoff_note,
-        digest_of,
-        external_signatures,
-        read_state,
-        snapshot_sources,
-    )
+    from wsbuild.builder.fingerprint import cutoff_note, digest_of, read_state, snapshot_sources
 
     package = selection.packages[name]
     old = read_state(selection.workspace.build_base / name)
@@ -190,12 +191,8 @@ def plan_package(selection: Selection, request: BuildRequest, options: BuildOpti
     if reason is None and old is not None:
         # early cutoff: its dependencies were rebuilt, nothing it read of them changed; it
         # takes the key its inputs now give (its dependents then decide for themselves)
-        refreshed = replace(old, key=key, dependencies=dict(dep_keys),
-                            external=external_signatures(old.external))
         return PackagePlan(decision=Decision.UP_TO_DATE, reason=None, key=key, note=note,
-                           refreshed=refreshed, **common)
-    if reason is not None and reason.cutoff and old is not None:
-        common["refreshed"] = replace(old, key=key, dependencies=dict(dep_keys))
+                           previous=old, **common)
     common["backdated"] = _backdated(old, snapshot)
     common["previous"] = old
     cache_key = session.cache.key(name, package.build_type, key, prefix, session.environ)

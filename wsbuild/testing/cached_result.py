@@ -64,13 +64,8 @@ def _digest(value: object) -> str:
                            digest_size=16).hexdigest()
 
 
-def stat_signature(path: str | os.PathLike[str]) -> list[int]:
-    """Type and mode, inode, size, modification and change times of `path` (through links)."""
-    try:
-        st = inputs.stat(path)
-    except OSError:
-        return [0, 0, 0, 0, 0]
-    return [st.st_mode, st.st_ino, st.st_size, st.st_mtime_ns, st.st_ctime_ns]
+#: type and mode, inode, size, modification and change times of a path (through links)
+stat_signature = inputs.signature
 
 
 @dataclass(frozen=True, slots=True)
@@ -113,8 +108,8 @@ def observed_environment(env: Mapping[str, str]) -> dict[str, str]:
 def source_signature(root: Path, extra: Iterable[Path] = ()) -> str:
     """The stat signatures of the package's files (hidden files, caches and build/, install/,
     log/ left out, as the builder walks sources), and of `extra` files."""
-    found: list[tuple[str, list[int]]] = [
-        (rel, stat_signature(entry.path) if entry is not None else [])
+    found: list[tuple[str, tuple[int, ...]]] = [
+        (rel, stat_signature(entry.path) if entry is not None else ())
         for rel, entry in package_files(root)]
     found += [(str(path), stat_signature(path)) for path in extra]
     return _digest(sorted(found))

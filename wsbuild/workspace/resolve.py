@@ -119,6 +119,7 @@ class Resolver:
     _ament_index: dict[str, Path] | None = field(default=None, repr=False)
     _distributions: dict[str, str] | None = field(default=None, repr=False)
     _pkg_config_modules: frozenset[str] | None = field(default=None, repr=False)
+    _pkg_config_dirs: list[str] | None = field(default=None, repr=False)
     _cache: dict[str, tuple[Resolution, str]] = field(default_factory=dict, repr=False)
 
     @classmethod
@@ -238,14 +239,14 @@ class Resolver:
 
     def pkg_config_search_path(self) -> list[str]:
         """The directories pkg-config searches: PKG_CONFIG_PATH, then PKG_CONFIG_LIBDIR when
-        set, else its compiled-in default (asked of the program once per run) — each
+        set, else its compiled-in default (remembered by the program's signature) — each
         declared as an input of the run (wsbuild/inputs.py): a module installed into one
-        changes its listing."""
-        from wsbuild.inputs import declare_directory, declare_file
-
+        changes its listing. Worked out once per resolver."""
+        if self._pkg_config_dirs is not None:
+            return self._pkg_config_dirs
         tool = inputs.which("pkg-config", path=self.path) if self.path else None
         if tool is not None:
-            declare_file(tool)
+            inputs.declare_file(tool)
         directories = _split_str(self.pkg_config_path)
         libdir = os.environ.get("PKG_CONFIG_LIBDIR")
         if libdir is not None:
@@ -253,10 +254,10 @@ class Resolver:
         elif tool is not None:
             directories += _split_str(_pkg_config_default_path(inputs.realpath(tool), self.memo,
                                                                   write=self.remember))
-        directories = list(dict.fromkeys(directories))
-        for directory in directories:
-            declare_directory(directory)
-        return directories
+        self._pkg_config_dirs = list(dict.fromkeys(directories))
+        for directory in self._pkg_config_dirs:
+            inputs.declare_directory(directory)
+        return self._pkg_config_dirs
 
     def _list_pkg_config_modules(self) -> frozenset[str]:
         """Every module pkg-config knows, from one run (not one per dependency)."""
@@ -303,11 +304,9 @@ def _pkg_config_default_path(tool: str, memo: Path | None, *, write: bool = True
     path): from `memo` while the program's signature is the one remembered, else asked."""
     import json
 
-    try:
-        st = inputs.stat(tool)
-    except OSError:
+    signature: list[object] = list(inputs.signature(tool))
+    if signature == list(inputs.ABSENT):
         return ""
-    signature: list[object] = [st.st_ino, st.st_size, st.st_mtime_ns, st.st_ctime_ns]
     known: dict[str, object] = {}
     if memo is not None:
         try:
