@@ -17,9 +17,9 @@ from wsbuild.engine.jobs import JobResult, Outcome
 from wsbuild.workspace.model import Dependency, DepKind, Package
 from wsbuild.workspace.selected import Selection
 from wsbuild.prefix.layout import resolve_layout
+from wsbuild.testing.results import PackageStatus, PackageTests, TestRun, summary_lines
 from wsbuild.testing.runners import (
-    PackageStatus, PackageTests, TestRequest, TestRun, check_built, closure_under_test,
-    results_dir, run_tests, summary_lines,
+    TestRequest, check_built, closure_under_test, results_dir, run_tests,
 )
 from wsbuild.verbs.load import load
 from wsbuild.workspace.root import Workspace

@@ -11,7 +11,7 @@ import pytest
 from wsbuild.testing.junit import Case, CaseOutcome, Counts
 from wsbuild.testing.linters import LINTER_MODULES
 from wsbuild.testing.pytest_env import ROS_PYTEST_VAR, ros_pytest_dir, with_ros_pytest
-from wsbuild.testing.runners import PackageStatus, PackageTests, TestRun, summary_lines
+from wsbuild.testing.results import PackageStatus, PackageTests, TestRun, summary_lines
 from wsbuild.testing.tooling import is_tooling, tooling_failures
 from wsbuild.underlay.lint import LINTERS
 

@@ -23,7 +23,7 @@ from wsbuild import inputs
 
 if TYPE_CHECKING:
     from wsbuild.cache.settings import CacheSettings
-    from wsbuild.testing.runners import TestRun
+    from wsbuild.testing.results import TestRun
     from wsbuild.workspace.selected import Selection as Plan
 
 

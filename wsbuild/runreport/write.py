@@ -23,7 +23,7 @@ from wsbuild.runreport.record import BuildFacts, build_record, test_run_record, 
 
 if TYPE_CHECKING:
     from wsbuild.events import Emit, Event
-    from wsbuild.testing.runners import TestRun
+    from wsbuild.testing.results import TestRun
     from wsbuild.workspace.selected import Selection as Plan
 
 

@@ -152,7 +152,8 @@ def run_test_verb(args: argparse.Namespace) -> int:
         test_dependencies,
         write_test_report,
     )
-    from wsbuild.testing.runners import run_tests, summary_lines
+    from wsbuild.testing.results import summary_lines
+    from wsbuild.testing.runners import run_tests
     from wsbuild.verbs.colcon import console_from_args
     from wsbuild.verbs.load import load
     from wsbuild.workspace.selected import Selection

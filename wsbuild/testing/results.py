@@ -1,0 +1,166 @@
+"""What a test run found — each package's result and the run's — and the summary `wsbuild
+test` ends with (testing/runners.py runs the tests)."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+from enum import Enum
+from pathlib import Path
+
+from wsbuild.testing.junit import Case, CaseOutcome, Counts, display_path
+from wsbuild.testing.tooling import ToolingFailure, is_tooling
+from wsbuild.words import plural
+
+#: failing tests listed per package in the summary (the JUnit files hold all of them)
+SHOWN_PROBLEMS = 20
+
+
+class PackageStatus(Enum):
+    PASSED = "passed"
+    #: a test failed or errored, or the test tool itself failed
+    FAILED = "failed"
+    NO_TESTS = "no tests"
+    #: not started: --abort-on-error after another package failed, or Ctrl-C
+    NOT_RUN = "not run"
+    INTERRUPTED = "interrupted"
+
+
+@dataclass(frozen=True, slots=True)
+class PackageTests:
+    """What testing one package found."""
+
+    package: str
+    status: PackageStatus
+    counts: Counts = Counts()
+    #: the failed and erroring test cases
+    problems: tuple[Case, ...] = ()
+    result_files: tuple[Path, ...] = ()
+    log_dir: Path | None = None
+    message: str = ""
+    attempts: int = 1
+    max_attempts: int = 1
+    #: passed only on a retry (--retest-until-pass), or failed after passing runs (until-fail)
+    flaky: bool = False
+    seconds: float = 0.0
+    #: ament linters whose tests were skipped because they are not installed
+    missing_linters: tuple[str, ...] = ()
+    #: the test tooling failing to start (as opposed to tests failing)
+    tooling: tuple[ToolingFailure, ...] = ()
+    #: the result of an earlier run, reused (`log_dir` and `result_files` are that run's)
+    cached: bool = False
+
+
+@dataclass(frozen=True, slots=True)
+class TestRun:
+    __test__ = False  # not a pytest test class
+
+    results: tuple[PackageTests, ...]
+    seconds: float
+    log_dir: Path | None = None
+    interrupted: bool = False
+
+    @property
+    def counts(self) -> Counts:
+        total = Counts()
+        for result in self.results:
+            total += result.counts
+        return total
+
+    @property
+    def failed(self) -> bool:
+        return any(r.status in (PackageStatus.FAILED, PackageStatus.NOT_RUN,
+                                PackageStatus.INTERRUPTED) for r in self.results)
+
+
+def problem_text(counts: Counts) -> str:
+    """`2 failures, 1 error`, only the non-zero ones."""
+    parts = []
+    if counts.failures:
+        parts.append(plural(counts.failures, "failure"))
+    if counts.errors:
+        parts.append(plural(counts.errors, "error"))
+    return ", ".join(parts)
+
+
+def summary_lines(run: TestRun, *, shown: Path) -> list[str]:
+    """The end of `wsbuild test`: totals, packages by outcome, every failing test with its log.
+
+    Paths are shown relative to `shown` (the current directory) when inside it.
+    """
+    tested = [r for r in run.results if r.status in
+              (PackageStatus.PASSED, PackageStatus.FAILED, PackageStatus.NO_TESTS)]
+    lines = [f"Summary: {plural(len(tested), 'package')} tested, {run.counts.describe()} "
+             f"[{run.seconds:.2f}s]"]
+    for status, label in ((PackageStatus.PASSED, "passed"),
+                          (PackageStatus.NO_TESTS, "without tests"),
+                          (PackageStatus.FAILED, "failed"),
+                          (PackageStatus.INTERRUPTED, "aborted"),
+                          (PackageStatus.NOT_RUN, "not tested")):
+        names = sorted(r.package for r in run.results if r.status is status)
+        if names:
+            lines.append(f"  {plural(len(names), 'package')} {label}: {' '.join(names)}")
+        cached = sorted(r.package for r in run.results if r.status is status and r.cached)
+        if cached:
+            lines.append(f"    of which cached (nothing their tests observe changed; "
+                         f"--no-test-cache runs them): {' '.join(cached)}")
+    for result in run.results:
+        if result.flaky:
+            lines.append(f"  flaky: {result.package} {result.status.value} on attempt "
+                         f"{result.attempts} of {result.max_attempts}")
+    lines += _missing_linter_lines(run.results)
+    failed = [r for r in run.results if r.status is PackageStatus.FAILED]
+    tested_failed = [r for r in failed
+                     if any(not is_tooling(c) for c in r.problems) or not r.tooling]
+    if tested_failed:
+        lines.append("Failed tests:")
+    for result in tested_failed:
+        lines.append(f"  {result.package}: {result.counts.describe()}{_log_of(result, shown)}")
+        problems = [c for c in result.problems if not (result.tooling and is_tooling(c))]
+        for case in problems[:SHOWN_PROBLEMS]:
+            verdict = "ERROR" if case.outcome is CaseOutcome.ERROR else "FAILED"
+            lines.append(f"    {verdict} {case.full_name} - {case.headline}")
+        if len(problems) > SHOWN_PROBLEMS:
+            lines.append(f"    ... and {len(problems) - SHOWN_PROBLEMS} more")
+        if not result.problems and result.message:
+            lines.append(f"    {result.message}")
+    broken = [r for r in failed if r.tooling]
+    if broken:
+        lines.append("Test tooling could not start (no test failed there):")
+    for result in broken:
+        lines.append(f"  {result.package}:{_log_of(result, shown)}")
+        for failure in result.tooling:
+            lines.append(f"    {failure.what}: {failure.cause}")
+            lines.append(f"      fix: {failure.fix}")
+    return lines
+
+
+def cached_text(result: PackageTests, shown: Path) -> str:
+    """`cached: 3 tests, ... (log: ..., results: ...)`: a reused result, as it was."""
+    places = []
+    if result.log_dir is not None:
+        places.append(f"log: {display_path(result.log_dir / 'stdout_stderr.log', shown)}")
+    folders = sorted({display_path(path.parent, shown) for path in result.result_files})
+    if folders:
+        places.append(f"results: {' '.join(folders)}")
+    where = f" ({', '.join(places)})" if places else ""
+    return f"cached: {result.counts.describe()}{where}"
+
+
+def _log_of(result: PackageTests, shown: Path) -> str:
+    if result.log_dir is None:
+        return ""
+    return f" (log: {display_path(result.log_dir / 'stdout_stderr.log', shown)})"
+
+
+def _missing_linter_lines(results: Sequence[PackageTests]) -> list[str]:
+    """One line per run naming the linters not installed, as the build names its stand-ins."""
+    users: dict[str, list[str]] = {}
+    for result in results:
+        for linter in result.missing_linters:
+            users.setdefault(linter, []).append(result.package)
+    if not users:
+        return []
+    listed = ", ".join(f"{linter} ({plural(len(packages), 'package')})"
+                       for linter, packages in sorted(users.items()))
+    return [f"  not installed, not run: {listed}: counted as skipped"]
