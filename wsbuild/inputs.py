@@ -24,8 +24,7 @@ from __future__ import annotations
 
 import os
 import stat as modes
-from collections.abc import Callable, Iterator
-from contextlib import contextmanager
+from collections.abc import Callable
 from typing import TypeVar
 
 #: (absolute or relative path, kind, what the run saw: a stat signature, ABSENT or None)
@@ -162,16 +161,6 @@ def declare_directory(path: str | os.PathLike[str]) -> None:
     """The run's answer depends on which entries the directory at `path` holds (and on each
     entry's signature): another program searched it."""
     _notify(path, LISTING, None)
-
-
-@contextmanager
-def listening(listener: Listener) -> Iterator[None]:
-    """Hear every declaration while inside."""
-    _listeners.append(listener)
-    try:
-        yield
-    finally:
-        _listeners.remove(listener)
 
 
 def listen(listener: Listener) -> Callable[[], None]:

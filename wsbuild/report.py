@@ -77,7 +77,8 @@ class ReplayDrawing:
                     assert isinstance(data, dict)
                     reporter = Reporter(verb=data["verb"], console=Console(**data["console"]))
                 elif kind == "package_list" and reporter is not None:
-                    reporter.package_list([(str(n), str(t)) for n, t in data])  # type: ignore[attr-defined]
+                    pairs = data  # [[name, build type], ...]
+                    reporter.package_list([(str(n), str(t)) for n, t in pairs])  # type: ignore
                 elif kind == "event" and reporter is not None:
                     if isinstance(data, RunFinished):
                         data = replace(data, seconds=time.monotonic() - started)
