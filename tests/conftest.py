@@ -19,16 +19,26 @@ REPO = Path(__file__).resolve().parent.parent
 # for the build a test means to run, and ~/.cache/wsbuild would fill up.
 os.environ["WSBUILD_CACHE"] = "off"
 
-# The inputs oracle (engine/recording.py): every wsbuild run the suite records also traces its
-# own file accesses and writes down those no declaration (wsbuild/inputs.py) covers. Set once
-# by the controlling process, inherited by xdist's workers and every wsbuild they start; a
-# non-empty file fails the run, naming the paths and the code that read them.
-if "WSBUILD_INPUTS_ORACLE" not in os.environ:
-    _oracle_dir = REPO / ".pytest_cache"
-    _oracle_dir.mkdir(exist_ok=True)
-    os.environ["WSBUILD_INPUTS_ORACLE"] = str(_oracle_dir / f"inputs-oracle-{os.getpid()}.txt")
-    Path(os.environ["WSBUILD_INPUTS_ORACLE"]).unlink(missing_ok=True)
-INPUTS_ORACLE = Path(os.environ["WSBUILD_INPUTS_ORACLE"])
+# The inputs oracle (engine/inputs_oracle.py): every wsbuild run the suite records also traces
+# its own file accesses and writes down those no declaration (wsbuild/inputs.py) covers. Each
+# pytest session that is not an xdist worker owns a file of its own (pytest_configure; a
+# session a test starts gets its own too), inherited by its workers and every wsbuild they
+# start; a non-empty file fails the session, naming the paths and the code that read them.
+ORACLE_VARIABLE = "WSBUILD_INPUTS_ORACLE"
+
+
+def pytest_configure(config: pytest.Config) -> None:
+    if hasattr(config, "workerinput"):
+        return  # an xdist worker: its controller's file
+    oracle_dir = REPO / ".pytest_cache"
+    oracle_dir.mkdir(exist_ok=True)
+    oracle = oracle_dir / f"inputs-oracle-{os.getpid()}.txt"
+    oracle.unlink(missing_ok=True)
+    os.environ[ORACLE_VARIABLE] = str(oracle)
+
+
+def _oracle_file() -> Path:
+    return Path(os.environ[ORACLE_VARIABLE])
 
 PACKAGE_XML = """<?xml version="1.0"?>
 <package format="3">
@@ -272,7 +282,7 @@ def pytest_runtest_logreport(report: pytest.TestReport) -> None:
 
 def _undeclared_inputs() -> list[str]:
     try:
-        return INPUTS_ORACLE.read_text().splitlines()
+        return _oracle_file().read_text().splitlines()
     except FileNotFoundError:
         return []
 
@@ -294,6 +304,6 @@ def pytest_terminal_summary(terminalreporter: pytest.TerminalReporter) -> None:
         terminalreporter.write_line(f"UNDECLARED INPUT {line}")
     terminalreporter.write_line(
         f"{sum(1 for line in undeclared if not line.startswith('#'))} undeclared inputs of "
-        f"recorded runs (wsbuild/inputs.py; the oracle's file: {INPUTS_ORACLE})")
+        f"recorded runs (wsbuild/inputs.py; the oracle's file: {_oracle_file()})")
     terminalreporter.write_line(
         f"{len(_unexpected_skips)} unexpected skips (allowed: {'; '.join(ALLOWED_SKIPS)})")

@@ -29,8 +29,8 @@ from typing import TypeVar
 
 #: (absolute or relative path, kind, what the run saw: a stat signature, ABSENT or None)
 Listener = Callable[[str, str, "tuple[int, ...] | None"], None]
-STAT, LSTAT, FILE, LISTING, DECLARED, UNREADABLE = (
-    "stat", "lstat", "file", "listing", "declared", "unreadable")
+STAT, LSTAT, FILE, LISTING, DECLARED, UNREADABLE, UNRECORDED = (
+    "stat", "lstat", "file", "listing", "declared", "unreadable", "unrecorded")
 ABSENT: tuple[int, ...] = (0, 0, 0, 0, 0)
 _listeners: list[Listener] = []
 
@@ -155,6 +155,12 @@ def declare_file(path: str | os.PathLike[str]) -> None:
     """The run's answer depends on the file at `path` (or on its absence), read by another
     program."""
     _notify(path, DECLARED, None)
+
+
+def declare_unrecorded(why: str) -> None:
+    """This run read more than it declares, and its later runs do not (the underlay's full
+    scan, which they answer from a stamp): it is never answered from a record."""
+    _notify(why, UNRECORDED, None)
 
 
 def declare_directory(path: str | os.PathLike[str]) -> None:

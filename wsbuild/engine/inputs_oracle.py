@@ -152,7 +152,8 @@ def _caller() -> str:
     frame = sys._getframe(2)
     while frame is not None:
         name = frame.f_code.co_filename
-        if "/wsbuild/" in name and not name.endswith(("/inputs.py", "/recording.py")):
+        if "/wsbuild/" in name and not name.endswith(
+                ("/inputs.py", "/recording.py", "/inputs_oracle.py")):
             return f"{name.rpartition('/wsbuild/')[2]}:{frame.f_lineno} {frame.f_code.co_name}"
         frame = frame.f_back
     return "?"

@@ -138,13 +138,16 @@ class Recorder:
         """An input declared through wsbuild/inputs.py."""
         if not self.active:
             return
+        if kind in (inputs.UNREADABLE, inputs.UNRECORDED):
+            # what the run made of it (unreadable: missing?) is unknown, or not all it read
+            # is declared: no record
+            self.spoiled = True
+            return
         name = self._absolute(path)
         if name is None:
             return
         if kind == inputs.LISTING:
             self.listed.add(name)
-        elif kind == inputs.UNREADABLE:
-            self.spoiled = True  # what the run made of it (unreadable: missing?) is unknown
         else:
             follow = kind != inputs.LSTAT
             saw = seen if seen is not None else OPENED if kind == inputs.FILE else DECLARED

@@ -106,7 +106,9 @@ def _parent_prefix_files(prefix: Path) -> Iterator[Path]:
 
 
 def _analyse(prefix: Path, python: VenvPython) -> Iterator[tuple[Path, str, str, list[Edit]]]:
-    """(path, old text, new text, edits) for every file some rule wants to change."""
+    """(path, old text, new text, edits) for every file some rule wants to change. The run
+    that reads them all is never replayed: later runs answer from the stamp this writes."""
+    inputs.declare_unrecorded(f"a full scan of the underlay {prefix}")
     for path in [*cmake_files(prefix), *_parent_prefix_files(prefix)]:
         try:
             data = path.read_bytes()
