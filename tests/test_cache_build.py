@@ -19,7 +19,7 @@ import pytest
 import zstandard
 
 from nginx_server import NginxServer, nginx  # noqa: F401 (fixture)
-from wsbuild.cache.record import Record, parse_record
+from wsbuild.cache.action_result import ActionResult, parse_action_result
 from conftest import REPO
 from test_build_helpers import (
     REQUIRES_ROS, clean_env, output, sourced, write_ament_python, write_cmake, wsbuild,
@@ -226,9 +226,9 @@ def test_poisoned_remote_entry_is_refused_and_rebuilt(tmp_path: Path, template: 
     evil_digest = hashlib.sha256(evil).hexdigest()
     (nginx.root / "cas" / evil_digest).write_bytes(evil)
     victim = next(p for p in nginx.stored("ac") if blobs[0].name not in p.read_text())
-    record = parse_record(victim.read_bytes())
+    record = parse_action_result(victim.read_bytes())
     assert record is not None
-    victim.write_bytes(Record(record.package, evil_digest, len(evil)).encode())
+    victim.write_bytes(ActionResult(record.package, evil_digest, len(evil)).encode())
 
     fresh_clone(ws, template)
     result = run_build(ws, "--cache", nginx.url, env=env_for(tmp_path / "m2"))

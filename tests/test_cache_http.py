@@ -23,7 +23,7 @@ from wsbuild.cache.http import HttpCache
 from wsbuild.cache.settings import redact
 from wsbuild.cache.key import CacheKey
 from wsbuild.cache.local import LocalCache
-from wsbuild.cache.record import Record, parse_record
+from wsbuild.cache.action_result import ActionResult, parse_action_result
 
 def key_for(name: str) -> CacheKey:
     return CacheKey(name, f'{{"package":"{name}"}}')
@@ -48,7 +48,7 @@ def test_round_trip_through_nginx(tmp_path: Path, nginx: NginxServer) -> None:
     writer.close()
     assert warnings == []
     assert [p.name for p in nginx.stored("ac")] == [key_for("pkg").address]
-    record = parse_record(nginx.stored("ac")[0].read_bytes())
+    record = parse_action_result(nginx.stored("ac")[0].read_bytes())
     assert record is not None and [p.name for p in nginx.stored("cas")] == [record.digest]
     # the record is an ActionResult in JSON, as bazel-remote expects
     assert json.loads(nginx.stored("ac")[0].read_text())["outputFiles"][0]["digest"]["hash"] == record.digest
@@ -111,25 +111,25 @@ def poison(server: NginxServer, key: CacheKey, case: str) -> None:
     digest = hashlib.sha256(good).hexdigest()
     if case == "wrong-digest":
         put_remote(server, "cas", digest, b"something else entirely")
-        put_remote(server, "ac", key.address, Record(key.package, digest, len(good)).encode())
+        put_remote(server, "ac", key.address, ActionResult(key.package, digest, len(good)).encode())
     elif case == "wrong-size":
         put_remote(server, "cas", digest, good)
-        put_remote(server, "ac", key.address, Record(key.package, digest, len(good) + 5).encode())
+        put_remote(server, "ac", key.address, ActionResult(key.package, digest, len(good) + 5).encode())
     elif case == "not-a-record":
         put_remote(server, "ac", key.address, b"<html>nope</html>")
     elif case == "other-package":
         put_remote(server, "cas", digest, good)
-        put_remote(server, "ac", key.address, Record("other", digest, len(good)).encode())
+        put_remote(server, "ac", key.address, ActionResult("other", digest, len(good)).encode())
     elif case == "escaping-member":
         data = bad_archive()
         digest = hashlib.sha256(data).hexdigest()
         put_remote(server, "cas", digest, data)
-        put_remote(server, "ac", key.address, Record(key.package, digest, len(data)).encode())
+        put_remote(server, "ac", key.address, ActionResult(key.package, digest, len(data)).encode())
     elif case == "not-an-archive":
         data = b"just some bytes"
         digest = hashlib.sha256(data).hexdigest()
         put_remote(server, "cas", digest, data)
-        put_remote(server, "ac", key.address, Record(key.package, digest, len(data)).encode())
+        put_remote(server, "ac", key.address, ActionResult(key.package, digest, len(data)).encode())
 
 
 @pytest.mark.parametrize("case", ["wrong-digest", "wrong-size", "not-a-record", "other-package",
@@ -183,7 +183,7 @@ def truncating_server() -> Iterator[str]:
 
 
 def test_truncated_download_is_refused(tmp_path: Path, truncating_server: str) -> None:
-    _Truncating.record = Record("pkg", "a" * 64, 100000).encode()
+    _Truncating.record = ActionResult("pkg", "a" * 64, 100000).encode()
     cache, warnings = client(tmp_path, truncating_server, "local")
     assert cache.restore(key_for("pkg"), tmp_path / "stage") is None
     assert warnings == ["cache entry for pkg refused (truncated download); building it"]

@@ -110,9 +110,9 @@ def test_verify_finds_and_removes_corrupt_entries(tmp_path: Path) -> None:
 
 
 def _record_digest(local: LocalCache, key: CacheKey) -> str:
-    from wsbuild.cache.record import parse_record
+    from wsbuild.cache.action_result import parse_action_result
 
-    record = parse_record((local.ac / key.address).read_bytes())
+    record = parse_action_result((local.ac / key.address).read_bytes())
     assert record is not None
     return record.digest
 

@@ -18,7 +18,7 @@ RANKS: dict[str, int] = {
     "build_types": 2, "prefix": 2, "underlay": 2, "cache": 2,
     "session": 3, "deps": 3,
     "builder": 4, "testing": 4, "create": 4, "runreport": 4,
-    "verbs": 5, "report": 5,
+    "verbs": 5, "reporter": 5,
     "cli": 6, "__init__": 6,
     "launch": 7,
     "__main__": 8,
@@ -31,7 +31,7 @@ SIDEWAYS: dict[tuple[str, str], str] = {
     ("cache", "prefix"): "a restore commits into install/ exactly as a build commits its stage",
     ("builder", "runreport"): "every build writes its run report",
     ("runreport", "testing"): "a test run's report reads its results",
-    ("verbs", "report"): "a verb hands the one reporter to the work it starts",
+    ("verbs", "reporter"): "a verb hands the one reporter to the work it starts",
     ("files", "inputs"): "a write that compares with what is there reads it as a declared input",
 }
 

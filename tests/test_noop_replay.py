@@ -262,7 +262,7 @@ def test_a_replayed_no_op_imports_no_command_line_and_starts_no_process(built: P
     imported = {line.rsplit("|", 1)[-1].strip() for line in replayed.stderr.splitlines()
                 if line.startswith("import time:")}
     assert "wsbuild.engine.replay" in imported
-    assert "wsbuild.report" in imported  # the one reporter draws what the no-op showed
+    assert "wsbuild.reporter" in imported  # the one reporter draws what the no-op showed
     assert not imported & {"wsbuild.cli", "wsbuild.builder.plan", "subprocess",
                            "argparse"}, sorted(imported)
 

@@ -20,7 +20,7 @@ from wsbuild.engine.cpu_sampler import CpuSampler, tree_cpu_seconds
 from wsbuild.engine.jobs import JobResult, JobStarted, Outcome, StepStarted
 from wsbuild.engine.progress import Progress
 from wsbuild.events import JobFinished
-from wsbuild.report import Reporter
+from wsbuild.reporter import Reporter
 from wsbuild.engine.timing_files import bound_text, critical_chain
 from wsbuild.runreport.model import compiler_cache_counts, load_run
 from wsbuild.runreport.page import render_page, write_report

@@ -15,7 +15,7 @@ from wsbuild.workspace.graph import build_graph
 from wsbuild.testing.junit import Case, CaseOutcome, Counts, read_junit
 from wsbuild.engine.jobs import JobResult, Outcome
 from wsbuild.workspace.model import Dependency, DepKind, Package
-from wsbuild.workspace.selected import Selection
+from wsbuild.workspace.selection import Selection
 from wsbuild.prefix.layout import resolve_layout
 from wsbuild.testing.results import PackageStatus, PackageTests, TestRun, summary_lines
 from wsbuild.testing.runners import (

@@ -239,12 +239,12 @@ def _test_result_parser(tree: _Tree, name: str) -> None:
 
 
 def _report_parser(tree: _Tree, name: str) -> None:
-    from wsbuild.verbs.report import REPORT_DOC, add_report_arguments
+    from wsbuild.verbs.run_report import REPORT_DOC, add_report_arguments
 
     verbs = tree.subparsers
     sub = verbs.add_parser("report", help=VERBS[name],
                            description=REPORT_DOC.strip(), formatter_class=_Formatter)
-    sub.set_defaults(func="wsbuild.verbs.report:run_report")
+    sub.set_defaults(func="wsbuild.verbs.run_report:run_report")
     add_report_arguments(sub)
 
 
@@ -435,7 +435,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     if not hasattr(args, "func"):  # a bare `wsbuild` or `wsbuild cache`: what each one does
         _print_choices(args.verb)
         return 2
-    from wsbuild.report import print_notes
+    from wsbuild.reporter import print_notes
     from wsbuild.verbs.colcon import ignored_notes
 
     print_notes(ignored_notes(args, args.verb))

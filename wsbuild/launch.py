@@ -10,7 +10,7 @@ import sys
 
 TYPE_CHECKING = False
 if TYPE_CHECKING:
-    from wsbuild.report import ReplayDrawing
+    from wsbuild.reporter import ReplayDrawing
 
 
 def main() -> int:
@@ -46,7 +46,7 @@ def main() -> int:
 
 def _drawing() -> ReplayDrawing:
     """The reporter's side of a replayed build (imported only when a build is replayed)."""
-    from wsbuild.report import ReplayDrawing
+    from wsbuild.reporter import ReplayDrawing
 
     return ReplayDrawing()
 

@@ -32,7 +32,7 @@ from wsbuild.errors import WsbuildError
 from wsbuild.events import CacheRestored, Emit
 from wsbuild.session import Session
 from wsbuild.workspace.model import DepCategory
-from wsbuild.workspace.selected import Selection
+from wsbuild.workspace.selection import Selection
 
 
 @dataclass(frozen=True, slots=True)
@@ -128,7 +128,7 @@ class PackageBuild:
         except BaseException:
             self.discard()
             raise
-        self.record(installed)
+        self.write_state(installed)
         self.store()
         return JobResult(self.name, Outcome.FINISHED, self._seconds(), log_dir=self.log_dir,
                          message=reason, warnings=tuple(_interesting(self.warnings)))
@@ -145,7 +145,7 @@ class PackageBuild:
         if restored is None:
             return None
         entry, installed = restored
-        self.record(installed)
+        self.write_state(installed)
         self._log(f"Restored from the build cache ({entry.source}, archive {entry.digest})")
         self.run.emit(CacheRestored(self.name, entry.source))
         return JobResult(self.name, Outcome.FINISHED, self._seconds(), log_dir=self.log_dir,
@@ -281,7 +281,7 @@ class PackageBuild:
         staging.commit_isolated(self.stage_prefix, self.prefix)
         return staging.installed_files(install_base, self.prefix)
 
-    def record(self, installed: list[tuple[str, int]]) -> None:
+    def write_state(self, installed: list[tuple[str, int]]) -> None:
         """What this build depended on, for the next run's plan; the build is finished."""
         from wsbuild.builder.fingerprint import BuildState, write_state
 

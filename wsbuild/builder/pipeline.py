@@ -34,7 +34,7 @@ from wsbuild.engine.timings import (
     CompileJobs,
     CpuTimes,
     RunTimings,
-    TimingRecorder,
+    TimingCollector,
     cpu_times,
     record_durations,
     write_timings,
@@ -42,7 +42,7 @@ from wsbuild.engine.timings import (
 from wsbuild.errors import BuildFailed, Interrupted
 from wsbuild.events import Emit, Event, Notice, RunFinished
 from wsbuild.session import Session, SessionOptions, open_session
-from wsbuild.workspace.selected import Selection
+from wsbuild.workspace.selection import Selection
 from wsbuild.words import plural
 
 from wsbuild.engine.cpu_sampler import CpuSampler
@@ -87,7 +87,7 @@ def run_build(selection: Selection, request: BuildRequest, emit: Emit) -> list[J
     cpu_before = cpu_times()
     with open_session(selection.workspace, session_options(request), emit) as session:
         plan = make_plan(selection, request, session)
-        watcher = recording.recorder()
+        watcher = recording.replay_recorder()
         if watcher is not None and (plan.refusal is not None or plan.to_do()):
             watcher.drop()
         if plan.refusal is not None:
@@ -125,7 +125,7 @@ class CompileCounts:
 
 def execute(plan: BuildPlan, selection: Selection, request: BuildRequest, session: Session,
             emit: Emit, started: float, cpu_before: CpuTimes
-            ) -> tuple[list[JobResult], CompileCounts, TimingRecorder, CpuSampler]:
+            ) -> tuple[list[JobResult], CompileCounts, TimingCollector, CpuSampler]:
     """Carry out the plan: up-to-date packages are settled in this thread, the others are
     restored or built by the scheduler's workers; then install/'s setup scripts."""
     from wsbuild.builder.finish import (
@@ -137,7 +137,7 @@ def execute(plan: BuildPlan, selection: Selection, request: BuildRequest, sessio
     ws = selection.workspace
     assert session.run_log is not None
     to_do = {p.name for p in plan.to_do()}
-    recorder = TimingRecorder(plan.dependencies)
+    recorder = TimingCollector(plan.dependencies)
     # the run report's CPU curve: nothing to sample when nothing is built
     sampler = start_sampler(request.report and bool(to_do), recorder.start)
 
@@ -188,7 +188,7 @@ def _write_report(selection: Selection, request: BuildRequest, session: Session,
                   results: Sequence[JobResult], counts: CompileCounts,
                   sampler: CpuSampler) -> tuple[str, ...]:
     """log/<run>/report.html (runreport/); the summary's lines about it."""
-    from wsbuild.runreport.record import BuildFacts
+    from wsbuild.runreport.report_json import BuildFacts
     from wsbuild.runreport.write import write_build_report
 
     assert session.run_log is not None
@@ -357,7 +357,7 @@ def _stop_compilers(compilers: CompilerCache | None, distribution: Distribution 
 
 
 def _run_details(request: BuildRequest, session: Session, results: Sequence[JobResult],
-                 recorder: TimingRecorder, counts: CompileCounts, wall: float,
+                 recorder: TimingCollector, counts: CompileCounts, wall: float,
                  cpu_before: CpuTimes) -> tuple[str, ...]:
     """After the run: the compiler cache's counts, timings into the log (and the summary with
     --timings), durations recorded for the scheduler's next run."""

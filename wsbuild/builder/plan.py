@@ -3,7 +3,7 @@
 cache key, the inputs, the start order and the critical path — and whether the build must
 refuse to start. `build --dry-run` prints it; `build` executes it (builder/pipeline.py); neither
 decides anything else. Planning touches nothing in install/ or log/; what it writes is its
-memos: the dependency check's answers (build/.wsbuild/resolved.json, not under --dry-run), the
+memos: the dependency check's answers (build/.wsbuild/unresolved.json, not under --dry-run), the
 compilers' versions (toolchain.json in the build cache's directory) and a cache entry's use
 time when it looks one up."""
 
@@ -24,7 +24,7 @@ from wsbuild.builder.overrides import Override
 from wsbuild.builder.request import BuildRequest
 from wsbuild.errors import DependencyError
 from wsbuild.session import Session
-from wsbuild.workspace.selected import Selection
+from wsbuild.workspace.selection import Selection
 from wsbuild import inputs as declared
 
 if TYPE_CHECKING:
@@ -300,10 +300,10 @@ def unbuilt_dependencies(selection: Selection, merged: bool) -> dict[str, list[s
 def _unresolved(selection: Selection, request: BuildRequest,
                 session: Session) -> dict[str, tuple[str, ...]]:
     """Package -> its build dependencies nothing provides (workspace/resolve.py), remembered
-    while the environment holds (builder/resolved.py)."""
+    while the environment holds (builder/unresolved.py)."""
     if request.skip_dependency_check:
         return {}
-    from wsbuild.builder.resolved import unresolved
+    from wsbuild.builder.unresolved import unresolved
     from wsbuild.workspace.resolve import Resolver
 
     resolver = Resolver.from_environment(

@@ -16,7 +16,7 @@ from wsbuild.builder.plan import BuildPlan, Decision, PackagePlan
 from wsbuild.engine.process import env_delta, format_command
 from wsbuild.session import Session
 from wsbuild.words import plural
-from wsbuild.workspace.selected import Selection
+from wsbuild.workspace.selection import Selection
 
 
 #: stands for the jobserver every build has (engine/jobserver.py), so that the steps are

@@ -21,7 +21,7 @@ from typing import TYPE_CHECKING
 from wsbuild.cache.archive import RefusedEntry, file_digest, pack, unpack
 from wsbuild.cache.key import CacheKey
 from wsbuild.cache.local import LocalCache
-from wsbuild.cache.record import Record, parse_record
+from wsbuild.cache.action_result import ActionResult, parse_action_result
 from wsbuild.cache.settings import CacheSettings, default_cache_dir
 
 if TYPE_CHECKING:
@@ -32,7 +32,7 @@ Warn = Callable[[str], None]
 
 @dataclass(frozen=True, slots=True)
 class Found:
-    record: Record
+    record: ActionResult
     from_local: bool
 
 
@@ -115,7 +115,7 @@ class BuildCache:
                 return None
         if data is None:
             return None
-        record = parse_record(data)
+        record = parse_action_result(data)
         if record is None or record.package != key.package:
             self._refuse(key, "not a wsbuild record for this package", local=from_local,
                          digest=None)
@@ -165,7 +165,7 @@ class BuildCache:
                 self._stored = True
         return Restored(source, record.digest, members)
 
-    def _download(self, key: CacheKey, record: Record, remote: HttpCache) -> Path | None:
+    def _download(self, key: CacheKey, record: ActionResult, remote: HttpCache) -> Path | None:
         from wsbuild.cache.http import CacheUnavailable, TruncatedDownload
 
         temp = self.local.temp_file()
@@ -212,7 +212,7 @@ class BuildCache:
             temp.unlink(missing_ok=True)
             return f"not cached: {error}", None
         blob = self.local.put_blob(digest, temp)
-        record = Record(key.package, digest, size).encode()
+        record = ActionResult(key.package, digest, size).encode()
         self.local.put_action(key.address, record)
         with self._lock:
             self._stored = True

@@ -140,11 +140,11 @@ class LocalCache:
         return Pruned(blobs=removed, entries=entries, bytes=freed)
 
     def _drop_dangling_records(self) -> int:
-        from wsbuild.cache.record import parse_record
+        from wsbuild.cache.action_result import parse_action_result
 
         dropped = 0
         for path, _, _ in _files(self.ac):
-            record = parse_record(_read(path))
+            record = parse_action_result(_read(path))
             if record is None or not (self.cas / record.digest).is_file():
                 try:
                     path.unlink()
@@ -156,7 +156,7 @@ class LocalCache:
     def verify(self) -> list[str]:
         """Check every blob against its name and every record against its blob; remove and
         list what is bad."""
-        from wsbuild.cache.record import parse_record
+        from wsbuild.cache.action_result import parse_action_result
 
         problems: list[str] = []
         for path, size, _ in _files(self.cas):
@@ -169,7 +169,7 @@ class LocalCache:
                 problems.append(f"cas/{path.name}: content does not match its digest (removed)")
                 path.unlink(missing_ok=True)
         for path, _, _ in _files(self.ac):
-            record = parse_record(_read(path))
+            record = parse_action_result(_read(path))
             if record is None:
                 problems.append(f"ac/{path.name}: not a wsbuild cache record (removed)")
                 path.unlink(missing_ok=True)

@@ -4,7 +4,7 @@
 `recording(argv)` holds a whole run of a replayed verb: it hears every input the run declares
 (wsbuild/inputs.py: the paths it stats, the files it reads, the directories it lists, the
 directories a program it starts searches) and keeps a copy of what the run prints. The run
-tells the `recorder()` what it was: a build whose plan is a no-op calls `no_op` (or `drop` as
+tells the `replay_recorder()` what it was: a build whose plan is a no-op calls `no_op` (or `drop` as
 soon as its plan has work), a verb that only reads calls `read_only` when it is done. At the
 end of such a run, exiting 0, the record is written: the declared paths and each declared
 directory's entries, each with its signature. Nothing else: a read that was not declared is
@@ -107,7 +107,7 @@ OPENED = (1,)
 DECLARED = (2,)
 
 
-class Recorder:
+class ReplayRecorder:
     """The paths a run looks at, from `install` until `finish` or `drop`."""
 
     def __init__(self, argv: Sequence[str]) -> None:
@@ -323,10 +323,10 @@ def _log_of(run_log: Path, log_base: str) -> dict[str, object] | None:
             "timings": timings, "table": lines[:lines.index("")]}
 
 
-_active: Recorder | None = None
+_active: ReplayRecorder | None = None
 
 
-def recorder() -> Recorder | None:
+def replay_recorder() -> ReplayRecorder | None:
     """The recorder watching this run, if any (the build pipeline tells it what the run was)."""
     return _active
 
@@ -339,7 +339,7 @@ def recording(argv: Sequence[str]) -> Iterator[Callable[[int], None]]:
     if any(arg.split("=")[0] in NOT_RECORDED for arg in argv):
         yield lambda code: None
         return
-    watcher = Recorder(argv)
+    watcher = ReplayRecorder(argv)
     watcher.install()
     _active = watcher
     done = False

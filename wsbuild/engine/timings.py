@@ -1,7 +1,7 @@
 """Where a build's time goes: per-package phase times, the wall time against its lower bound,
 and the recorded durations the scheduler weighs packages by.
 
-- `TimingRecorder` listens to the run's events and notes, per package, when it became ready
+- `TimingCollector` listens to the run's events and notes, per package, when it became ready
   (its last dependency finished), when it started, when each labelled step started and when it
   finished. "idle" is ready → started: the package waited for a worker (the CPU budget).
 - `cpu_times()` is the CPU used by wsbuild and every child process it waited for (compilers
@@ -113,7 +113,7 @@ class _Open:
     steps: list[tuple[str, float]] = field(default_factory=list)
 
 
-class TimingRecorder:
+class TimingCollector:
     """Notes the times of the run's events (pass it every event; it is thread-safe)."""
 
     def __init__(self, dependencies: Mapping[str, Iterable[str]]) -> None:

@@ -13,7 +13,7 @@ from pathlib import Path
 from wsbuild.engine.timeline import Bar, phase_of
 from wsbuild.engine.timing_files import bound_text, critical_chain
 from wsbuild.engine.timings import TIMINGS_JSON
-from wsbuild.runreport.record import REPORT_JSON
+from wsbuild.runreport.report_json import REPORT_JSON
 from wsbuild.words import plural
 
 #: lines of a failed package's log shown in the report

@@ -10,7 +10,7 @@ from pathlib import Path
 from wsbuild.engine.timeline import Timeline, render_cpu_svg, render_svg
 from wsbuild.engine.timing_files import bound_text
 from wsbuild.runreport.model import PackageRow, RunReport, compiler_cache_text, load_run
-from wsbuild.runreport.record import REPORT_HTML
+from wsbuild.runreport.report_json import REPORT_HTML
 
 _CSS = """
 body{font-family:sans-serif;font-size:14px;margin:16px 24px;color:#222;max-width:1100px}

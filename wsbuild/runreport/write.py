@@ -14,17 +14,17 @@ from wsbuild.engine.jobs import JobResult, Outcome
 from wsbuild.engine.progress import Progress
 from wsbuild.engine.timings import (
     RunTimings,
-    TimingRecorder,
+    TimingCollector,
     cpu_times,
     read_durations,
     write_timings,
 )
-from wsbuild.runreport.record import BuildFacts, build_record, test_run_record, write_record
+from wsbuild.runreport.report_json import BuildFacts, build_report_data, test_report_data, write_report_json
 
 if TYPE_CHECKING:
     from wsbuild.events import Emit, Event
     from wsbuild.testing.results import TestRun
-    from wsbuild.workspace.selected import Selection as Plan
+    from wsbuild.workspace.selection import Selection
 
 
 def start_sampler(enabled: bool, origin: float) -> CpuSampler:
@@ -38,7 +38,7 @@ def _written(run_log: Path, record: Mapping[str, object], *, page: bool = True
     """report.json then (`page`) report.html; the page's path (None: not drawn), or why it
     was not written."""
     try:
-        write_record(run_log, record)
+        write_report_json(run_log, record)
         if not page:
             return None
         from wsbuild.runreport.page import write_report
@@ -48,7 +48,7 @@ def _written(run_log: Path, record: Mapping[str, object], *, page: bool = True
         return f"report not written: {exc.strerror or exc}"
 
 
-def write_build_report(plan: Plan, facts: BuildFacts, run_log: Path,
+def write_build_report(plan: Selection, facts: BuildFacts, run_log: Path,
                        results: Sequence[JobResult], sampler: CpuSampler) -> tuple[str, ...]:
     """At the end of `wsbuild build` (after timings.json): the report, unless --no-report.
     A no-op's page (every package up to date: nothing to show but their names) is drawn when
@@ -58,7 +58,7 @@ def write_build_report(plan: Plan, facts: BuildFacts, run_log: Path,
     if not facts.report:
         return ()
     no_op = all(r.outcome is Outcome.UP_TO_DATE for r in results)
-    written = _written(run_log, build_record(plan, facts, run_log, results, samples,
+    written = _written(run_log, build_report_data(plan, facts, run_log, results, samples,
                                              sampler.origin), page=facts.timings or not no_op)
     if isinstance(written, str):
         return (written,)
@@ -71,7 +71,7 @@ class RunWatch:
 
     def __init__(self, dependencies: Mapping[str, set[str]], *, enabled: bool) -> None:
         self.enabled = enabled
-        self.recorder = TimingRecorder(dependencies)
+        self.recorder = TimingCollector(dependencies)
         self.cpu_before = cpu_times()
         self.sampler = start_sampler(enabled, self.recorder.start)
 
@@ -83,7 +83,7 @@ class RunWatch:
         return both
 
 
-def write_test_report(plan: Plan, run: TestRun, workers: int, cores: int,
+def write_test_report(plan: Selection, run: TestRun, workers: int, cores: int,
                       watch: RunWatch) -> Path | str | None:
     """At the end of `wsbuild test`: timings.json, report.json, report.html in the run's log;
     the page's path (None: --no-report or no log)."""
@@ -98,11 +98,11 @@ def write_test_report(plan: Plan, run: TestRun, workers: int, cores: int,
         write_timings(run.log_dir, timings)
     except OSError as exc:
         return f"report not written: {exc.strerror or exc}"
-    return _written(run.log_dir, test_run_record(plan, run, workers, cores, samples,
+    return _written(run.log_dir, test_report_data(plan, run, workers, cores, samples,
                                                  watch.sampler.origin))
 
 
-def progress_of(plan: Plan, workers: int, *, durations: bool) -> Progress:
+def progress_of(plan: Selection, workers: int, *, durations: bool) -> Progress:
     """The status line's progress: the selected packages, their dependencies among them, and
     (`durations`) the build durations recorded last time, for the time left."""
     selected = set(plan.selected)
@@ -111,7 +111,7 @@ def progress_of(plan: Plan, workers: int, *, durations: bool) -> Progress:
     return Progress.of(dependencies, recorded, workers)
 
 
-def test_dependencies(plan: Plan) -> dict[str, set[str]]:
+def test_dependencies(plan: Selection) -> dict[str, set[str]]:
     """What each selected package's tests wait for among the selected (testing/runners.py)."""
     from wsbuild.testing.runners import closure_under_test
 

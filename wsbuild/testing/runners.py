@@ -92,7 +92,7 @@ from wsbuild.workspace.root import Workspace
 
 
 if TYPE_CHECKING:
-    from wsbuild.workspace.selected import Selection
+    from wsbuild.workspace.selection import Selection
 
 #: pytest's exit code when it collected no tests
 PYTEST_NO_TESTS = 5

@@ -10,14 +10,14 @@ import sys
 from typing import TYPE_CHECKING
 
 from wsbuild.errors import WsbuildError
-from wsbuild.report import print_warnings
+from wsbuild.reporter import print_warnings
 from wsbuild.verbs.arguments import add_base_arguments, add_scheduling_arguments, secondary
 
 if TYPE_CHECKING:  # the modules of the work are imported when the verb runs, not to parse
     from wsbuild.builder.request import BuildRequest
     from wsbuild.cache.settings import CacheSettings
     from wsbuild.verbs.load import Loaded
-    from wsbuild.workspace.selected import Selection
+    from wsbuild.workspace.selection import Selection
 
 BUILD_DOC = """Build the packages of the workspace into install/.
 
@@ -157,11 +157,11 @@ def _cache_settings(args: argparse.Namespace) -> CacheSettings | None:
 def run_build_verb(args: argparse.Namespace) -> int:
     """Build the selected packages."""
     from wsbuild.builder.pipeline import run_build
-    from wsbuild.report import Reporter
+    from wsbuild.reporter import Reporter
     from wsbuild.runreport.write import progress_of
     from wsbuild.verbs.colcon import console_from_args
     from wsbuild.verbs.load import load
-    from wsbuild.workspace.selected import Selection
+    from wsbuild.workspace.selection import Selection
 
     request = request_from_args(args)
     if getattr(args, "json", False) and not args.dry_run:
@@ -195,7 +195,7 @@ def _with_package_arguments(request: BuildRequest, args: argparse.Namespace, loa
     from dataclasses import replace
     from pathlib import Path
 
-    from wsbuild.report import print_notes
+    from wsbuild.reporter import print_notes
     from wsbuild.verbs import metas
 
     packages = {n: (p.path, p.build_type) for n, p in loaded.packages.items()}
@@ -231,7 +231,7 @@ def _dry_run(selection: Selection, request: BuildRequest, *, json_output: bool) 
 
     from wsbuild.builder.pipeline import dry_run
     from wsbuild.builder.plan_text import plan_json, plan_lines
-    from wsbuild.report import Reporter
+    from wsbuild.reporter import Reporter
 
     # the plan goes to stdout (JSON for tools): a cache's warnings go to stderr
     build_plan, steps = dry_run(selection, request, Reporter(sys.stderr))

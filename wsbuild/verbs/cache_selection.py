@@ -21,7 +21,7 @@ from wsbuild.verbs.arguments import secondary
 
 if TYPE_CHECKING:  # imported when the options are given, not to parse them
     from wsbuild.builder.request import BuildRequest
-    from wsbuild.workspace.selected import Selection
+    from wsbuild.workspace.selection import Selection
 
 #: the caches colcon-cache keeps a lockfile for, as --packages-select-cache-key names them
 CACHE_KEYS = ("build", "test")
@@ -51,9 +51,9 @@ def select_by_cache(args: argparse.Namespace, selection: Selection) -> list[str]
     the same packages, since wsbuild keeps no reference lockfile that could be missing."""
     from wsbuild.builder.pipeline import plan_build
     from wsbuild.builder.plan import Decision
-    from wsbuild.engine.recording import recorder
+    from wsbuild.engine.recording import replay_recorder
 
-    watcher = recorder()
+    watcher = replay_recorder()
     if watcher is not None:
         # the answer depends on the whole plan, more than a record describes: no replay (a
         # later read_only() or no_op() of the verb sets an outcome again, so not drop())

@@ -13,7 +13,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from wsbuild.errors import WorkspaceError
-from wsbuild.report import print_warnings
+from wsbuild.reporter import print_warnings
 from wsbuild.verbs.arguments import add_base_arguments, selection_from_args, workspace_from_args
 from wsbuild.words import plural
 

@@ -11,7 +11,7 @@ from typing import TYPE_CHECKING
 from wsbuild.verbs.arguments import secondary
 
 if TYPE_CHECKING:
-    from wsbuild.report import Console
+    from wsbuild.reporter import Console
 
 #: colcon's event handlers (colcon-core, -output, -notification, -cmake, -package-selection,
 #: -parallel-executor) → what wsbuild does about them (the reason in a note, for the others)
@@ -51,7 +51,7 @@ def event_handler_switch(value: str) -> str:
 
 def console_from_args(args: argparse.Namespace) -> Console:
     """What the reporter shows, from `--event-handlers a+ b- …` (later ones win)."""
-    from wsbuild.report import Console
+    from wsbuild.reporter import Console
 
     switches = {value[:-1]: value.endswith("+") for value in getattr(args, "event_handlers",
                                                                       None) or ()}

@@ -65,7 +65,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def run_deps(args: argparse.Namespace) -> int:
     """Check, plan or install the selected packages' missing dependencies."""
-    from wsbuild.report import print_warnings
+    from wsbuild.reporter import print_warnings
     from wsbuild.verbs.load import load
 
     loaded = load(args, warn=print_warnings)
@@ -91,7 +91,7 @@ def _fetch_sources(args: argparse.Namespace, loaded: Loaded, names: list[str],
     import os
 
     from wsbuild.deps.from_source import REPOS_FILE, import_repositories, write_repos_file
-    from wsbuild.report import print_warnings
+    from wsbuild.reporter import print_warnings
     from wsbuild.verbs.load import load
 
     root = loaded.workspace.root

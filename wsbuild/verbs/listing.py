@@ -11,7 +11,7 @@ from pathlib import Path
 
 from typing import TYPE_CHECKING
 
-from wsbuild.report import print_warnings
+from wsbuild.reporter import print_warnings
 
 if TYPE_CHECKING:  # the modules of the work are imported when a verb runs, not to parse
     from wsbuild.workspace.graph import Graph
@@ -84,9 +84,9 @@ def _relative(path: Path, root: Path) -> str:
 def _read_only(loaded: Loaded) -> None:
     """This run only reads and prints: when it ends well, its record lets the same command on
     an unchanged workspace be replayed (engine/replay.py)."""
-    from wsbuild.engine.recording import recorder
+    from wsbuild.engine.recording import replay_recorder
 
-    watcher = recorder()
+    watcher = replay_recorder()
     if watcher is not None:
         watcher.read_only(build_base=loaded.workspace.build_base)
 

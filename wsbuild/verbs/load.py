@@ -98,7 +98,7 @@ def load(args: argparse.Namespace, *, select: bool = True,
         from wsbuild.verbs.cache_selection import cache_selection_given, select_by_cache
 
         if cache_selection_given(args):
-            from wsbuild.workspace.selected import Selection
+            from wsbuild.workspace.selection import Selection
 
             selected = select_by_cache(args, Selection(workspace, packages, graph, selected))
     else:

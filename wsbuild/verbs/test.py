@@ -9,7 +9,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from wsbuild.errors import Interrupted, WorkspaceError, WsbuildError
-from wsbuild.report import print_warnings
+from wsbuild.reporter import print_warnings
 from wsbuild.verbs.arguments import (
     add_base_arguments,
     add_scheduling_arguments,
@@ -145,7 +145,7 @@ def run_test_verb(args: argparse.Namespace) -> int:
     """Run the tests of the selected packages; 1 when any test fails or errors."""
     from wsbuild.builder.request import cpu_count
     from wsbuild.events import Notice, Summary
-    from wsbuild.report import Reporter
+    from wsbuild.reporter import Reporter
     from wsbuild.runreport.write import (
         RunWatch,
         progress_of,
@@ -156,7 +156,7 @@ def run_test_verb(args: argparse.Namespace) -> int:
     from wsbuild.testing.runners import run_tests
     from wsbuild.verbs.colcon import console_from_args
     from wsbuild.verbs.load import load
-    from wsbuild.workspace.selected import Selection
+    from wsbuild.workspace.selection import Selection
 
     loaded = load(args, warn=print_warnings)
     request = request_from_args(args, loaded.workspace.root)

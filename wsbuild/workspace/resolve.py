@@ -279,7 +279,7 @@ class Resolver:
     def fingerprint(self) -> dict[str, object]:
         """What the answers depend on, cheaply: the search paths, and the modification times
         of the directories a wheel, package or library is installed into or removed from.
-        Equal fingerprints mean equal answers (builder/resolved.py remembers them)."""
+        Equal fingerprints mean equal answers (builder/unresolved.py remembers them)."""
         directories: list[str] = []
         for prefix in self.ament_prefixes:
             directories.append(str(prefix / "share" / "ament_index" / "resource_index"

@@ -1,4 +1,5 @@
-"""`--packages-*` options: which packages a verb works on, in topological order."""
+"""Which packages a run works on: colcon's `--packages-*` options (`SelectionOptions`), the
+names they select in topological order, and the `Selection` a verb hands to its work."""
 
 from __future__ import annotations
 
@@ -10,6 +11,7 @@ from dataclasses import dataclass
 from wsbuild.errors import SelectionError
 from wsbuild.workspace.graph import Graph
 from wsbuild.workspace.model import DepCategory, Package
+from wsbuild.workspace.root import Workspace
 
 
 @dataclass(frozen=True, slots=True)
@@ -167,3 +169,15 @@ def _compile(patterns: Iterable[str], flag: str,
 
 def _matches(patterns: list[re.Pattern[str]], name: str) -> bool:
     return any(p.match(name) for p in patterns)
+
+
+@dataclass(frozen=True, slots=True)
+class Selection:
+    """The packages a run works on: the workspace, every package found, their graph, and the
+    selected names in the order a run takes them."""
+
+    workspace: Workspace
+    packages: Mapping[str, Package]
+    graph: Graph
+    #: topological order, ties broken by name
+    selected: list[str]

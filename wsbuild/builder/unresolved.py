@@ -4,7 +4,7 @@ A package's unresolved build dependencies are a function of its dependencies (na
 which of them the workspace provides) and of the environment they were looked up in (the
 resolver's fingerprint: search paths and the modification times of the directories a wheel,
 package or library goes into). While both are unchanged, a build reads the answer from
-`build/.wsbuild/resolved.json` instead of asking the underlay again; a wheel installed or
+`build/.wsbuild/unresolved.json` instead of asking the underlay again; a wheel installed or
 removed changes its site directory's time, and the next build looks again."""
 
 from __future__ import annotations
@@ -18,7 +18,7 @@ from wsbuild.workspace.model import Package
 from wsbuild.workspace.resolve import Resolver, unresolved_build_dependencies
 from wsbuild import inputs
 
-MEMO = Path(".wsbuild") / "resolved.json"
+MEMO = Path(".wsbuild") / "unresolved.json"
 
 
 def unresolved(packages: Iterable[Package], workspace: Mapping[str, Package],

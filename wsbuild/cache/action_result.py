@@ -17,7 +17,7 @@ _PATH = re.compile(r"wsbuild/([A-Za-z0-9_.-]+)\.tar\.zst")
 
 
 @dataclass(frozen=True, slots=True)
-class Record:
+class ActionResult:
     package: str
     digest: str
     size: int
@@ -30,7 +30,7 @@ class Record:
         return json.dumps(data, sort_keys=True).encode()
 
 
-def parse_record(data: bytes) -> Record | None:
+def parse_action_result(data: bytes) -> ActionResult | None:
     """The record in `data`, or None when it is anything else (a miss, never an error)."""
     try:
         value = json.loads(data)
@@ -44,4 +44,4 @@ def parse_record(data: bytes) -> Record | None:
         return None
     if match is None or not isinstance(hash_, str) or not is_digest(hash_) or size <= 0:
         return None
-    return Record(match.group(1), hash_, size)
+    return ActionResult(match.group(1), hash_, size)

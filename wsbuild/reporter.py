@@ -30,7 +30,7 @@ from wsbuild.events import (
 )
 from wsbuild.engine.jobs import JobResult, Outcome
 from wsbuild.engine.progress import Progress
-from wsbuild.engine.recording import recorder
+from wsbuild.engine.recording import replay_recorder
 from wsbuild.words import plural
 
 #: characters of the status line's progress bar
@@ -40,7 +40,7 @@ BAR_WIDTH = 20
 def _shown(kind: str, data: object) -> None:
     """Tell the recorder of this run (if any) what the reporter showed: a no-op's replay
     (engine/replay.py) shows the same through the same functions."""
-    watcher = recorder()
+    watcher = replay_recorder()
     if watcher is not None:
         watcher.shown(kind, data)
 

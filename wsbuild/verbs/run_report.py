@@ -34,7 +34,7 @@ def run_report(args: argparse.Namespace) -> int:
     """Print an earlier run's summary and the path of its (rewritten) report."""
     from wsbuild.runreport.model import NoReport, load_run, summary_lines
     from wsbuild.runreport.page import render_page
-    from wsbuild.runreport.record import REPORT_HTML
+    from wsbuild.runreport.report_json import REPORT_HTML
     from wsbuild.verbs.load import workspace_root
 
     log_base = workspace_root(args) / args.log_base

@@ -24,7 +24,7 @@ from wsbuild import inputs
 if TYPE_CHECKING:
     from wsbuild.cache.settings import CacheSettings
     from wsbuild.testing.results import TestRun
-    from wsbuild.workspace.selected import Selection as Plan
+    from wsbuild.workspace.selection import Selection
 
 
 @dataclass(frozen=True, slots=True)
@@ -81,7 +81,7 @@ def _result_fields(result: JobResult, run_log: Path) -> dict[str, object]:
             "log_dir": _relative(result.log_dir, run_log)}
 
 
-def _generator(plan: Plan, results: Iterable[JobResult]) -> str:
+def _generator(plan: Selection, results: Iterable[JobResult]) -> str:
     """The CMake generator of the run: from the CMakeCache.txt of a CMake package, preferring
     one built in this run (a file read or two: no subprocess, no import of the build types,
     which a no-op build never loads)."""
@@ -108,7 +108,7 @@ def _built_now(results: Iterable[JobResult]) -> set[str]:
             if r.outcome is Outcome.FINISHED and r.message != "restored from cache"}
 
 
-def build_record(plan: Plan, facts: BuildFacts, run_log: Path,
+def build_report_data(plan: Selection, facts: BuildFacts, run_log: Path,
                  results: Sequence[JobResult], samples: Sequence[CpuSample],
                  origin: float) -> dict[str, object]:
     """report.json of a `wsbuild build`."""
@@ -140,7 +140,7 @@ def build_record(plan: Plan, facts: BuildFacts, run_log: Path,
     }
 
 
-def test_run_record(plan: Plan, run: TestRun, workers: int, cores: int,
+def test_report_data(plan: Selection, run: TestRun, workers: int, cores: int,
                 samples: Sequence[CpuSample], origin: float) -> dict[str, object]:
     """report.json of a `wsbuild test`: each package's counts and failing tests, each named
     with the JUnit file that holds it."""
@@ -194,7 +194,7 @@ def _failing(problems: Sequence[object], files: Sequence[Path],
     return found
 
 
-def write_record(run_log: Path, record: Mapping[str, object]) -> Path:
+def write_report_json(run_log: Path, record: Mapping[str, object]) -> Path:
     path = run_log / REPORT_JSON
     path.write_text(json.dumps(record, indent=1, sort_keys=True) + "\n", encoding="utf-8")
     return path
