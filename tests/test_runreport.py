@@ -80,7 +80,7 @@ def test_a_no_op_build_writes_its_report_without_starting_a_process(built: Path)
     script = """
 import json, os, subprocess, sys, time
 import wsbuild.runreport.write as pipeline
-original = pipeline.write_build_report
+original = pipeline.write_run_report
 spent = []
 def refuse(*args, **kwargs):
     raise AssertionError("a process was started while the report was written")
@@ -93,7 +93,7 @@ def guarded(*args, **kwargs):
     finally:
         spent.append(time.perf_counter() - started)
         subprocess.Popen, os.fork, os.posix_spawn = saved
-pipeline.write_build_report = guarded
+pipeline.write_run_report = guarded
 from wsbuild.cli import main
 code = main(["build"])
 print("REPORT-SECONDS", spent[0])

@@ -10,6 +10,7 @@ from pathlib import Path
 import pytest
 
 from test_build_helpers import build, write_cmake
+from wsbuild.engine.ready_queue import JobGraph
 from wsbuild.engine.schedule import FailurePolicy, critical_path, remaining_work, run_jobs
 from wsbuild.builder.weights import estimate_seconds, package_weights
 from wsbuild.engine.timings import read_durations
@@ -48,7 +49,7 @@ def _start_order(weights: dict[str, float] | None, workers: int = 1) -> list[str
             started.append(name)
         return JobResult(name, Outcome.FINISHED)
 
-    run_jobs(["a", "b", "c", "d", "e", "f"], DEPS, job, workers=workers,
+    run_jobs(JobGraph.of(["a", "b", "c", "d", "e", "f"], DEPS), job, workers=workers,
              policy=FailurePolicy.STOP, emit=lambda e: None, weights=weights)
     return started
 
