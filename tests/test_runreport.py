@@ -197,6 +197,33 @@ def test_a_test_runs_report_counts_tests_and_links_failing_ones_to_junit(tmp_pat
     assert f"    {failing['name']} - " in summary.stdout
 
 
+def test_a_test_run_times_itself_as_a_build_does_also_without_its_report(
+        tmp_path: Path) -> None:
+    """One run for both verbs (runreport/package_run.py): like a build, every test run writes
+    timings.json/txt with each package's phases, also under --no-report, which only leaves
+    out report.json and report.html."""
+    ws = tmp_path / "ws"
+    for name, deps in (("base", []), ("user", ["base"])):
+        package = write_package(ws / "src", name, deps=deps)
+        (package / "test").mkdir()
+        (package / "test" / f"test_{name}.py").write_text("def test_one():\n    assert True\n")
+    assert run_wsbuild("build", cwd=ws).returncode == 0
+    tested = run_wsbuild("test", "--no-report", "--no-test-cache", cwd=ws)
+    assert tested.returncode == 0, tested.stdout + tested.stderr
+    run = _run_dir(ws, "latest_test")
+    assert not (run / "report.json").exists() and not (run / "report.html").exists()
+    timings = json.loads((run / "timings.json").read_text())
+    rows = {p["package"]: p for p in timings["packages"]}
+    assert set(rows) == {"base", "user"}
+    for row in rows.values():
+        assert row["outcome"] == "finished"
+        assert [label for label, _, _ in row["phases"]] == ["check", "pytest"]
+    # user's tests run against base's: it is ready only once base's tests finished
+    assert rows["user"]["ready"] >= rows["base"]["finished"]
+    assert {"wall_seconds", "cores", "job_budget"} <= set(timings)
+    assert "lower bound" in (run / "timings.txt").read_text()
+
+
 # ---------------------------------------------------------------------------- the pieces
 
 

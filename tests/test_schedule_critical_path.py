@@ -117,3 +117,23 @@ def test_recorded_durations_put_the_long_chain_first(tmp_path: Path) -> None:
         label for p in timings["packages"] for label, _, _ in p["phases"]}
     assert timings["cpu_seconds"]["total"] > 0 and timings["limit_seconds"] > 0
     assert (ws / "log" / "latest_build" / "timings.txt").is_file()
+
+
+def test_the_start_order_is_the_schedulers_with_one_worker() -> None:
+    """A plan's start order (what --dry-run lists) and the scheduler come from one ready
+    queue: on many graphs and weights, one worker starts the jobs in the start order."""
+    import random
+
+    from wsbuild.engine.ready_queue import start_order
+
+    chooser = random.Random(30)
+    for _ in range(200):
+        names = [f"p{i}" for i in range(chooser.randint(1, 9))]
+        deps = {n: {d for d in names[:i] if chooser.random() < 0.3}
+                for i, n in enumerate(names)}
+        weights = {n: float(chooser.randint(0, 4)) for n in names if chooser.random() < 0.8}
+        jobs = JobGraph.of(names, deps)
+        started: list[str] = []
+        run_jobs(jobs, lambda name: started.append(name) or JobResult(name, Outcome.FINISHED),
+                 workers=1, policy=FailurePolicy.STOP, emit=lambda e: None, weights=weights)
+        assert started == start_order(jobs, weights), (deps, weights)
