@@ -183,7 +183,7 @@ def check_built(plan: Selection, merged: bool) -> None:
 # ------------------------------------------------------------------------------- running
 
 
-def test_jobs(plan: Selection) -> JobGraph:
+def jobs_under_test(plan: Selection) -> JobGraph:
     """The run's jobs: the selected packages, each waiting for the selected ones its tests run
     against (`closure_under_test`)."""
     selected = set(plan.selected)
@@ -211,7 +211,7 @@ def run_tests(plan: Selection, request: TestRequest, emit: Emit) -> TestRun:
                              wait_for_lock=request.wait_for_lock)
     with open_session(ws, options, emit) as session:
         assert session.run_log is not None
-        jobs = test_jobs(plan)
+        jobs = jobs_under_test(plan)
         run = PackageRun(plan, session.run_log, jobs, report=request.report, started=started,
                          cpu_before=cpu_before)
         tester = _Tester(plan, request, merged, session.environ, session.run_log)
