@@ -41,7 +41,7 @@ END = "<!-- end of run-report cost -->"
 _TIMED_WRITE = """
 import sys, time
 import wsbuild.runreport.write as pipeline
-original = pipeline.write_build_report
+original = pipeline.write_run_report
 spent = []
 def timed(*args, **kwargs):
     started, cpu = time.perf_counter(), time.thread_time()
@@ -49,7 +49,7 @@ def timed(*args, **kwargs):
         return original(*args, **kwargs)
     finally:
         spent.append((time.perf_counter() - started, time.thread_time() - cpu))
-pipeline.write_build_report = timed
+pipeline.write_run_report = timed
 from wsbuild.cli import main
 code = main(["build"])
 print("REPORT-SECONDS", *spent[0])

@@ -62,9 +62,11 @@ def test_an_edit_shows_the_file_and_the_dependents_it_drags_along(built: Path) -
     lines = result.stdout.splitlines()
     assert lines[0] == "dry run: 3 packages, 2 would build, 1 up to date (nothing was touched)"
     rows = [line.split(None, 2) for line in lines[1:4]]
-    assert [row[1] for row in rows] == ["pa", "pc", "pb"]  # critical path first, then by name
-    assert rows[0][2] == "build: source changed: pa/main.py"
-    assert rows[1][2] == "up to date"
+    # the order the build starts them in: the up-to-date one (settled before any job), then
+    # the ready queue's, critical path first
+    assert [row[1] for row in rows] == ["pc", "pa", "pb"]
+    assert rows[0][2] == "up to date"
+    assert rows[1][2] == "build: source changed: pa/main.py"
     assert rows[2][2] == ("build: dependency pa is built first; this package only if what it "
                           "read of it changes")
     assert lines[4].startswith("critical path (about ") and lines[4].endswith(": pa → pb")

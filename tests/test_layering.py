@@ -30,7 +30,7 @@ SIDEWAYS: dict[tuple[str, str], str] = {
     ("build_types", "prefix"): "a build type stages into a prefix and names its hooks",
     ("cache", "prefix"): "a restore commits into install/ exactly as a build commits its stage",
     ("builder", "runreport"): "every build writes its run report",
-    ("runreport", "testing"): "a test run's report reads its results",
+    ("testing", "runreport"): "a test run runs its jobs and writes its report as a build does",
     ("verbs", "reporter"): "a verb hands the one reporter to the work it starts",
     ("files", "inputs"): "a write that compares with what is there reads it as a declared input",
 }

@@ -99,3 +99,29 @@ def test_the_commands_the_dry_run_prints_are_the_ones_the_build_runs(
         for line, step in zip(invoked, steps["pc"]):
             assert line.startswith(f"cd {shlex.quote(step['cwd'])} && ")
             assert line.endswith(" " + shlex.join(step["argv"])), (line, step["argv"])
+
+
+def test_the_dry_run_lists_packages_in_the_order_a_one_worker_build_starts_them(
+        make_workspace: Callable[..., Path]) -> None:
+    """Both take the order from one ready queue (engine/ready_queue.py): the up-to-date ones
+    first (settled before any job), then critical path first — not the name order."""
+    ws = make_workspace({"lib_a": ("ament_python", []), "lib_b": ("ament_python", []),
+                         "app": ("ament_python", ["lib_b"]), "tool": ("ament_python", []),
+                         "extra": ("ament_python", [])})
+    first = run_wsbuild("build", cwd=ws)
+    assert first.returncode == 0, first.stdout + first.stderr
+    # the weights the next build goes by: lib_b → app is the critical path
+    (ws / "build" / ".wsbuild" / "durations.json").write_text(json.dumps(
+        {"lib_a": 1, "lib_b": 30, "app": 20, "tool": 5, "extra": 1}))
+    for name in ("lib_a", "lib_b", "app", "tool"):
+        (ws / "src" / name / name / "main.py").write_text("def main():\n    print('edited')\n")
+
+    planned = run_wsbuild("build", "--dry-run", "--json", cwd=ws)
+    assert planned.returncode == 0, planned.stdout + planned.stderr
+    order = [(p["name"], p["decision"]) for p in json.loads(planned.stdout)["packages"]]
+    assert order == [("extra", "up to date"), ("lib_b", "build"), ("app", "build"),
+                     ("tool", "build"), ("lib_a", "build")]
+    built = run_wsbuild("build", "--executor", "sequential", cwd=ws)
+    assert built.returncode == 0, built.stdout + built.stderr
+    started = re.findall(r"^Starting >>> (\S+)", built.stdout, re.M)
+    assert started == [name for name, decision in order if decision == "build"]

@@ -80,7 +80,7 @@ def test_a_no_op_build_writes_its_report_without_starting_a_process(built: Path)
     script = """
 import json, os, subprocess, sys, time
 import wsbuild.runreport.write as pipeline
-original = pipeline.write_build_report
+original = pipeline.write_run_report
 spent = []
 def refuse(*args, **kwargs):
     raise AssertionError("a process was started while the report was written")
@@ -93,7 +93,7 @@ def guarded(*args, **kwargs):
     finally:
         spent.append(time.perf_counter() - started)
         subprocess.Popen, os.fork, os.posix_spawn = saved
-pipeline.write_build_report = guarded
+pipeline.write_run_report = guarded
 from wsbuild.cli import main
 code = main(["build"])
 print("REPORT-SECONDS", spent[0])
@@ -195,6 +195,33 @@ def test_a_test_runs_report_counts_tests_and_links_failing_ones_to_junit(tmp_pat
     summary = run_wsbuild("report", "latest_test", cwd=ws)
     assert "Summary: 2 packages tested" in summary.stdout
     assert f"    {failing['name']} - " in summary.stdout
+
+
+def test_a_test_run_times_itself_as_a_build_does_also_without_its_report(
+        tmp_path: Path) -> None:
+    """One run for both verbs (runreport/package_run.py): like a build, every test run writes
+    timings.json/txt with each package's phases, also under --no-report, which only leaves
+    out report.json and report.html."""
+    ws = tmp_path / "ws"
+    for name, deps in (("base", []), ("user", ["base"])):
+        package = write_package(ws / "src", name, deps=deps)
+        (package / "test").mkdir()
+        (package / "test" / f"test_{name}.py").write_text("def test_one():\n    assert True\n")
+    assert run_wsbuild("build", cwd=ws).returncode == 0
+    tested = run_wsbuild("test", "--no-report", "--no-test-cache", cwd=ws)
+    assert tested.returncode == 0, tested.stdout + tested.stderr
+    run = _run_dir(ws, "latest_test")
+    assert not (run / "report.json").exists() and not (run / "report.html").exists()
+    timings = json.loads((run / "timings.json").read_text())
+    rows = {p["package"]: p for p in timings["packages"]}
+    assert set(rows) == {"base", "user"}
+    for row in rows.values():
+        assert row["outcome"] == "finished"
+        assert [label for label, _, _ in row["phases"]] == ["check", "pytest"]
+    # user's tests run against base's: it is ready only once base's tests finished
+    assert rows["user"]["ready"] >= rows["base"]["finished"]
+    assert {"wall_seconds", "cores", "job_budget"} <= set(timings)
+    assert "lower bound" in (run / "timings.txt").read_text()
 
 
 # ---------------------------------------------------------------------------- the pieces

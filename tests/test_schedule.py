@@ -7,6 +7,7 @@ import time
 
 from wsbuild.events import JobFinished, JobStarted
 from wsbuild.engine.jobs import JobResult, Outcome
+from wsbuild.engine.ready_queue import JobGraph
 from wsbuild.engine.schedule import FailurePolicy, run_jobs
 
 DEPS = {"a": set(), "b": {"a"}, "c": {"a"}, "d": {"b", "c"}, "e": set()}
@@ -25,7 +26,8 @@ def test_dependencies_finish_before_dependents_start() -> None:
             finished.append(name)
         return JobResult(name, Outcome.FINISHED)
 
-    results = run_jobs(ORDER, DEPS, job, workers=3, policy=FailurePolicy.STOP, emit=lambda e: None)
+    results = run_jobs(JobGraph.of(ORDER, DEPS), job, workers=3, policy=FailurePolicy.STOP,
+                       emit=lambda e: None)
     assert [r.package for r in results] == ORDER
     assert all(r.outcome is Outcome.FINISHED for r in results)
 
@@ -46,7 +48,8 @@ def test_workers_bound_parallelism() -> None:
         return JobResult(name, Outcome.FINISHED)
 
     names = [f"p{i}" for i in range(6)]
-    run_jobs(names, {}, job, workers=2, policy=FailurePolicy.STOP, emit=lambda e: None)
+    run_jobs(JobGraph.of(names, {}), job, workers=2, policy=FailurePolicy.STOP,
+             emit=lambda e: None)
     assert peak == 2
 
 
@@ -60,7 +63,7 @@ def _failing_b(name: str) -> JobResult:
 def test_default_policy_starts_nothing_after_a_failure() -> None:
     events: list[object] = []
     results = {r.package: r.outcome for r in run_jobs(
-        ["a", "b", "c", "d"], DEPS, _failing_b, workers=1, policy=FailurePolicy.STOP,
+        JobGraph.of(["a", "b", "c", "d"], DEPS), _failing_b, workers=1, policy=FailurePolicy.STOP,
         emit=events.append)}
     assert results == {"a": Outcome.FINISHED, "b": Outcome.FAILED, "c": Outcome.SKIPPED,
                        "d": Outcome.SKIPPED}
@@ -71,7 +74,8 @@ def test_default_policy_starts_nothing_after_a_failure() -> None:
 
 def test_continue_on_error_skips_only_dependents() -> None:
     results = {r.package: r for r in run_jobs(
-        ORDER, DEPS, _failing_b, workers=2, policy=FailurePolicy.SKIP_DEPENDENTS, emit=lambda e: None)}
+        JobGraph.of(ORDER, DEPS), _failing_b, workers=2, policy=FailurePolicy.SKIP_DEPENDENTS,
+        emit=lambda e: None)}
     assert results["c"].outcome is Outcome.FINISHED
     assert results["e"].outcome is Outcome.FINISHED
     assert results["d"].outcome is Outcome.SKIPPED
@@ -82,6 +86,7 @@ def test_a_crashing_job_is_a_failure_not_a_hang() -> None:
     def job(name: str) -> JobResult:
         raise RuntimeError("bug")
 
-    results = run_jobs(["a"], {}, job, workers=1, policy=FailurePolicy.STOP, emit=lambda e: None)
+    results = run_jobs(JobGraph.of(["a"], {}), job, workers=1, policy=FailurePolicy.STOP,
+                       emit=lambda e: None)
     assert results[0].outcome is Outcome.FAILED
     assert "bug in wsbuild" in results[0].message

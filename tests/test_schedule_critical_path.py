@@ -10,6 +10,7 @@ from pathlib import Path
 import pytest
 
 from test_build_helpers import build, write_cmake
+from wsbuild.engine.ready_queue import JobGraph
 from wsbuild.engine.schedule import FailurePolicy, critical_path, remaining_work, run_jobs
 from wsbuild.builder.weights import estimate_seconds, package_weights
 from wsbuild.engine.timings import read_durations
@@ -48,7 +49,7 @@ def _start_order(weights: dict[str, float] | None, workers: int = 1) -> list[str
             started.append(name)
         return JobResult(name, Outcome.FINISHED)
 
-    run_jobs(["a", "b", "c", "d", "e", "f"], DEPS, job, workers=workers,
+    run_jobs(JobGraph.of(["a", "b", "c", "d", "e", "f"], DEPS), job, workers=workers,
              policy=FailurePolicy.STOP, emit=lambda e: None, weights=weights)
     return started
 
@@ -116,3 +117,23 @@ def test_recorded_durations_put_the_long_chain_first(tmp_path: Path) -> None:
         label for p in timings["packages"] for label, _, _ in p["phases"]}
     assert timings["cpu_seconds"]["total"] > 0 and timings["limit_seconds"] > 0
     assert (ws / "log" / "latest_build" / "timings.txt").is_file()
+
+
+def test_the_start_order_is_the_schedulers_with_one_worker() -> None:
+    """A plan's start order (what --dry-run lists) and the scheduler come from one ready
+    queue: on many graphs and weights, one worker starts the jobs in the start order."""
+    import random
+
+    from wsbuild.engine.ready_queue import start_order
+
+    chooser = random.Random(30)
+    for _ in range(200):
+        names = [f"p{i}" for i in range(chooser.randint(1, 9))]
+        deps = {n: {d for d in names[:i] if chooser.random() < 0.3}
+                for i, n in enumerate(names)}
+        weights = {n: float(chooser.randint(0, 4)) for n in names if chooser.random() < 0.8}
+        jobs = JobGraph.of(names, deps)
+        started: list[str] = []
+        run_jobs(jobs, lambda name: started.append(name) or JobResult(name, Outcome.FINISHED),
+                 workers=1, policy=FailurePolicy.STOP, emit=lambda e: None, weights=weights)
+        assert started == start_order(jobs, weights), (deps, weights)

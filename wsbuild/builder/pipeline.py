@@ -10,11 +10,13 @@
                           unresolved build dependencies (workspace/resolve.py), overrides
                           (builder/overrides.py), the start order and critical path. `--dry-run`
                           prints it (builder/plan_text.py) and stops here
-4. builder/package.py     the packages to restore or build run in parallel (engine/schedule.py),
+4. builder/package.py     the packages to restore or build run in parallel, in the order of
+                          the plan's ready queue (runreport/package_run.py → engine/schedule.py),
                           each through its build type's steps (build_types/) into a stage
                           (prefix/stage.py), registered (prefix/hooks.py) and committed
 5. builder/finish.py      install/setup.* and local_setup.*, compile_commands.json
-6. runreport/            log/<run>/report.json and report.html: timeline, CPU use, packages
+6. runreport/            log/<run>/timings.json, report.json and report.html: timeline, CPU use,
+                          packages (runreport/package_run.py, as for `wsbuild test`)
 7. report.py              events (events.py) become console lines and the summary
 """
 
@@ -29,25 +31,16 @@ from typing import TYPE_CHECKING
 from wsbuild.builder.plan import BuildPlan, Decision, make_plan
 from wsbuild.builder.request import BuildRequest
 from wsbuild.engine.jobs import JobFinished, JobResult, JobStarted, Outcome
-from wsbuild.engine.schedule import FailurePolicy, RunInterrupted, run_jobs
-from wsbuild.engine.timings import (
-    CompileJobs,
-    CpuTimes,
-    RunTimings,
-    TimingCollector,
-    cpu_times,
-    record_durations,
-    write_timings,
-)
+from wsbuild.engine.schedule import FailurePolicy, RunInterrupted
+from wsbuild.engine.timings import CompileJobs, cpu_times, record_durations
 from wsbuild.errors import BuildFailed, Interrupted
-from wsbuild.events import Emit, Event, Notice, RunFinished
+from wsbuild.events import Emit, Notice, RunFinished
 from wsbuild.session import Session, SessionOptions, open_session
 from wsbuild.workspace.selection import Selection
 from wsbuild.words import plural
 
-from wsbuild.engine.cpu_sampler import CpuSampler
 from wsbuild.engine import recording
-from wsbuild.runreport.write import start_sampler
+from wsbuild.runreport.package_run import PackageRun
 
 if TYPE_CHECKING:  # what only packages to build need: a no-op imports none of it
     from wsbuild.builder.compiler_cache import CacheCounts, CompilerCache
@@ -93,12 +86,11 @@ def run_build(selection: Selection, request: BuildRequest, emit: Emit) -> list[J
         if plan.refusal is not None:
             raise plan.refusal.error
         _warn(plan, emit)
-        results, counts, recorder, sampler = execute(plan, selection, request, session, emit,
-                                                     started, cpu_before)
-        details = (*_cut_off_line(results), *_run_details(
-            request, session, results, recorder, counts, time.monotonic() - started,
-            cpu_before))
-        details += _write_report(selection, request, session, results, counts, sampler)
+        assert session.run_log is not None
+        run = PackageRun(selection, session.run_log, plan.jobs, report=request.report,
+                         sample_cpu=bool(plan.to_do()), started=started, cpu_before=cpu_before)
+        results, counts = execute(plan, selection, request, session, emit, run)
+        details = _finish(run, request, session, results, counts)
     seconds = time.monotonic() - started
     emit(RunFinished(tuple(results), seconds, details=details))
     failed = [r.package for r in results if r.outcome is Outcome.FAILED]
@@ -124,10 +116,9 @@ class CompileCounts:
 
 
 def execute(plan: BuildPlan, selection: Selection, request: BuildRequest, session: Session,
-            emit: Emit, started: float, cpu_before: CpuTimes
-            ) -> tuple[list[JobResult], CompileCounts, TimingCollector, CpuSampler]:
-    """Carry out the plan: up-to-date packages are settled in this thread, the others are
-    restored or built by the scheduler's workers; then install/'s setup scripts."""
+            emit: Emit, run: PackageRun) -> tuple[list[JobResult], CompileCounts]:
+    """Carry out the plan in `run`: up-to-date packages are settled in this thread, the others
+    are restored or built by the scheduler's workers; then install/'s setup scripts."""
     from wsbuild.builder.finish import (
         merge_compile_commands,
         name_lint_stand_ins,
@@ -136,16 +127,7 @@ def execute(plan: BuildPlan, selection: Selection, request: BuildRequest, sessio
 
     ws = selection.workspace
     assert session.run_log is not None
-    to_do = {p.name for p in plan.to_do()}
-    recorder = TimingCollector(plan.dependencies)
-    # the run report's CPU curve: nothing to sample when nothing is built
-    sampler = start_sampler(request.report and bool(to_do), recorder.start)
-
-    def emit_timed(event: Event) -> None:
-        recorder(event)
-        emit(event)
-
-    settled = _settle_up_to_date(plan, session, emit_timed)
+    settled = _settle_up_to_date(plan, session, run.timed(emit))
     compilers: CompilerCache | None = None
     distribution: Distribution | None = None
     counts = CompileCounts()
@@ -158,7 +140,7 @@ def execute(plan: BuildPlan, selection: Selection, request: BuildRequest, sessio
                                             distributing=request.distribute is not None)
             distribution = _open_distribution(request, session, emit)
         built = _run_packages(plan, selection, request, session, compilers, distribution,
-                              to_do, emit_timed)
+                              run, emit)
         session.cache.close()
         counts = _stop_compilers(compilers, distribution, emit)
     except RunInterrupted as interrupt:
@@ -166,14 +148,11 @@ def execute(plan: BuildPlan, selection: Selection, request: BuildRequest, sessio
         counts = _stop_compilers(compilers, distribution, emit)
         results = _in_selection_order(selection, {**settled, **_by_name(interrupt.results)})
         write_setup_scripts(ws, session.merged, session.underlay, installed_changed=True)
-        details = (*_cut_off_line(results), *_run_details(
-            request, session, results, recorder, counts, time.monotonic() - started,
-            cpu_before))
-        details += _write_report(selection, request, session, results, counts, sampler)
-        emit(RunFinished(tuple(results), time.monotonic() - started, details=details))
+        details = _finish(run, request, session, results, counts)
+        emit(RunFinished(tuple(results), time.monotonic() - run.started, details=details))
         raise Interrupted("build interrupted") from None
     finally:
-        sampler.stop()
+        run.sampler.stop()
         _after_packages(session, compilers, distribution)
     results = _in_selection_order(selection, {**settled, **_by_name(built)})
     write_setup_scripts(ws, session.merged, session.underlay,
@@ -181,27 +160,7 @@ def execute(plan: BuildPlan, selection: Selection, request: BuildRequest, sessio
     if any(r.outcome is Outcome.FINISHED for r in results):  # a no-op reads no file
         merge_compile_commands(ws)
     name_lint_stand_ins(ws, results, emit)
-    return results, counts, recorder, sampler
-
-
-def _write_report(selection: Selection, request: BuildRequest, session: Session,
-                  results: Sequence[JobResult], counts: CompileCounts,
-                  sampler: CpuSampler) -> tuple[str, ...]:
-    """log/<run>/report.html (runreport/); the summary's lines about it."""
-    from wsbuild.runreport.report_json import BuildFacts
-    from wsbuild.runreport.write import write_build_report
-
-    assert session.run_log is not None
-    compiler = None
-    cache = counts.cache
-    if cache is not None:
-        compiler = {"tool": cache.tool, "hits": cache.hits, "misses": cache.misses,
-                    "uncacheable": cache.uncacheable, "summary": cache.summary()}
-    facts = BuildFacts(cores=request.build.jobs, workers=request.run.workers,
-                       compiler_cache_choice=request.compiler_cache, compiler=compiler,
-                       cache=request.cache, symlink_install=request.build.symlink_install,
-                       report=request.report, timings=request.timings)
-    return write_build_report(selection, facts, session.run_log, results, sampler)
+    return results, counts
 
 
 def _cut_off_line(results: Sequence[JobResult]) -> list[str]:
@@ -241,9 +200,12 @@ def _settle_up_to_date(plan: BuildPlan, session: Session, emit: Emit) -> dict[st
 
 def _run_packages(plan: BuildPlan, selection: Selection, request: BuildRequest,
                   session: Session, compilers: CompilerCache | None,
-                  distribution: Distribution | None, to_do: set[str],
+                  distribution: Distribution | None, run: PackageRun,
                   emit: Emit) -> list[JobResult]:
-    if not to_do:
+    """The packages to restore or build, on the scheduler's workers in the plan's start order
+    (`BuildPlan.jobs_to_do`, the ready queue the plan ordered them by)."""
+    jobs = plan.jobs_to_do()
+    if not jobs.order:
         return []
     from wsbuild.builder.package import PackageBuild, RunResources
 
@@ -260,18 +222,15 @@ def _run_packages(plan: BuildPlan, selection: Selection, request: BuildRequest,
         distribution.watch(jobserver)
     resources = RunResources(
         selection=selection, session=session, options=options, run_log=session.run_log,
-        jobserver=jobserver, compilers=compilers, emit=emit,
+        jobserver=jobserver, compilers=compilers, emit=run.timed(emit),
         unresolved=plan.unresolved, order=tuple(selection.graph.topological_order()),
         distribution=distribution)
-    names = [n for n in selection.selected if n in to_do]
-    dependencies = {n: set(plan.dependencies[n]) & to_do for n in names}
     policy = FailurePolicy.SKIP_DEPENDENTS if request.run.continue_on_error \
         else FailurePolicy.STOP
     planned = {p.name: p for p in plan.to_do()}
-    return run_jobs(names, dependencies,
-                    lambda name: PackageBuild(planned[name], resources).execute(),
-                    workers=request.run.workers, policy=policy, emit=emit,
-                    weights=plan.weights)
+    return run.run(jobs, lambda name: PackageBuild(planned[name], resources).execute(),
+                   workers=request.run.workers, policy=policy, emit=emit,
+                   weights=plan.weights)
 
 
 def _open_distribution(request: BuildRequest, session: Session,
@@ -356,23 +315,33 @@ def _stop_compilers(compilers: CompilerCache | None, distribution: Distribution 
     return CompileCounts(cache, jobs, distribution.budget)
 
 
-def _run_details(request: BuildRequest, session: Session, results: Sequence[JobResult],
-                 recorder: TimingCollector, counts: CompileCounts, wall: float,
-                 cpu_before: CpuTimes) -> tuple[str, ...]:
-    """After the run: the compiler cache's counts, timings into the log (and the summary with
-    --timings), durations recorded for the scheduler's next run."""
-    assert session.run_log is not None
-    lines: list[str] = []
+def _finish(run: PackageRun, request: BuildRequest, session: Session,
+            results: Sequence[JobResult], counts: CompileCounts) -> tuple[str, ...]:
+    """After the run: timings and the report into the log (runreport/package_run.py),
+    durations recorded for the scheduler's next run; the summary's lines: packages cut off,
+    the compiler cache's counts, with --timings the table and the report's path."""
+    from wsbuild.runreport.report_json import RunFacts
+
+    lines = _cut_off_line(results)
+    compiler = None
     cache = counts.cache
-    if cache is not None and cache.hits + cache.misses + cache.uncacheable:
-        lines.append(cache.summary())
-    timings = RunTimings(wall, cpu_times() - cpu_before, request.build.jobs,
-                         tuple(recorder.rows()), compile_jobs=counts.jobs,
-                         job_budget=counts.budget)
-    write_timings(session.run_log, timings)
+    if cache is not None:
+        compiler = {"tool": cache.tool, "hits": cache.hits, "misses": cache.misses,
+                    "uncacheable": cache.uncacheable, "summary": cache.summary()}
+        if cache.hits + cache.misses + cache.uncacheable:
+            lines.append(cache.summary())
+    facts = RunFacts(verb="build", cores=request.build.jobs, workers=request.run.workers,
+                     compiler_cache_choice=request.compiler_cache, compiler=compiler,
+                     cache=request.cache, symlink_install=request.build.symlink_install,
+                     report=request.report, timings=request.timings)
+    end = run.finish(results, facts, compile_jobs=counts.jobs, job_budget=counts.budget)
     record_durations(session.workspace.build_base, results)
     if request.timings:
-        lines += [*timings.table(), timings.summary_line()]
+        lines += [*end.timings.table(), end.timings.summary_line()]
         if counts.jobs is not None:
             lines.append(counts.jobs.summary())
+    if isinstance(end.report, str):
+        lines.append(end.report)
+    elif request.timings and end.report is not None:
+        lines.append(f"report: {end.report}")
     return tuple(lines)

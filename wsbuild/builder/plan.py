@@ -9,10 +9,9 @@ time when it looks one up."""
 
 from __future__ import annotations
 
-import heapq
 import os
 import sys
-from collections.abc import Collection, Iterable, Mapping, Sequence
+from collections.abc import Collection, Mapping, Sequence
 from dataclasses import dataclass, replace
 from enum import Enum
 from pathlib import Path
@@ -22,6 +21,7 @@ from wsbuild.build_types import BuildOptions, environment_digests, get_build_typ
 from wsbuild.builder.fingerprint import BuildState, Reason, SourceSnapshot
 from wsbuild.builder.overrides import Override
 from wsbuild.builder.request import BuildRequest
+from wsbuild.engine.ready_queue import JobGraph, start_order
 from wsbuild.errors import DependencyError
 from wsbuild.session import Session
 from wsbuild.workspace.selection import Selection
@@ -93,10 +93,11 @@ class Refusal:
 class BuildPlan:
     #: the options every package is built with (the request's, with the underlay's CMake args)
     options: BuildOptions
-    #: in the order the build starts them with one worker
+    #: in the order the build starts them with one worker: the up-to-date ones (settled
+    #: before any job starts), then the others as the scheduler's ready queue hands them out
     packages: tuple[PackagePlan, ...]
-    #: each selected package's dependencies within the selection
-    dependencies: Mapping[str, frozenset[str]]
+    #: the selected packages (topological order) with their dependencies within the selection
+    jobs: JobGraph
     weights: Mapping[str, float]
     #: the heaviest chain (dependencies first) and its weight in seconds
     critical_path: tuple[str, ...]
@@ -110,15 +111,18 @@ class BuildPlan:
     notices: tuple[str, ...]
 
     def to_do(self) -> list[PackagePlan]:
-        """The packages the build restores or builds."""
+        """The packages the build restores or builds, in the order it starts them."""
         return [p for p in self.packages if p.decision is not Decision.UP_TO_DATE]
+
+    def jobs_to_do(self) -> JobGraph:
+        """The scheduler's jobs: the packages to restore or build, with the edges among them."""
+        return self.jobs.subset({p.name for p in self.to_do()})
 
 
 def make_plan(selection: Selection, request: BuildRequest, session: Session) -> BuildPlan:
     """What `wsbuild build` will do with `selection`, package by package, and why."""
     from wsbuild.builder.overrides import overrides_to_warn
     from wsbuild.builder.weights import package_weights
-    from wsbuild.engine.schedule import critical_path
 
     ws = selection.workspace
     options = replace(request.build, underlay_cmake_args=session.underlay.cmake_args)
@@ -127,19 +131,18 @@ def make_plan(selection: Selection, request: BuildRequest, session: Session) -> 
     unresolved = _unresolved(selection, request, session)
     overrides = overrides_to_warn(selection.selected, selection.packages,
                                   request.allow_overriding, session.environ, ws.install_base)
-    dependencies = {n: frozenset(selection.graph.direct(n) & selected)
-                    for n in selection.selected}
+    jobs = JobGraph.of(selection.selected,
+                       {n: selection.graph.direct(n) & selected for n in selection.selected})
     weights = package_weights(selection.packages, selection.selected, ws.build_base)
-    order = start_order(selection.selected, dependencies, weights)
-    path = critical_path(dependencies, weights)
+    path = jobs.critical_path(weights)
     underlay = underlay_paths(str(ws.install_base), session.environ)
-    # in start order, so a dependent sees the key its dependency will have after this run
+    # in topological order, so a dependent sees the key its dependency will have after this run
     keys: dict[str, str] = {}
     packages: list[PackagePlan] = []
     pending: set[str] = set()
     #: the outside files' signatures, each taken once (packages share most of them)
     seen: dict[str, tuple[int, ...]] = {}
-    for name in order:
+    for name in selection.selected:
         planned = plan_package(selection, request, options, session, name, keys, underlay,
                                pending, seen)
         keys[name] = planned.key
@@ -148,8 +151,8 @@ def make_plan(selection: Selection, request: BuildRequest, session: Session) -> 
         packages.append(planned)
     return BuildPlan(
         options=options,
-        packages=tuple(packages),
-        dependencies=dependencies,
+        packages=start_ordered(packages, jobs, weights),
+        jobs=jobs,
         weights=weights,
         critical_path=tuple(path),
         critical_seconds=sum(weights.get(n, 0.0) for n in path),
@@ -340,28 +343,13 @@ def _refusal(not_built: Mapping[str, Sequence[str]], unresolved: Mapping[str, Se
     return None
 
 
-def start_order(names: Sequence[str], dependencies: Mapping[str, Iterable[str]],
-                weights: Mapping[str, float]) -> list[str]:
-    """The order engine/schedule.py's run_jobs starts `names` in with one worker: among the
-    ready ones, the most remaining work first, then the given (topological) order."""
-    from wsbuild.engine.schedule import remaining_work
-
-    members = set(names)
-    waiting = {n: set(dependencies.get(n, ())) & members for n in names}
-    users: dict[str, list[str]] = {n: [] for n in names}
-    for name in names:
-        for dep in waiting[name]:
-            users[dep].append(name)
-    remaining = remaining_work(waiting, weights)
-    position = {n: i for i, n in enumerate(names)}
-    ready = [(-remaining[n], position[n]) for n in names if not waiting[n]]
-    heapq.heapify(ready)
-    order: list[str] = []
-    while ready:
-        name = names[heapq.heappop(ready)[1]]
-        order.append(name)
-        for user in users[name]:
-            waiting[user].discard(name)
-            if not waiting[user]:
-                heapq.heappush(ready, (-remaining[user], position[user]))
-    return order
+def start_ordered(packages: Sequence[PackagePlan], jobs: JobGraph,
+                  weights: Mapping[str, float]) -> tuple[PackagePlan, ...]:
+    """`packages` in the order the build starts them with one worker: the up-to-date ones as
+    given (the build settles them before any job), then the ones to restore or build in the
+    order of the scheduler's ready queue (engine/ready_queue.py) over the same jobs and
+    weights the build hands it (`BuildPlan.jobs_to_do`)."""
+    by_name = {p.name: p for p in packages}
+    settled = [p for p in packages if p.decision is Decision.UP_TO_DATE]
+    to_do = jobs.subset({p.name for p in packages if p.decision is not Decision.UP_TO_DATE})
+    return (*settled, *(by_name[name] for name in start_order(to_do, weights)))

@@ -5,11 +5,14 @@
 
 from __future__ import annotations
 
-import os
 from dataclasses import dataclass
 
 from wsbuild.build_types import BuildOptions
 from wsbuild.cache.settings import CacheSettings
+from wsbuild.engine.timings import cpu_count
+
+#: cpu_count is the engine's (the test run counts the cores too); the verbs find it here
+__all__ = ["BuildRequest", "RunOptions", "cpu_count"]
 
 
 @dataclass(frozen=True, slots=True)
@@ -44,10 +47,3 @@ class BuildRequest:
     #: --distribute: distcc hosts in DISTCC_HOSTS syntax; None: compile here only
     #: (builder/distribute.py)
     distribute: str | None = None
-
-
-def cpu_count() -> int:
-    try:
-        return len(os.sched_getaffinity(0))
-    except AttributeError:  # not Linux
-        return os.cpu_count() or 1

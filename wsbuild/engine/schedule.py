@@ -1,29 +1,26 @@
 """Dependency-aware worker pool: run jobs in parallel, honour the failure policy, emit events.
 
-Order rule (critical path first): a package is *ready* when every dependency inside the run
-finished. When several are ready and a worker is free, the one with the longest *remaining
-work* starts first: its own weight plus the heaviest chain of packages that (transitively)
-depend on it. Weights are each package's duration in the last recorded build (kept in
-`build/.wsbuild/durations.json`, see `timings.py`), or an estimate from its number of interface
-and source files when none is recorded. Ties (and runs without weights) go to the earlier
-package in the given order, which is topological with ties broken by name: the result is
-deterministic. `critical_path()` returns the chain that bounds the run from below.
+Which job starts next is ready_queue.py's answer (dependencies settled, critical path first,
+then the given order), the same a plan's start order is made of. Weights are each package's
+duration in the last recorded build (kept in `build/.wsbuild/durations.json`, see
+`timings.py`), or an estimate from its number of interface and source files when none is
+recorded. `critical_path()` returns the chain that bounds the run from below.
 """
 
 from __future__ import annotations
 
-import heapq
 import queue
 import signal
 import threading
 import time
-from collections.abc import Callable, Iterable, Mapping, Sequence
+from collections.abc import Callable, Iterable, Mapping
 from dataclasses import replace
 from enum import Enum
 
 from wsbuild.engine.process import REGISTRY, ProcessRegistry, adopt_orphans
 from wsbuild.engine.jobs import JobEvent, JobFinished, JobStarted
 from wsbuild.engine.jobs import JobResult, Outcome
+from wsbuild.engine.ready_queue import JobGraph, ReadyQueue
 
 Job = Callable[[str], JobResult]
 
@@ -40,8 +37,7 @@ class FailurePolicy(Enum):
 
 
 def run_jobs(
-    order: Sequence[str],
-    dependencies: Mapping[str, set[str]],
+    jobs: JobGraph,
     job: Job,
     *,
     workers: int,
@@ -50,8 +46,8 @@ def run_jobs(
     registry: ProcessRegistry = REGISTRY,
     weights: Mapping[str, float] | None = None,
 ) -> list[JobResult]:
-    """Run `job` for every name in `order` once its `dependencies` (within `order`) finished;
-    among ready jobs the one with the most `remaining_work` under `weights` starts first.
+    """Run `job` for every job of `jobs` once its dependencies finished, in the order of a
+    `ReadyQueue` under `weights` (the most remaining work first).
 
     A failed job (outcome FAILED) affects the others as `policy` says.
     Ctrl-C (KeyboardInterrupt in the calling thread) terminates every child process group and
@@ -63,9 +59,8 @@ def run_jobs(
     Over 80 lines because the loop, its Ctrl-C path and the closures they share hold one
     run's state (waiting, ready, running, results): split, they would pass it all around.
     """
-    names = list(order)
-    members = set(names)
-    waiting = {n: set(dependencies.get(n, set())) & members for n in names}
+    names = list(jobs.order)
+    ready = ReadyQueue(jobs, weights)
     results: dict[str, JobResult] = {}
     done: queue.Queue[JobResult] = queue.Queue()
     running: dict[str, float] = {}
@@ -91,26 +86,17 @@ def run_jobs(
             result = replace(result, seconds=time.monotonic() - start)
         done.put(result)
 
-    position = {name: index for index, name in enumerate(names)}
-    users: dict[str, list[str]] = {name: [] for name in names}
-    for name in names:
-        for dep in waiting[name]:
-            users[dep].append(name)
-    # a heap of (-remaining work, position in `order`): critical path first, then order
-    remaining = remaining_work(waiting, weights or {})
-    priority = {name: (-remaining[name], position[name]) for name in names}
-    ready = [priority[name] for name in names if not waiting[name]]
-    heapq.heapify(ready)
-
     def settle(result: JobResult) -> None:
         results[result.package] = result
         emit(JobFinished(result))
+        succeeded = result.outcome in (Outcome.FINISHED, Outcome.UP_TO_DATE)
+        ready.settle(result.package, release=succeeded or policy is FailurePolicy.CONTINUE)
 
     def skip_dependents(failed: str) -> None:
         stack = [failed]
         while stack:
             current = stack.pop()
-            for user in users[current]:
+            for user in jobs.dependents[current]:
                 if user not in results:
                     settle(JobResult(user, Outcome.SKIPPED,
                                        message=f"dependency failed: {current}"))
@@ -124,29 +110,20 @@ def run_jobs(
                         settle(JobResult(name, Outcome.SKIPPED,
                                            message="not started after an earlier failure"))
             else:
-                while ready and len(running) < workers:
-                    name = names[heapq.heappop(ready)[1]]
-                    if name in results:  # skipped meanwhile
-                        continue
+                while len(running) < workers and (name := ready.pop()) is not None:
                     running[name] = time.monotonic()
                     emit(JobStarted(name))
                     threading.Thread(target=worker, args=(name,), daemon=True,
                                      name=f"wsbuild-{name}").start()
             if not running:
-                if not ready and len(results) < len(names):
+                if not ready.has_ready() and len(results) < len(names):
                     stalled = sorted(set(names) - set(results))
                     raise RuntimeError(f"scheduler stalled with {stalled} waiting (a bug)")
                 continue
             result = done.get()
             running.pop(result.package, None)
             settle(result)
-            succeeded = result.outcome in (Outcome.FINISHED, Outcome.UP_TO_DATE)
-            if succeeded or policy is FailurePolicy.CONTINUE:
-                for user in users[result.package]:
-                    waiting[user].discard(result.package)
-                    if not waiting[user] and user not in results:
-                        heapq.heappush(ready, priority[user])
-            if not succeeded:
+            if result.outcome not in (Outcome.FINISHED, Outcome.UP_TO_DATE):
                 failed_any = True
                 if policy is FailurePolicy.SKIP_DEPENDENTS:
                     skip_dependents(result.package)
@@ -187,50 +164,11 @@ def remaining_work(dependencies: Mapping[str, Iterable[str]],
                    weights: Mapping[str, float]) -> dict[str, float]:
     """For every name in `dependencies`: its weight plus the heaviest chain of names that depend
     on it, directly or not (dependencies outside the mapping are ignored; a missing weight is 0)."""
-    names = list(dependencies)
-    members = set(names)
-    users: dict[str, list[str]] = {name: [] for name in names}
-    pending = {name: 0 for name in names}
-    for name in names:
-        for dep in set(dependencies[name]) & members:
-            users[dep].append(name)
-            pending[name] += 1
-    # Kahn's order, then sum up from the last dependents backwards
-    order = [name for name in names if not pending[name]]
-    for name in order:
-        for user in users[name]:
-            pending[user] -= 1
-            if not pending[user]:
-                order.append(user)
-    if len(order) != len(names):
-        raise ValueError("dependency cycle among " + ", ".join(sorted(members - set(order))))
-    result: dict[str, float] = {}
-    for name in reversed(order):
-        result[name] = max(0.0, float(weights.get(name, 0.0))) + max(
-            (result[user] for user in users[name]), default=0.0)
-    return result
+    return JobGraph.of(dependencies, dependencies).remaining_work(weights)
 
 
 def critical_path(dependencies: Mapping[str, Iterable[str]],
                   weights: Mapping[str, float]) -> list[str]:
     """The heaviest chain of packages, dependencies first: the lower bound of a run's wall time
     with unlimited CPUs. Ties go to the name first in `dependencies`' order."""
-    remaining = remaining_work(dependencies, weights)
-    if not remaining:
-        return []
-    position = {name: index for index, name in enumerate(dependencies)}
-    members = set(dependencies)
-    users: dict[str, list[str]] = {name: [] for name in dependencies}
-    for name, deps in dependencies.items():
-        for dep in set(deps) & members:
-            users[dep].append(name)
-
-    def best(candidates: Iterable[str]) -> str | None:
-        return min(candidates, key=lambda n: (-remaining[n], position[n]), default=None)
-
-    path: list[str] = []
-    current = best(n for n in dependencies if not set(dependencies[n]) & members)
-    while current is not None:
-        path.append(current)
-        current = best(users[current])
-    return path
+    return JobGraph.of(dependencies, dependencies).critical_path(weights)

@@ -17,6 +17,7 @@ and the recorded durations the scheduler weighs packages by.
 from __future__ import annotations
 
 import json
+import os
 import threading
 import time
 from collections.abc import Iterable, Mapping
@@ -82,6 +83,14 @@ class CpuTimes:
 
 def cpu_times() -> CpuTimes:
     return CpuTimes(*cpu_seconds())
+
+
+def cpu_count() -> int:
+    """The cores this process may run on (the run's CPU budget by default)."""
+    try:
+        return len(os.sched_getaffinity(0))
+    except AttributeError:  # not Linux
+        return os.cpu_count() or 1
 
 
 @dataclass(frozen=True, slots=True)

@@ -18,26 +18,29 @@ from typing import TYPE_CHECKING
 
 from wsbuild.engine.cpu_sampler import CpuSample
 from wsbuild.engine.jobs import JobResult, Outcome
+from wsbuild.engine.ready_queue import JobGraph
 from wsbuild.engine.timing_files import started_at
 from wsbuild import inputs
 
 if TYPE_CHECKING:
     from wsbuild.cache.settings import CacheSettings
-    from wsbuild.testing.results import TestRun
     from wsbuild.workspace.selection import Selection
 
 
 @dataclass(frozen=True, slots=True)
-class BuildFacts:
-    """What a build tells its report about itself (the builder fills it in)."""
+class RunFacts:
+    """What a run tells its report about itself (the build or the test run fills it in)."""
 
+    #: "build" or "test"
+    verb: str
     cores: int
     workers: int
     #: --compiler-cache as asked, and what the cache counted (tool, hits, misses, ...)
-    compiler_cache_choice: str
-    compiler: Mapping[str, object] | None
-    cache: CacheSettings | None
-    symlink_install: bool
+    compiler_cache_choice: str = ""
+    compiler: Mapping[str, object] | None = None
+    #: the build cache (None: off)
+    cache: CacheSettings | None = None
+    symlink_install: bool = False
     #: --no-report turns the report off; --timings prints its path
     report: bool = True
     timings: bool = False
@@ -66,7 +69,8 @@ def artifact_cache_text(settings: CacheSettings | None, symlink_install: bool = 
     return where + (" (read-only)" if settings.read_only else "")
 
 
-def _relative(path: Path | None, base: Path) -> str | None:
+def path_in_log(path: Path | None, base: Path) -> str | None:
+    """`path` as the report names it: relative to the run's log directory `base`."""
     if path is None:
         return None
     try:
@@ -78,7 +82,7 @@ def _relative(path: Path | None, base: Path) -> str | None:
 def _result_fields(result: JobResult, run_log: Path) -> dict[str, object]:
     return {"outcome": result.outcome.value, "seconds": round(result.seconds, 3),
             "message": result.message, "reproduce": result.reproduce,
-            "log_dir": _relative(result.log_dir, run_log)}
+            "log_dir": path_in_log(result.log_dir, run_log)}
 
 
 def _generator(plan: Selection, results: Iterable[JobResult]) -> str:
@@ -108,13 +112,15 @@ def _built_now(results: Iterable[JobResult]) -> set[str]:
             if r.outcome is Outcome.FINISHED and r.message != "restored from cache"}
 
 
-def build_report_data(plan: Selection, facts: BuildFacts, run_log: Path,
-                 results: Sequence[JobResult], samples: Sequence[CpuSample],
-                 origin: float) -> dict[str, object]:
-    """report.json of a `wsbuild build`."""
+def report_data(plan: Selection, facts: RunFacts, run_log: Path, jobs: JobGraph,
+               results: Sequence[JobResult], samples: Sequence[CpuSample], origin: float,
+               extra: Mapping[str, Mapping[str, object]] | None = None) -> dict[str, object]:
+    """report.json of a run: each package with its dependencies among the run's `jobs` and its
+    result; `extra` adds to or replaces a package's fields (a test run's counts and failing
+    tests). A build also names its CMake generator and its build cache."""
     from wsbuild import __version__
 
-    selected = set(plan.selected)
+    building = facts.verb == "build"
     packages = []
     for result in sorted(results, key=lambda r: r.package):
         package = plan.packages[result.package]
@@ -122,76 +128,24 @@ def build_report_data(plan: Selection, facts: BuildFacts, run_log: Path,
             "name": result.package, "build_type": package.build_type,
             "path": str(package.path),
             "build_dir": str(plan.workspace.build_base / result.package),
-            "dependencies": sorted(plan.graph.direct(result.package) & selected),
-            "restored": result.message == "restored from cache",
+            "dependencies": sorted(jobs.dependencies.get(result.package, ())),
+            **({"restored": result.message == "restored from cache"} if building else {}),
             **_result_fields(result, run_log),
+            **(extra or {}).get(result.package, {}),
         })
     compiler = dict(facts.compiler) if facts.compiler is not None else None
     return {
-        "format": FORMAT, "verb": "build", "command": command_line(),
+        "format": FORMAT, "verb": facts.verb, "command": command_line(),
         "version": __version__, "started": started_at(origin),
         "workspace": str(plan.workspace.root),
         "cores": facts.cores, "workers": facts.workers,
-        "generator": _generator(plan, results),
+        "generator": _generator(plan, results) if building else "",
         "compiler_cache": compiler, "compiler_cache_choice": facts.compiler_cache_choice,
-        "artifact_cache": artifact_cache_text(facts.cache, facts.symlink_install),
+        "artifact_cache": artifact_cache_text(facts.cache, facts.symlink_install)
+        if building else "",
         "packages": packages,
         "cpu": [[s.time, s.busy] for s in samples],
     }
-
-
-def test_report_data(plan: Selection, run: TestRun, workers: int, cores: int,
-                samples: Sequence[CpuSample], origin: float) -> dict[str, object]:
-    """report.json of a `wsbuild test`: each package's counts and failing tests, each named
-    with the JUnit file that holds it."""
-    from wsbuild import __version__
-    from wsbuild.testing.runners import closure_under_test
-
-    run_log = run.log_dir or Path(".")
-    selected = set(plan.selected)
-    packages = []
-    for result in sorted(run.results, key=lambda r: r.package):
-        package = plan.packages[result.package]
-        packages.append({
-            "name": result.package, "build_type": package.build_type,
-            "path": str(package.path),
-            "build_dir": str(plan.workspace.build_base / result.package),
-            "dependencies": sorted(closure_under_test(plan.graph, result.package) & selected),
-            "outcome": result.status.value, "seconds": round(result.seconds, 3),
-            "message": result.message, "reproduce": "",
-            "log_dir": _relative(result.log_dir, run_log),
-            "tests": {"tests": result.counts.tests, "failures": result.counts.failures,
-                      "errors": result.counts.errors, "skipped": result.counts.skipped,
-                      "flaky": result.flaky, "cached": result.cached,
-                      "failing": _failing(result.problems, result.result_files, run_log)},
-        })
-    return {
-        "format": FORMAT, "verb": "test", "command": command_line(), "version": __version__,
-        "started": started_at(origin), "workspace": str(plan.workspace.root),
-        "cores": cores, "workers": workers, "generator": "", "compiler_cache": None,
-        "compiler_cache_choice": "", "artifact_cache": "",
-        "packages": packages, "cpu": [[s.time, s.busy] for s in samples],
-    }
-
-
-def _failing(problems: Sequence[object], files: Sequence[Path],
-             run_log: Path) -> list[dict[str, str | None]]:
-    """Each failing test's name, headline and the result file holding it."""
-    from wsbuild.testing.junit import read_junit
-
-    holder: dict[tuple[str, str], Path] = {}
-    for path in files:
-        try:
-            for case in read_junit(path).problems():
-                holder.setdefault((case.classname, case.name), path)
-        except (OSError, ValueError):
-            continue
-    found = []
-    for case in problems:
-        place = holder.get((case.classname, case.name))  # type: ignore[attr-defined]
-        found.append({"name": case.full_name, "headline": case.headline,  # type: ignore[attr-defined]
-                      "junit": _relative(place, run_log)})
-    return found
 
 
 def write_report_json(run_log: Path, record: Mapping[str, object]) -> Path:

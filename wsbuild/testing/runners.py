@@ -4,8 +4,9 @@ The stages, in order:
 1. verbs.load     discover → graph → selection (the packages to test)
 2. check_built    the selected packages and everything on their test environment are installed
 3. session.py     the run's context, as a build's: lock, the ROS underlay's environment, the log
-4. schedule       packages in dependency order and in parallel (engine/schedule.py); failing tests never
-                  stop the other packages (only --abort-on-error does)
+4. schedule       packages in dependency order and in parallel, in one run as a build's
+                  (runreport/package_run.py: the scheduler's ready queue, the run's timings and
+                  report); failing tests never stop the other packages (only --abort-on-error does)
 5. per package    its last passing result reused when nothing its tests observe changed
                   (cached_result.py; else its record is forgotten, and written again on a pass);
                   the tool its build type names (build_types' `test_tool`): `python -m pytest`
@@ -15,7 +16,8 @@ The stages, in order:
                   repeated for --retest-until-fail / --retest-until-pass; a test module whose
                   ament linter is not installed is skipped as such (missing_linters.py)
 6. results        JUnit XML in <build>/<pkg>/test_results/<pkg>/ (or <test-result-base>/<pkg>/),
-                  read back through testing/junit.py into each package's result and the summary
+                  read back through testing/junit.py into each package's result and the summary;
+                  log/<run>/timings.json, report.json and report.html, as a build writes them
 
 What a run found and its summary are results.py's. Over 500 lines because the stages above
 share one run state (`_Tester`): pytest's and CTest's runs read the same request,
@@ -87,6 +89,7 @@ from wsbuild.testing.junit import (
 )
 from wsbuild.workspace.graph import Graph
 from wsbuild.engine.jobs import JobResult, Outcome
+from wsbuild.engine.ready_queue import JobGraph
 from wsbuild.workspace.model import DepCategory
 from wsbuild.workspace.root import Workspace
 
@@ -123,6 +126,8 @@ class TestRequest:
     #: reuse a package's last passing result while nothing its tests observe changed
     #: (cached_result.py); False: --no-test-cache
     reuse_results: bool = True
+    #: log/<run>/report.json and report.html (--no-report: off; timings.json is always written)
+    report: bool = True
 
     @property
     def max_attempts(self) -> int:
@@ -178,26 +183,43 @@ def check_built(plan: Selection, merged: bool) -> None:
 # ------------------------------------------------------------------------------- running
 
 
+def jobs_under_test(plan: Selection) -> JobGraph:
+    """The run's jobs: the selected packages, each waiting for the selected ones its tests run
+    against (`closure_under_test`)."""
+    selected = set(plan.selected)
+    return JobGraph.of(plan.selected,
+                       {n: closure_under_test(plan.graph, n) & selected for n in plan.selected})
+
+
 def run_tests(plan: Selection, request: TestRequest, emit: Emit) -> TestRun:
-    """Test the selected packages. Test failures are results, not exceptions; a run cut short
-    by Ctrl-C comes back with `interrupted` set."""
-    from wsbuild.engine.schedule import FailurePolicy, RunInterrupted, run_jobs
+    """Test the selected packages in one run as a build's (runreport/package_run.py: the same
+    session, scheduler, timings and report). Test failures are results, not exceptions; a run
+    cut short by Ctrl-C comes back with `interrupted` set."""
+    from wsbuild.engine.schedule import FailurePolicy, RunInterrupted
+    from wsbuild.engine.timings import cpu_count, cpu_times
     from wsbuild.prefix.layout import resolve_layout
+    from wsbuild.runreport.package_run import PackageRun
+    from wsbuild.runreport.report_json import RunFacts
     from wsbuild.session import SessionOptions, open_session
 
+    started = time.monotonic()
+    cpu_before = cpu_times()
     ws = plan.workspace
     merged = resolve_layout(ws.install_base, request.merge_install, verb="test")
     check_built(plan, merged)
-    started = time.monotonic()
     options = SessionOptions(verb="test", merge_install=request.merge_install,
                              wait_for_lock=request.wait_for_lock)
     with open_session(ws, options, emit) as session:
         assert session.run_log is not None
+        jobs = jobs_under_test(plan)
+        run = PackageRun(plan, session.run_log, jobs, report=request.report, started=started,
+                         cpu_before=cpu_before)
         tester = _Tester(plan, request, merged, session.environ, session.run_log)
         reports: dict[str, PackageTests] = {}
+        timed = run.timed(emit)  # a package's test steps enter the run's timings
 
         def job(name: str) -> JobResult:
-            report = tester.test(name, emit)
+            report = tester.test(name, timed)
             reports[name] = report
             return _shown(report)
 
@@ -210,17 +232,50 @@ def run_tests(plan: Selection, request: TestRequest, emit: Emit) -> TestRun:
                 elif report.cached:
                     emit(Notice(cached_text(report, Path.cwd()), package=report.package))
 
-        selected = set(plan.selected)
-        dependencies = {n: closure_under_test(plan.graph, n) & selected for n in plan.selected}
         policy = FailurePolicy.STOP if request.abort_on_error else FailurePolicy.CONTINUE
         interrupted = False
         try:
-            results = run_jobs(plan.selected, dependencies, job, workers=request.workers,
-                               policy=policy, emit=show)
+            results = run.run(jobs, job, workers=request.workers, policy=policy, emit=show)
         except RunInterrupted as interrupt:
             results, interrupted = interrupt.results, True
-    final = tuple(_final(result, reports.get(result.package)) for result in results)
+        final = tuple(_final(result, reports.get(result.package)) for result in results)
+        facts = RunFacts(verb="test", cores=cpu_count(), workers=request.workers,
+                         report=request.report)
+        end = run.finish(results, facts, extra={
+            r.package: _report_fields(r, session.run_log) for r in final})
+        if isinstance(end.report, str):  # why the report was not written
+            emit(Notice(end.report, warning=True))
     return TestRun(final, time.monotonic() - started, session.run_log, interrupted)
+
+
+def _report_fields(report: PackageTests, run_log: Path) -> dict[str, object]:
+    """A package's fields in the run's report.json: its status, counts and failing tests,
+    each named with the JUnit file that holds it."""
+    from wsbuild.runreport.report_json import path_in_log
+
+    return {"outcome": report.status.value, "seconds": round(report.seconds, 3),
+            "message": report.message, "reproduce": "",
+            "log_dir": path_in_log(report.log_dir, run_log),
+            "tests": {"tests": report.counts.tests, "failures": report.counts.failures,
+                      "errors": report.counts.errors, "skipped": report.counts.skipped,
+                      "flaky": report.flaky, "cached": report.cached,
+                      "failing": _failing(report, run_log)}}
+
+
+def _failing(report: PackageTests, run_log: Path) -> list[dict[str, str | None]]:
+    """Each failing test's name, headline and the result file holding it."""
+    from wsbuild.runreport.report_json import path_in_log
+
+    holder: dict[tuple[str, str], Path] = {}
+    for path in report.result_files:
+        try:
+            for case in read_junit(path).problems():
+                holder.setdefault((case.classname, case.name), path)
+        except (OSError, ValueError):
+            continue
+    return [{"name": case.full_name, "headline": case.headline,
+             "junit": path_in_log(holder.get((case.classname, case.name)), run_log)}
+            for case in report.problems]
 
 
 def reusable_results(plan: Selection, request: TestRequest) -> set[str]:

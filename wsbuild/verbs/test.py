@@ -132,6 +132,7 @@ def request_from_args(args: argparse.Namespace, root: Path) -> TestRequest:
         python_executable=sys.executable,
         strict_linters=getattr(args, "strict_linters", False),
         reuse_results=not getattr(args, "no_test_cache", False),
+        report=not getattr(args, "no_report", False),
     )
 
 
@@ -143,15 +144,9 @@ def _passthrough(values: list[str] | None) -> tuple[str, ...]:
 
 def run_test_verb(args: argparse.Namespace) -> int:
     """Run the tests of the selected packages; 1 when any test fails or errors."""
-    from wsbuild.builder.request import cpu_count
     from wsbuild.events import Notice, Summary
     from wsbuild.reporter import Reporter
-    from wsbuild.runreport.write import (
-        RunWatch,
-        progress_of,
-        test_dependencies,
-        write_test_report,
-    )
+    from wsbuild.runreport.write import progress_of
     from wsbuild.testing.results import summary_lines
     from wsbuild.testing.runners import run_tests
     from wsbuild.verbs.colcon import console_from_args
@@ -168,15 +163,11 @@ def run_test_verb(args: argparse.Namespace) -> int:
     missing = _missing_ros_pytest(loaded, request.python_executable)
     if missing:
         reporter(Notice(missing, warning=True))
-    watch = RunWatch(test_dependencies(plan), enabled=not getattr(args, "no_report", False))
     reporter.start_ticker()
     try:
-        run = run_tests(plan, request, watch.watching(reporter))
-        report = write_test_report(plan, run, request.workers, cpu_count(), watch)
+        run = run_tests(plan, request, reporter)  # timings and report: runreport/package_run.py
         if console.summary:
             reporter(Summary(tuple(summary_lines(run, shown=Path.cwd()))))
-        if isinstance(report, str):  # why the report was not written
-            reporter(Notice(report, warning=True))
     finally:
         reporter.stop()
     if run.interrupted:

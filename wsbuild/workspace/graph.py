@@ -21,6 +21,9 @@ class Graph:
     #: build_closure's answers (a plan asks for each package's twice)
     _closures: dict[str, frozenset[str]] = field(default_factory=dict, compare=False,
                                                  repr=False)
+    #: reverse_edges' answer, made on the first question
+    _reverse: dict[str, frozenset[str]] = field(default_factory=dict, compare=False,
+                                                repr=False)
 
     def direct(self, name: str, categories: Collection[DepCategory] = ALL_CATEGORIES) -> set[str]:
         per_category = self.edges[name]
@@ -49,12 +52,20 @@ class Graph:
                 stack.extend(self.direct(dep, (DepCategory.RUN,)))
         return result
 
+    def reverse_edges(self) -> Mapping[str, frozenset[str]]:
+        """Package -> the workspace packages depending on it directly (any category): built
+        once per graph."""
+        if not self._reverse and self.packages:
+            reverse: dict[str, set[str]] = {n: set() for n in self.packages}
+            for name in self.packages:
+                for dep in self.direct(name):
+                    reverse[dep].add(name)
+            self._reverse.update({n: frozenset(users) for n, users in reverse.items()})
+        return self._reverse
+
     def dependents(self, names: Iterable[str], depth: int | None = None) -> set[str]:
         """All packages that depend on `names` (any category), up to `depth` hops."""
-        reverse: dict[str, set[str]] = {n: set() for n in self.packages}
-        for name in self.packages:
-            for dep in self.direct(name):
-                reverse[dep].add(name)
+        reverse = self.reverse_edges()
         result: set[str] = set()
         frontier = set(names)
         hops = 0
