@@ -34,7 +34,7 @@ from pathlib import Path
 
 from wsbuild import inputs
 from wsbuild.files import atomic_write, private_directory
-from wsbuild.testing.junit import Counts
+from wsbuild.build_types.junit import Counts
 from wsbuild.workspace.package_files import package_files
 
 #: builder/fingerprint.py's record of a package's last build (its `key` field is read here)

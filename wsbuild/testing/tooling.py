@@ -8,7 +8,7 @@ import re
 from collections.abc import Iterable
 from dataclasses import dataclass
 
-from wsbuild.testing.junit import Case, CaseOutcome
+from wsbuild.build_types.junit import Case, CaseOutcome
 from wsbuild.testing.linters import LINTER_MODULES, STRICT_MESSAGE
 from wsbuild.testing.pytest_env import ROS_PYTEST_VERSION, install_hint
 
