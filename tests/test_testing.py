@@ -194,6 +194,32 @@ def test_ctest_args_reach_ctest(ws: Path, tmp_path: Path) -> None:
     assert results["cm_bad"].status is PackageStatus.NO_TESTS
 
 
+def test_a_packages_own_arguments_come_after_the_command_lines(ws: Path, tmp_path: Path) -> None:
+    """colcon.meta's arguments of a package extend the command line's: pytest's later `-k`
+    wins; another package's, or another tool's, reach nothing."""
+    results, _, _ = run(ws, "bad", tool_arguments={"pytest": ("-k", "nothing_matches")},
+                        package_arguments={"bad": {"pytest": ("-k", "not test_math")}},
+                        test_result_base=tmp_path)
+    assert (results["bad"].status, results["bad"].counts) == (PackageStatus.PASSED, Counts(tests=1))
+    results, _, _ = run(ws, "bad", package_arguments={"good": {"pytest": ("-k", "not test_math")},
+                                                      "bad": {"ctest": ("-R", "^fine$")}},
+                        test_result_base=tmp_path)
+    assert (results["bad"].status, results["bad"].counts) == \
+        (PackageStatus.FAILED, Counts(tests=2, failures=1))
+
+
+def test_only_a_packages_own_tools_arguments_enter_its_test_key(ws: Path, tmp_path: Path) -> None:
+    options: dict[str, object] = {"test_result_base": tmp_path}
+    first, _, _ = run(ws, "good", "cm", **options)
+    assert not first["good"].cached and not first["cm"].cached
+    others = {"good": {"ctest": ("-V",)}, "cm": {"pytest": ("-v",)}}
+    again, _, _ = run(ws, "good", "cm", package_arguments=others, **options)
+    assert again["good"].cached and again["cm"].cached
+    own, _, _ = run(ws, "good", "cm", package_arguments={"good": {"pytest": ("-v",)}}, **options)
+    assert not own["good"].cached and own["good"].status is PackageStatus.PASSED
+    assert own["cm"].cached
+
+
 def _plan(ws: Path, outcomes: str) -> None:
     test_dir = ws / "src" / "flaky" / "test"
     (test_dir / "runs.txt").unlink(missing_ok=True)
