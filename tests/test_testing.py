@@ -20,9 +20,8 @@ from wsbuild.prefix.layout import resolve_layout
 from wsbuild.testing.results import (
     PackageStatus, PackageTests, TestRun, results_dir, summary_lines,
 )
-from wsbuild.testing.runners import (
-    TestRequest, check_built, closure_under_test, run_tests,
-)
+from wsbuild.testing.closure import check_built, closure_under_test
+from wsbuild.testing.runners import TestRequest, run_tests
 from wsbuild.verbs.load import load
 from wsbuild.workspace.root import Workspace
 

@@ -5,14 +5,18 @@ A build type's test runner (test_runner.py) reads its tool's results into these 
 
 from __future__ import annotations
 
-import xml.etree.ElementTree as ET
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
 from enum import Enum
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from wsbuild.files import atomic_write
 from wsbuild.words import plural, shorten
+
+if TYPE_CHECKING:
+    # imported where used: the build types load this module on every build, which reads no XML
+    import xml.etree.ElementTree as ET
 
 
 class CaseOutcome(Enum):
@@ -165,6 +169,8 @@ def read_junit(path: Path) -> ResultFile:
 
 
 def parse_xml(path: Path) -> ET.Element:
+    import xml.etree.ElementTree as ET
+
     try:
         return ET.parse(path).getroot()
     except ET.ParseError as exc:
@@ -240,6 +246,8 @@ def _attribute_counts(suite: ET.Element, path: Path) -> Counts:
 
 def write_junit(path: Path, suite: str, cases: Sequence[Case], *, seconds: float = 0.0) -> None:
     """Write `cases` as one `<testsuite>` (atomically: a reader never sees half a file)."""
+    import xml.etree.ElementTree as ET
+
     counts = Counts.of(cases)
     root = ET.Element("testsuite", {
         "name": suite, "tests": str(counts.tests), "errors": str(counts.errors),

@@ -17,13 +17,15 @@ import signal
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Protocol
+from typing import TYPE_CHECKING, Protocol
 
 from wsbuild.build_types import Command
 from wsbuild.build_types.junit import BadResultFile, Case, CaseOutcome, Counts, NotJUnit, \
     ResultFile, read_junit, write_junit
-from wsbuild.engine.process import Completed
 from wsbuild.workspace.model import Package
+
+if TYPE_CHECKING:
+    from wsbuild.engine.process import Completed
 
 
 class RunTestCommand(Protocol):

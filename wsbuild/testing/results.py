@@ -1,5 +1,5 @@
 """What a test run found — each package's result and the run's — and the summary `wsbuild
-test` ends with (testing/runners.py runs the tests)."""
+test` ends with (testing/tester.py makes a package's)."""
 
 from __future__ import annotations
 

@@ -47,6 +47,8 @@ from wsbuild.testing.tester import PackageTester
 if TYPE_CHECKING:
     from wsbuild.workspace.selected import Selection
 
+#: check_built and closure_under_test are closure.py's; runreport/ still imports the latter from
+#: here (its module is another engineer's while issue 30 is worked on)
 __all__ = ["TestRequest", "check_built", "closure_under_test", "reusable_results", "run_tests"]
 
 
@@ -81,7 +83,6 @@ class TestRequest:
     @property
     def max_attempts(self) -> int:
         return 1 + max(self.retest_until_fail, self.retest_until_pass)
-
 
 
 def run_tests(plan: Selection, request: TestRequest, emit: Emit) -> TestRun:
