@@ -14,8 +14,8 @@ The key's parts, each compared as written here:
   (`KeyInputs.files`; CTest's: CTestTestfile.cmake and ninja's log): a test edited without a
   rebuild runs again;
 - `options`: what `wsbuild test` hands the tool (its own arguments only: --pytest-args or
-  --ctest-args, then the package's own; the retest counts, --strict-linters, where results go, the install layout, the
-  interpreter) and wsbuild's version;
+  --ctest-args, then the package's own; the retest counts, --strict-linters, where results
+  go, the install layout, the interpreter) and wsbuild's version;
 - `environment`: one digest per variable a test can observe (`OBSERVED_NAMES`, and names starting
   with `OBSERVED_PREFIXES`), taken from the environment the tool starts with;
 - `tools`: the interpreter, the versions of the distributions it and the ROS tests' pytest hold

@@ -5,8 +5,8 @@ The stages, in order:
 2. check_built    the selected packages and everything on their test environment are installed
                   (closure.py)
 3. session.py     the run's context, as a build's: lock, the ROS underlay's environment, the log
-4. schedule       packages in dependency order and in parallel (engine/schedule.py); failing tests never
-                  stop the other packages (only --abort-on-error does)
+4. schedule       packages in dependency order and in parallel (engine/schedule.py);
+                  failing tests never stop the other packages (only --abort-on-error does)
 5. per package    tester.py: its last passing result reused when nothing its tests observe
                   changed (test_key.py, cached_result.py; else its record is forgotten, and
                   written again on a pass); else the test runner its build type names
