@@ -1,10 +1,12 @@
 """The CMake build types' tests: CTest in the configured build directory, its JUnit read back,
-each ament test's own JUnit file standing in for its CTest entry (so no test counts twice)."""
+each ament test's own JUnit file standing in for its CTest entry (so no test counts twice);
+and CTest's own result formats (its JUnit, the Test.xml `colcon test` makes it write)."""
 
 from __future__ import annotations
 
 import json
 import re
+import shlex
 import shutil
 from collections.abc import Sequence
 from dataclasses import dataclass, replace
@@ -19,6 +21,7 @@ from wsbuild.build_types.junit import (
     Counts,
     NotJUnit,
     ResultFile,
+    parse_xml,
     read_junit,
     write_junit,
 )
@@ -217,6 +220,49 @@ def ament_result_file(command: Sequence[str]) -> Path | None:
     return None
 
 
+def read_ctest_xml(path: Path) -> ResultFile:
+    """Read CTest's dashboard `Testing/<tag>/Test.xml` (what `colcon test` makes CTest write)."""
+    root = parse_xml(path)
+    children = list(root)
+    if root.tag != "Site" or len(children) != 1 or children[0].tag != "Testing":
+        raise NotJUnit(f"{path}: not a CTest Test.xml (<Site><Testing>...)")
+    cases: list[Case] = []
+    for test in children[0]:
+        if test.tag != "Test":
+            continue
+        status = test.get("Status")
+        if status is None:
+            raise BadResultFile(f"{path}: a <Test> has no 'Status' attribute")
+        measurements = {m.get("name", ""): (m.findtext("Value") or "")
+                        for m in test.iter("NamedMeasurement")}
+        output = test.findtext("Results/Measurement/Value") or ""
+        completion = measurements.get("Completion Status", "")
+        if status == "passed":
+            outcome, message = CaseOutcome.PASSED, ""
+        elif status == "failed":
+            # "Failed" (then "Exit Value" is the exit code), "Timeout", "SEGFAULT", ...
+            verdict = measurements.get("Exit Code") or "Failed"
+            exit_value = measurements.get("Exit Value")
+            message = f"{verdict} (exit code {exit_value})" \
+                if verdict == "Failed" and exit_value else verdict
+            outcome = CaseOutcome.FAILURE
+        elif status == "notrun":
+            outcome = CaseOutcome.SKIPPED if is_real_skip(completion) else CaseOutcome.ERROR
+            message = completion or "not run"
+        else:
+            outcome, message = CaseOutcome.ERROR, f"status {status!r}"
+        try:
+            command = tuple(shlex.split(test.findtext("FullCommandLine") or ""))
+        except ValueError:
+            command = ()
+        try:
+            seconds = float(measurements.get("Execution Time") or 0)
+        except ValueError:
+            seconds = 0.0
+        cases.append(Case(name=test.findtext("Name") or "", outcome=outcome, message=message,
+                          details=output.strip("\n") if outcome is not CaseOutcome.PASSED else "",
+                          seconds=seconds, command=command))
+    return ResultFile(path, Counts.of(cases), tuple(cases))
 
 
 CTEST = CTestRunner()

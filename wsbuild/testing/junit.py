@@ -6,11 +6,10 @@ The JUnit format itself is build_types/junit.py's (test runners write it)."""
 from __future__ import annotations
 
 import os
-import shlex
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from wsbuild.build_types.ctest import ament_result_file, is_real_skip
+from wsbuild.build_types.ctest import ament_result_file, read_ctest_xml
 from wsbuild.build_types.junit import (
     BadResultFile,
     Case,
@@ -18,57 +17,8 @@ from wsbuild.build_types.junit import (
     Counts,
     NotJUnit,
     ResultFile,
-    parse_xml,
     read_junit,
 )
-
-
-def read_ctest_xml(path: Path) -> ResultFile:
-    """Read CTest's dashboard `Testing/<tag>/Test.xml` (what `colcon test` makes CTest write)."""
-    root = parse_xml(path)
-    children = list(root)
-    if root.tag != "Site" or len(children) != 1 or children[0].tag != "Testing":
-        raise NotJUnit(f"{path}: not a CTest Test.xml (<Site><Testing>...)")
-    cases: list[Case] = []
-    for test in children[0]:
-        if test.tag != "Test":
-            continue
-        status = test.get("Status")
-        if status is None:
-            raise BadResultFile(f"{path}: a <Test> has no 'Status' attribute")
-        measurements = {m.get("name", ""): (m.findtext("Value") or "")
-                        for m in test.iter("NamedMeasurement")}
-        output = test.findtext("Results/Measurement/Value") or ""
-        completion = measurements.get("Completion Status", "")
-        if status == "passed":
-            outcome, message = CaseOutcome.PASSED, ""
-        elif status == "failed":
-            # "Failed" (then "Exit Value" is the exit code), "Timeout", "SEGFAULT", ...
-            verdict = measurements.get("Exit Code") or "Failed"
-            exit_value = measurements.get("Exit Value")
-            message = f"{verdict} (exit code {exit_value})" \
-                if verdict == "Failed" and exit_value else verdict
-            outcome = CaseOutcome.FAILURE
-        elif status == "notrun":
-            outcome = CaseOutcome.SKIPPED if is_real_skip(completion) else CaseOutcome.ERROR
-            message = completion or "not run"
-        else:
-            outcome, message = CaseOutcome.ERROR, f"status {status!r}"
-        try:
-            command = tuple(shlex.split(test.findtext("FullCommandLine") or ""))
-        except ValueError:
-            command = ()
-        try:
-            seconds = float(measurements.get("Execution Time") or 0)
-        except ValueError:
-            seconds = 0.0
-        cases.append(Case(name=test.findtext("Name") or "", outcome=outcome, message=message,
-                          details=output.strip("\n") if outcome is not CaseOutcome.PASSED else "",
-                          seconds=seconds, command=command))
-    return ResultFile(path, Counts.of(cases), tuple(cases))
-
-
-
 
 # ----------------------------------------------------------------------------- crawling
 
