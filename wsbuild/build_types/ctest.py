@@ -67,10 +67,12 @@ class CTestRunner(TestRunnerBase):
         if not (build_dir / "CTestTestfile.cmake").is_file():
             ctest_xml.unlink(missing_ok=True)
             return TestOutcome(no_tests="no tests (no CTestTestfile.cmake: testing not enabled)")
-        commands = _test_commands(ctx)
-        if commands == {}:
+        listed = _test_commands(ctx)
+        if listed == {}:
             ctest_xml.unlink(missing_ok=True)
             return TestOutcome(no_tests="no tests found by CTest")
+        # unknown when CTest cannot list them: then no ament result file stands in
+        commands = listed or {}
         tag = build_dir / "Testing" / "TAG"
         if tag.is_file():
             # points colcon test-result at the Test.xml of an earlier `colcon test`: stale now

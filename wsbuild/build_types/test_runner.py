@@ -87,10 +87,11 @@ class KeyInputs:
 class TestRunner(Protocol):
     """How a build type's tests run and what their results say."""
 
-    __test__ = False  # not a pytest test class
-
-    #: the tool's name: labels the step and picks its arguments (`--pytest-args` are "pytest"'s)
-    name: str
+    @property
+    def name(self) -> str:
+        """The tool's name: labels the step and picks its arguments (`--pytest-args` are
+        "pytest"'s)."""
+        ...
 
     def built(self, build_dir: Path) -> bool:
         """Whether the package's build left what its tests need (CTest: a configured tree)."""
