@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import shlex
 from collections.abc import Callable
+from dataclasses import replace
 from pathlib import Path
 
 import pytest
@@ -92,3 +93,28 @@ def test_ctests_key_names_its_binary_and_the_files_its_tests_read(tmp_path: Path
                               ctx.build_dir / ".ninja_log")
     assert len(observed.tools) == 1
     assert PYTEST.key_inputs(ctx).files == ()
+
+
+def test_ctest_results_stand_when_ctest_cannot_list_its_tests(tmp_path: Path) -> None:
+    """`ctest --show-only` failing (an old CTest, a broken test file) leaves the run's own
+    results standing: no ament file can stand in, each CTest entry counts."""
+    from wsbuild.build_types.junit import Case, CaseOutcome, Counts, write_junit
+
+    ctx, ran = _context(tmp_path)
+    ctx.build_dir.mkdir(parents=True)
+    (ctx.build_dir / "CTestTestfile.cmake").write_text("add_test(ok true)\n")
+
+    def run(command: Command, *, on_line: Callable[[str, bool], None] | None = None,
+            logged: bool = True) -> Completed:
+        ran.append(command)
+        if "--show-only=json-v1" in command.argv:
+            return Completed(1, ("cannot list",), ())
+        junit = Path(command.argv[command.argv.index("--output-junit") + 1])
+        write_junit(junit, "pkg", [Case(name="ok", outcome=CaseOutcome.PASSED)])
+        return Completed(0, (), ())
+
+    ctx = replace(ctx, run=run)
+    ctx.results_dir.mkdir(parents=True)
+    outcome = CTEST.run(ctx)
+    assert [f.counts for f in outcome.files] == [Counts(tests=1)]
+    assert outcome.files[0].path == ctx.results_dir / "ctest.xml"
