@@ -118,3 +118,25 @@ def test_ctest_results_stand_when_ctest_cannot_list_its_tests(tmp_path: Path) ->
     outcome = CTEST.run(ctx)
     assert [f.counts for f in outcome.files] == [Counts(tests=1)]
     assert outcome.files[0].path == ctx.results_dir / "ctest.xml"
+
+
+def test_a_test_run_reaches_the_runners_only_through_the_build_types() -> None:
+    """testing/ keeps what every runner shares: no module of a `wsbuild test` run imports a
+    runner's module (it asks `get_build_type(...).test_runner`), so a plugin's runner is run
+    as pytest's is. (testing/junit.py, `test-result`'s walk, reads CTest's files by name: they
+    may be colcon's.)"""
+    import ast
+
+    testing = Path(__file__).resolve().parent.parent / "wsbuild" / "testing"
+    runners = {"wsbuild.build_types.ctest", "wsbuild.build_types.pybuild.tests"}
+    found = []
+    for path in sorted(set(testing.glob("*.py")) - {testing / "junit.py"}):
+        for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+            if isinstance(node, ast.ImportFrom):
+                names = [node.module or ""]
+            elif isinstance(node, ast.Import):
+                names = [a.name for a in node.names]
+            else:
+                continue
+            found += [f"{path.name}:{node.lineno} {name}" for name in names if name in runners]
+    assert found == []
