@@ -15,10 +15,12 @@ from wsbuild.build_types import BUILTIN, BUILTIN_ENTRY_POINTS, ENTRY_POINT_GROUP
 PACKAGE = Path(__file__).resolve().parent.parent / "wsbuild"
 
 PLUGIN = '''
-"""A third-party build type: installs share/ and bin/ of a package as they are."""
+"""A third-party build type: installs share/ and bin/ of a package as they are; its tests are
+a shell script that writes JUnit (neither pytest nor CTest)."""
 import shutil
 from dataclasses import dataclass
-from wsbuild.build_types import BuildTypeBase, Step, TestTool
+from wsbuild.build_types import BuildTypeBase, Command, Step
+from wsbuild.build_types.test_runner import TestOutcome, TestRunner, TestRunnerBase, read_or_error
 from wsbuild.prefix.hooks import EnvironmentHooks
 
 
@@ -31,9 +33,23 @@ def install(ctx):
 
 
 @dataclass(frozen=True, slots=True)
+class CheckMaps(TestRunnerBase):
+    name: str = "checkmaps"
+
+    def command(self, ctx):
+        return Command(("sh", "--", "test/check_maps.sh", str(ctx.results_dir / "checkmaps.xml"),
+                        str(ctx.build_dir / "runs.txt")), ctx.package.path)
+
+    def run(self, ctx):
+        completed = ctx.run(self.command(ctx))
+        junit = ctx.results_dir / "checkmaps.xml"
+        return TestOutcome((read_or_error(junit, ctx.name, self.name, completed),))
+
+
+@dataclass(frozen=True, slots=True)
 class CopyBuildType(BuildTypeBase):
     name: str = "wsb_copy"
-    test_tool: TestTool | None = TestTool.PYTEST
+    test_runner: TestRunner | None = CheckMaps()
     hooks: EnvironmentHooks = EnvironmentHooks(ament=True)
 
     def steps(self, ctx):
@@ -54,22 +70,31 @@ MANIFEST = """<?xml version="1.0"?>
 </package>
 """
 
-PACKAGE_TEST = '''
-import os
-import subprocess
-from pathlib import Path
-
-
-def test_the_installed_data_is_found_through_the_ament_prefix_path():
-    prefixes = os.environ["AMENT_PREFIX_PATH"].split(os.pathsep)
-    found = [p for p in prefixes
-             if (Path(p) / "share/ament_index/resource_index/packages/maps").is_file()]
-    assert found, prefixes
-    assert (Path(found[0]) / "share/maps/data/floor.yaml").read_text() == "resolution: 0.05\\n"
-
-
-def test_the_installed_script_is_on_path():
-    assert subprocess.run(["show_map"], capture_output=True, text=True).stdout == "map\\n"
+#: the package's tests: the installed data is found through AMENT_PREFIX_PATH, the installed
+#: script is on PATH; one test skipped; each run counted in the file named by $2
+PACKAGE_TEST = '''#!/bin/sh
+echo run >> "$2"
+data=1
+IFS=:
+for prefix in $AMENT_PREFIX_PATH; do
+    grep -qx "resolution: 0.05" "$prefix/share/maps/data/floor.yaml" 2>/dev/null && data=0
+done
+unset IFS
+[ "$(show_map)" = map ]
+script=$?
+verdict() {
+    if [ "$2" = 0 ]; then echo "  <testcase classname='maps' name='$1'/>"
+    else echo "  <testcase classname='maps' name='$1'><failure message='$1'/></testcase>"; fi
+}
+mkdir -p "$(dirname "$1")"
+{
+    echo '<?xml version="1.0" encoding="UTF-8"?>'
+    echo '<testsuite name="maps">'
+    verdict data_found_through_ament_prefix_path $data
+    verdict script_on_path $script
+    echo '  <testcase classname="maps" name="slam_map"><skipped message="no slam map"/></testcase>'
+    echo '</testsuite>'
+} > "$1"
 '''
 
 
@@ -97,7 +122,7 @@ def test_a_third_party_build_type_builds_gets_hooks_and_runs_its_tests(tmp_path:
     script = package / "scripts" / "show_map"
     script.write_text("#!/bin/sh\necho map\n")
     script.chmod(0o755)
-    (package / "test" / "test_maps.py").write_text(PACKAGE_TEST)
+    (package / "test" / "check_maps.sh").write_text(PACKAGE_TEST)
     env = {**os.environ, "PYTHONPATH": str(plugins)}
 
     # its step in the old form, `Step(label, action)`: in-process, said so by the dry run
@@ -113,9 +138,30 @@ def test_a_third_party_build_type_builds_gets_hooks_and_runs_its_tests(tmp_path:
     hooks = sorted(p.name for p in (prefix / "share" / "maps" / "hook").iterdir())
     assert "ament_prefix_path.dsv" in hooks and "path.dsv" in hooks
 
+    # its own test runner runs its tests, and its JUnit makes the counts
     tested = run_wsbuild("test", cwd=ws, env=env)
     assert tested.returncode == 0, tested.stdout + tested.stderr
-    assert "2 tests" in tested.stdout and "1 package passed: maps" in tested.stdout, tested.stdout
+    assert "1 package tested, 3 tests, 0 errors, 0 failures, 1 skipped" in tested.stdout, \
+        tested.stdout
+    assert "1 package passed: maps" in tested.stdout, tested.stdout
+    runs = ws / "build" / "maps" / "runs.txt"
+    assert runs.read_text() == "run\n"
+    # its pass is reused while nothing its tests observe changed
+    again = run_wsbuild("test", cwd=ws, env=env)
+    assert again.returncode == 0, again.stdout + again.stderr
+    assert "[maps] cached: 3 tests, 0 errors, 0 failures, 1 skipped" in again.stdout, again.stdout
+    assert runs.read_text() == "run\n"
+    # and `test-result` reads what it wrote
+    results = run_wsbuild("test-result", "--all", cwd=ws, env=env)
+    assert "build/maps/test_results/maps/checkmaps.xml: 3 tests, 0 errors, 0 failures, " \
+        "1 skipped" in results.stdout.splitlines(), results.stdout
+    # rebuilt, it runs again; a failing test of its own fails the package
+    (package / "data" / "floor.yaml").write_text("resolution: 0.1\n")
+    assert run_wsbuild("build", cwd=ws, env=env).returncode == 0
+    failed = run_wsbuild("test", cwd=ws, env=env)
+    assert failed.returncode == 1, failed.stdout + failed.stderr
+    assert "FAILED maps.data_found_through_ament_prefix_path" in failed.stdout, failed.stdout
+    assert runs.read_text() == "run\nrun\n"
 
     # without the distribution, the package's build type is unknown: one clear error
     missing = run_wsbuild("build", cwd=ws)

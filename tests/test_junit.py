@@ -9,10 +9,12 @@ from pathlib import Path
 
 import pytest
 
+from wsbuild.build_types.ctest import ament_result_file, read_ctest_junit, read_ctest_xml
+from wsbuild.build_types.junit import (
+    BadResultFile, Case, CaseOutcome, Counts, NotJUnit, ResultFile, read_junit, write_junit,
+)
 from wsbuild.testing.junit import (
-    BadResultFile, Case, CaseOutcome, Collected, Counts, NotJUnit, ResultFile, ament_result_file,
-    case_details, collect_results, read_ctest_junit, read_ctest_xml, read_junit, report_lines,
-    write_junit,
+    Collected, case_details, collect_results, report_lines,
 )
 
 PYTEST_TESTS = '''

@@ -15,7 +15,7 @@ from pathlib import Path
 import pytest
 
 from conftest import run_wsbuild, sigint_at_default, write_package
-from wsbuild.testing.junit import Counts, read_junit
+from wsbuild.build_types.junit import Counts, read_junit
 from wsbuild.underlay.detect import find_venv_underlay
 
 TESTS = Path(__file__).resolve().parent

@@ -12,15 +12,16 @@ from conftest import run_wsbuild, write_package
 from wsbuild.errors import WorkspaceError
 from wsbuild.events import Event, JobFinished, Notice
 from wsbuild.workspace.graph import build_graph
-from wsbuild.testing.junit import Case, CaseOutcome, Counts, read_junit
+from wsbuild.build_types.junit import Case, CaseOutcome, Counts, read_junit
 from wsbuild.engine.jobs import JobResult, Outcome
 from wsbuild.workspace.model import Dependency, DepKind, Package
 from wsbuild.workspace.selection import Selection
 from wsbuild.prefix.layout import resolve_layout
-from wsbuild.testing.results import PackageStatus, PackageTests, TestRun, summary_lines
-from wsbuild.testing.runners import (
-    TestRequest, check_built, closure_under_test, results_dir, run_tests,
+from wsbuild.testing.results import (
+    PackageStatus, PackageTests, TestRun, results_dir, summary_lines,
 )
+from wsbuild.testing.closure import check_built, closure_under_test
+from wsbuild.testing.runners import TestRequest, run_tests
 from wsbuild.verbs.load import load
 from wsbuild.workspace.root import Workspace
 
@@ -164,7 +165,7 @@ def test_test_result_base_takes_colcons_layout(ws: Path, tmp_path: Path) -> None
 
 
 def test_a_pytest_that_cannot_start_is_an_error_not_a_pass(ws: Path, tmp_path: Path) -> None:
-    results, _, _ = run(ws, "good", pytest_args=("--no-such-option",),
+    results, _, _ = run(ws, "good", tool_arguments={"pytest": ("--no-such-option",)},
                         test_result_base=tmp_path)
     good = results["good"]
     assert good.status is PackageStatus.FAILED
@@ -176,18 +177,46 @@ def test_a_pytest_that_cannot_start_is_an_error_not_a_pass(ws: Path, tmp_path: P
 
 
 def test_pytest_args_reach_pytest(ws: Path, tmp_path: Path) -> None:
-    results, _, _ = run(ws, "bad", pytest_args=("-k", "not test_math"), test_result_base=tmp_path)
+    results, _, _ = run(ws, "bad", tool_arguments={"pytest": ("-k", "not test_math")},
+                        test_result_base=tmp_path)
     assert results["bad"].status is PackageStatus.PASSED
     assert results["bad"].counts == Counts(tests=1)
 
 
 def test_ctest_args_reach_ctest(ws: Path, tmp_path: Path) -> None:
-    results, _, _ = run(ws, "cm_bad", ctest_args=("-R", "^fine$"), test_result_base=tmp_path)
+    results, _, _ = run(ws, "cm_bad", tool_arguments={"ctest": ("-R", "^fine$")},
+                        test_result_base=tmp_path)
     assert results["cm_bad"].status is PackageStatus.PASSED
     assert results["cm_bad"].counts == Counts(tests=1)
-    results, _, _ = run(ws, "cm_bad", ctest_args=("-R", "^nothing_matches$"),
+    results, _, _ = run(ws, "cm_bad", tool_arguments={"ctest": ("-R", "^nothing_matches$")},
                         test_result_base=tmp_path)
     assert results["cm_bad"].status is PackageStatus.NO_TESTS
+
+
+def test_a_packages_own_arguments_come_after_the_command_lines(ws: Path, tmp_path: Path) -> None:
+    """colcon.meta's arguments of a package extend the command line's: pytest's later `-k`
+    wins; another package's, or another tool's, reach nothing."""
+    results, _, _ = run(ws, "bad", tool_arguments={"pytest": ("-k", "nothing_matches")},
+                        package_arguments={"bad": {"pytest": ("-k", "not test_math")}},
+                        test_result_base=tmp_path)
+    assert (results["bad"].status, results["bad"].counts) == (PackageStatus.PASSED, Counts(tests=1))
+    results, _, _ = run(ws, "bad", package_arguments={"good": {"pytest": ("-k", "not test_math")},
+                                                      "bad": {"ctest": ("-R", "^fine$")}},
+                        test_result_base=tmp_path)
+    assert (results["bad"].status, results["bad"].counts) == \
+        (PackageStatus.FAILED, Counts(tests=2, failures=1))
+
+
+def test_only_a_packages_own_tools_arguments_enter_its_test_key(ws: Path, tmp_path: Path) -> None:
+    options: dict[str, object] = {"test_result_base": tmp_path}
+    first, _, _ = run(ws, "good", "cm", **options)
+    assert not first["good"].cached and not first["cm"].cached
+    others = {"good": {"ctest": ("-V",)}, "cm": {"pytest": ("-v",)}}
+    again, _, _ = run(ws, "good", "cm", package_arguments=others, **options)
+    assert again["good"].cached and again["cm"].cached
+    own, _, _ = run(ws, "good", "cm", package_arguments={"good": {"pytest": ("-v",)}}, **options)
+    assert not own["good"].cached and own["good"].status is PackageStatus.PASSED
+    assert own["cm"].cached
 
 
 def _plan(ws: Path, outcomes: str) -> None:

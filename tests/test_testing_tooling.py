@@ -8,7 +8,7 @@ from pathlib import Path
 
 import pytest
 
-from wsbuild.testing.junit import Case, CaseOutcome, Counts
+from wsbuild.build_types.junit import Case, CaseOutcome, Counts
 from wsbuild.testing.linters import LINTER_MODULES
 from wsbuild.testing.pytest_env import ROS_PYTEST_VAR, ros_pytest_dir, with_ros_pytest
 from wsbuild.testing.results import PackageStatus, PackageTests, TestRun, summary_lines

@@ -5,7 +5,8 @@ asks which build type a package has:
 - `steps(ctx)`: the recipe, a short list of labelled steps (configure, build, install, ...),
   each a value (`Step`): a command (argv, cwd, the environment it sets) the engine runs, or a
   small in-process action with a description; both print (`--dry-run`, reproduce lines);
-- `test_tool`: how its tests run (`TestTool`), or None when it has none;
+- `test_runner`: how its tests run and what their results say (test_runner.py; pytest's in
+  build_types/pybuild/tests.py, CTest's in ctest.py), or None when its packages have none;
 - `hooks`: what its packages' environment needs (`prefix.hooks.EnvironmentHooks`);
 - `key_options(options)`: the build options that shape its output (they enter the build key);
 - `estimate_base`: the scheduler's guess of its cost before any build was recorded.
@@ -21,12 +22,13 @@ from __future__ import annotations
 from collections.abc import Callable, Collection, Iterable, Iterator, Mapping, Sequence
 from contextlib import AbstractContextManager
 from dataclasses import asdict, dataclass, field
-from enum import Enum
 from pathlib import Path
 from typing import TYPE_CHECKING, Protocol
 
 if TYPE_CHECKING:
     from importlib.metadata import EntryPoint
+
+    from wsbuild.build_types.test_runner import TestRunner
 
 from wsbuild.errors import ManifestError, WsbuildError
 from wsbuild.prefix.hooks import EnvironmentHooks
@@ -87,21 +89,6 @@ Problems = Callable[[list[str]], list[str]]
 class Runner(Protocol):
     def __call__(self, command: Sequence[str], *, cwd: Path,
                  env: Mapping[str, str] | None = None, problems: Problems | None = None) -> None: ...
-
-
-class TestTool(Enum):
-    """How a build type's tests run; testing/ knows each tool's command line and result files."""
-
-    __test__ = False  # not a pytest test class
-
-    #: `python -m pytest` in the source directory, against the package's install
-    PYTEST = "pytest"
-    #: `ctest` in the configured build directory
-    CTEST = "ctest"
-
-    @property
-    def needs_build_dir(self) -> bool:
-        return self is TestTool.CTEST
 
 
 @dataclass(slots=True)
@@ -193,7 +180,8 @@ class BuildType(Protocol):
     """What a build type's entry point loads (the built-ins: `BUILD_TYPE` of their module)."""
 
     name: str
-    test_tool: TestTool | None
+    #: how its packages' tests run (None: they have none)
+    test_runner: TestRunner | None
     hooks: EnvironmentHooks
     estimate_base: float
 
@@ -232,7 +220,7 @@ class BuildTypeBase:
     Subclass it and override what differs (`name` and `steps` at least)."""
 
     name: str = ""
-    test_tool: TestTool | None = None
+    test_runner: TestRunner | None = None
     hooks: EnvironmentHooks = EnvironmentHooks()
     estimate_base: float = 0.3
     key_environment: tuple[str, ...] = ("SOURCE_DATE_EPOCH",)
@@ -318,7 +306,7 @@ def _load_entry_point(value: str) -> object:
     return loaded
 
 
-_REQUIRED = ("name", "steps", "test_tool", "hooks", "estimate_base", "key_options")
+_REQUIRED = ("name", "steps", "test_runner", "hooks", "estimate_base", "key_options")
 
 
 def _checked(loaded: object, name: str, value: str) -> BuildType:

@@ -10,8 +10,10 @@ from __future__ import annotations
 from dataclasses import dataclass
 from pathlib import PurePosixPath
 
-from wsbuild.build_types import BuildContext, BuildTypeBase, Step, StepFailed, TestTool
+from wsbuild.build_types import BuildContext, BuildTypeBase, Step, StepFailed
 from wsbuild.build_types.python import python_steps
+from wsbuild.build_types.pybuild.tests import PYTEST
+from wsbuild.build_types.test_runner import TestRunner
 from wsbuild.prefix.hooks import EnvironmentHooks
 
 INDEX_DIR = PurePosixPath("share/ament_index/resource_index/packages")
@@ -20,7 +22,7 @@ INDEX_DIR = PurePosixPath("share/ament_index/resource_index/packages")
 @dataclass(frozen=True, slots=True)
 class AmentPythonBuildType(BuildTypeBase):
     name: str = "ament_python"
-    test_tool: TestTool | None = TestTool.PYTEST
+    test_runner: TestRunner | None = PYTEST
     hooks: EnvironmentHooks = EnvironmentHooks(ament=True)
 
     def steps(self, ctx: BuildContext) -> list[Step]:

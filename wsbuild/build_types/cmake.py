@@ -32,10 +32,11 @@ from wsbuild.build_types import (
     BuildOptions,
     Command,
     Step,
-    TestTool,
     cmake_key_options,
     environment_digests,
 )
+from wsbuild.build_types.ctest import CTEST
+from wsbuild.build_types.test_runner import TestRunner
 from wsbuild.prefix.hooks import EnvironmentHooks
 from wsbuild.prefix.stage import direct_install
 
@@ -132,7 +133,7 @@ def _manifest_files(ctx: BuildContext) -> list[str]:
 @dataclass(frozen=True, slots=True)
 class CMakeBuildType:
     name: str = "cmake"
-    test_tool: TestTool | None = TestTool.CTEST
+    test_runner: TestRunner | None = CTEST
     #: colcon-ros gives a plain CMake package with a package.xml its pkg-config paths
     hooks: EnvironmentHooks = EnvironmentHooks(cmake_prefix_path=True, pkg_config_path=True)
     estimate_base: float = 1.5

@@ -9,7 +9,9 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
-from wsbuild.build_types import BuildContext, BuildTypeBase, Step, TestTool
+from wsbuild.build_types import BuildContext, BuildTypeBase, Step
+from wsbuild.build_types.pybuild.tests import PYTEST
+from wsbuild.build_types.test_runner import TestRunner
 
 if TYPE_CHECKING:
     from wsbuild.build_types.pybuild.recipe import PythonBuildPlan
@@ -18,7 +20,7 @@ if TYPE_CHECKING:
 @dataclass(frozen=True, slots=True)
 class PythonBuildType(BuildTypeBase):
     name: str = "python"
-    test_tool: TestTool | None = TestTool.PYTEST
+    test_runner: TestRunner | None = PYTEST
 
     def steps(self, ctx: BuildContext) -> list[Step]:
         return python_steps(ctx)

@@ -10,15 +10,17 @@ The key's parts, each compared as written here:
   output, and for one built with --symlink-install also its sources' signature (its install
   links to them); a package built by another tool (no state.json) is never reused;
 - `sources`: the stat signature (size, mtime, ctime, inode, mode) of every file of the package's
-  source directory, as the builder walks it, and for CTest its CTestTestfile.cmake and ninja's
-  log: a test edited without a rebuild runs again;
-- `options`: what `wsbuild test` hands the tool (its own arguments: --pytest-args or
-  --ctest-args, the retest counts, --strict-linters, where results go, the install layout, the
-  interpreter) and wsbuild's version;
+  source directory, as the builder walks it, and the files its test runner names
+  (`KeyInputs.files`; CTest's: CTestTestfile.cmake and ninja's log): a test edited without a
+  rebuild runs again;
+- `options`: what `wsbuild test` hands the tool (its own arguments only: --pytest-args or
+  --ctest-args, then the package's own; the retest counts, --strict-linters, where results
+  go, the install layout, the interpreter) and wsbuild's version;
 - `environment`: one digest per variable a test can observe (`OBSERVED_NAMES`, and names starting
   with `OBSERVED_PREFIXES`), taken from the environment the tool starts with;
 - `tools`: the interpreter, the versions of the distributions it and the ROS tests' pytest hold
-  (their dist-info names), dpkg's status file, and ctest's binary (CTest packages).
+  (their dist-info names), dpkg's status file, and the tools its test runner names
+  (`KeyInputs.tools`; CTest's: the ctest binary).
 """
 
 from __future__ import annotations
@@ -34,7 +36,7 @@ from pathlib import Path
 
 from wsbuild import inputs
 from wsbuild.files import atomic_write, private_directory
-from wsbuild.testing.junit import Counts
+from wsbuild.build_types.junit import Counts
 from wsbuild.workspace.package_files import package_files
 
 #: builder/fingerprint.py's record of a package's last build (its `key` field is read here)

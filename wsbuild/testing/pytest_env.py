@@ -9,7 +9,7 @@ package's tests, and the pytest tests CTest runs, get `<prefix>/ros-pytest` (a `
 where it lives: underlay/constraints.py) first on PYTHONPATH: the
 ROS packages stay the interpreter's, only pytest and its own dependencies are Jazzy's. Without
 that directory the interpreter's own pytest runs, and a plugin it refuses is reported as the
-test tooling failing to start, with this fix (runners.py). `$WSBUILD_ROS_PYTEST` names another
+test tooling failing to start, with this fix (tooling.py). `$WSBUILD_ROS_PYTEST` names another
 directory (one shared by several virtualenvs, say).
 """
 

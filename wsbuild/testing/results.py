@@ -1,5 +1,5 @@
 """What a test run found — each package's result and the run's — and the summary `wsbuild
-test` ends with (testing/runners.py runs the tests)."""
+test` ends with (testing/tester.py makes a package's)."""
 
 from __future__ import annotations
 
@@ -7,13 +7,25 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from enum import Enum
 from pathlib import Path
+from typing import TYPE_CHECKING
 
-from wsbuild.testing.junit import Case, CaseOutcome, Counts, display_path
+from wsbuild.build_types.junit import Case, CaseOutcome, Counts
+from wsbuild.testing.junit import display_path
 from wsbuild.testing.tooling import ToolingFailure, is_tooling
 from wsbuild.words import plural
 
+if TYPE_CHECKING:
+    from wsbuild.workspace.root import Workspace
+
 #: failing tests listed per package in the summary (the JUnit files hold all of them)
 SHOWN_PROBLEMS = 20
+
+
+def results_dir(workspace: Workspace, name: str, test_result_base: Path | None) -> Path:
+    """Where a package's JUnit files go: beside ament_cmake's, or under --test-result-base."""
+    if test_result_base is not None:
+        return test_result_base / name
+    return workspace.build_base / name / "test_results" / name
 
 
 class PackageStatus(Enum):

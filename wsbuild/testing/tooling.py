@@ -8,11 +8,12 @@ import re
 from collections.abc import Iterable
 from dataclasses import dataclass
 
-from wsbuild.testing.junit import Case, CaseOutcome
+from wsbuild.build_types.junit import Case, CaseOutcome
 from wsbuild.testing.linters import LINTER_MODULES, STRICT_MESSAGE
 from wsbuild.testing.pytest_env import ROS_PYTEST_VERSION, install_hint
 
-#: the cases wsbuild writes when the tool itself failed (runners.py)
+#: the cases the built-in test runners write when the tool itself failed
+#: (build_types/test_runner.py's `tool_error`, `read_or_error`)
 TOOL_CASES = frozenset({"pytest.exit_code", "pytest.missing_result", "pytest.result",
                         "ctest.exit_code", "ctest.result"})
 #: the message pytest gives a module it could not collect

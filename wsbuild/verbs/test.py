@@ -120,8 +120,8 @@ def request_from_args(args: argparse.Namespace, root: Path) -> TestRequest:
         raise WsbuildError("--retest-until-fail and --retest-until-pass exclude each other")
     base = getattr(args, "test_result_base", None)
     return TestRequest(
-        pytest_args=_passthrough(getattr(args, "pytest_args", None)),
-        ctest_args=_passthrough(getattr(args, "ctest_args", None)),
+        tool_arguments={"pytest": _passthrough(getattr(args, "pytest_args", None)),
+                        "ctest": _passthrough(getattr(args, "ctest_args", None))},
         retest_until_fail=until_fail,
         retest_until_pass=until_pass,
         test_result_base=(root / base).absolute() if base else None,
@@ -178,12 +178,13 @@ def run_test_verb(args: argparse.Namespace) -> int:
 def _missing_ros_pytest(loaded: Loaded, python_executable: str) -> str:
     """One line when a selected package has pytest tests and the pytest the distro's plugins
     need is not where `wsbuild test` looks ("" otherwise)."""
-    from wsbuild.build_types import TestTool, get_build_type
+    from wsbuild.build_types import get_build_type
+    from wsbuild.build_types.pybuild.tests import PYTEST
     from wsbuild.testing.pytest_env import ROS_PYTEST_VERSION, install_hint
     from wsbuild.underlay.constraints import ros_pytest_dir, ros_pytest_installed
 
     if ros_pytest_installed(python_executable) or not any(
-            get_build_type(loaded.packages[n].build_type).test_tool is TestTool.PYTEST
+            get_build_type(loaded.packages[n].build_type).test_runner is PYTEST
             for n in loaded.selected):
         return ""
     return (f"pytest {ROS_PYTEST_VERSION}, which ROS 2 Jazzy's pytest plugins need, is not in "

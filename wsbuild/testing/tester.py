@@ -1,0 +1,213 @@
+"""One package's tests, run by its build type's test runner: in its test environment, its last
+passing result reused while nothing its tests observe changed, repeated for
+--retest-until-fail / --retest-until-pass, and turned into the package's result."""
+
+from __future__ import annotations
+
+import os
+import time
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+from wsbuild.build_types import Command, get_build_type
+from wsbuild.build_types.junit import Case, CaseOutcome, Counts, ResultFile
+from wsbuild.build_types.test_runner import TestContext, TestOutcome, TestRunner
+from wsbuild.engine.process import REGISTRY, Completed, env_delta, format_command, run_command
+from wsbuild.events import Emit, StepStarted
+from wsbuild.prefix.layout import package_prefix
+from wsbuild.testing.cached_result import (
+    CachedResult,
+    TestKey,
+    file_stamps,
+    forget_cached_result,
+    read_cached_result,
+    write_cached_result,
+)
+from wsbuild.testing.closure import closure_under_test
+from wsbuild.testing.linters import MISSING_LINTER_PREFIX
+from wsbuild.testing.pytest_env import with_ros_pytest
+from wsbuild.testing.results import PackageStatus, PackageTests, results_dir
+from wsbuild.testing.test_key import TestKeys
+from wsbuild.testing.tooling import tooling_failures
+
+if TYPE_CHECKING:
+    from wsbuild.testing.runners import TestRequest
+    from wsbuild.workspace.selection import Selection
+
+
+@dataclass(slots=True)
+class PackageTester:
+    """Runs one package's tests; shared by the worker threads (holds no per-package state)."""
+
+    plan: Selection
+    request: TestRequest
+    merged: bool
+    base_env: Mapping[str, str]
+    run_log: Path
+    order: list[str] = field(default_factory=list)
+    keys: TestKeys | None = None
+
+    def __post_init__(self) -> None:
+        self.order = self.plan.graph.topological_order()
+        self.keys = TestKeys(self.plan, self.request, self.merged)
+
+    def runner(self, name: str) -> TestRunner | None:
+        return get_build_type(self.plan.packages[name].build_type).test_runner
+
+    def context(self, name: str, runner: TestRunner, log_dir: Path | None) -> TestContext:
+        """What the package's runner works with; without a log directory it may run nothing
+        (the key of a run that only plans)."""
+        env = with_ros_pytest(self.environment(name), self.request.python_executable)
+        arguments = (*self.request.tool_arguments.get(runner.name, ()),
+                     *self.request.package_arguments.get(name, {}).get(runner.name, ()))
+
+        def run(command: Command, *, on_line: Callable[[str, bool], None] | None = None,
+                logged: bool = True) -> Completed:
+            if log_dir is None:
+                raise RuntimeError(f"{name}: a run that only plans runs no test command")
+            return _run(command, env, log_dir, on_line, logged)
+
+        return TestContext(
+            package=self.plan.packages[name], build_dir=self.plan.workspace.build_base / name,
+            results_dir=results_dir(self.plan.workspace, name, self.request.test_result_base),
+            environ=env, arguments=arguments, python_executable=self.request.python_executable,
+            strict_linters=self.request.strict_linters, run=run)
+
+    def key(self, runner: TestRunner, ctx: TestContext) -> TestKey | None:
+        assert self.keys is not None
+        return self.keys.key(runner, ctx)
+
+    def reusable(self, name: str, key: TestKey | None, log_dir: Path | None) -> CachedResult | None:
+        """The package's last passing result, when it applies to `key`; why not, in its log."""
+        if key is None:
+            why = "not built by wsbuild (no build key), nor all of its test closure"
+        else:
+            cached = read_cached_result(self.plan.workspace.build_base / name)
+            if cached is None:
+                why = "no passing result recorded"
+            elif cached.key != key:
+                why = key.changed_since(cached.key) or "its key changed"
+            elif not cached.files_unchanged():
+                why = "its result files changed or are gone"
+            else:
+                return cached
+        if log_dir is not None:
+            _log(log_dir, f"test result not reused: {why}")
+        return None
+
+    def environment(self, name: str) -> dict[str, str]:
+        """The package's install last, after its test closure in dependency order."""
+        from wsbuild.prefix import environment_for
+
+        closure = closure_under_test(self.plan.graph, name)
+        install_base = self.plan.workspace.install_base
+        prefixes = [(package_prefix(install_base, dep, merged=self.merged), dep)
+                    for dep in self.order if dep in closure]
+        prefixes.append((package_prefix(install_base, name, merged=self.merged), name))
+        return environment_for(prefixes, self.base_env)
+
+    def test(self, name: str, emit: Emit) -> PackageTests:
+        started = time.monotonic()
+        package = self.plan.packages[name]
+        log_dir = self.run_log / name
+        log_dir.mkdir(parents=True, exist_ok=True)
+        runner = self.runner(name)
+        if runner is None:
+            return PackageTests(name, PackageStatus.NO_TESTS, log_dir=log_dir,
+                                message=f"wsbuild cannot test '{package.build_type}' packages")
+        ctx = self.context(name, runner, log_dir)
+        key = self.key(runner, ctx)
+        if self.request.reuse_results:
+            cached = self.reusable(name, key, log_dir)
+            if cached is not None:
+                _log(log_dir, f"test result reused from {cached.log_dir}: nothing its tests "
+                              "observe changed")
+                return PackageTests(name, PackageStatus.PASSED, cached.counts,
+                                    result_files=tuple(Path(p) for p in cached.result_files),
+                                    log_dir=cached.log_dir, cached=True,
+                                    seconds=time.monotonic() - started)
+        forget_cached_result(ctx.build_dir)
+        ctx.results_dir.mkdir(parents=True, exist_ok=True)
+        report = self._attempts(runner, ctx, log_dir, emit)
+        report = replace(report, log_dir=log_dir, seconds=time.monotonic() - started)
+        if key is not None and _reusable_later(report):
+            write_cached_result(ctx.build_dir, CachedResult(
+                key, report.counts, file_stamps(report.result_files), log_dir, report.seconds))
+        return report
+
+    def _attempts(self, runner: TestRunner, ctx: TestContext, log_dir: Path,
+                  emit: Emit) -> PackageTests:
+        """The runner's run, repeated as --retest-until-fail / --retest-until-pass ask."""
+        attempts = self.request.max_attempts
+        attempt = 0
+        while True:
+            attempt += 1
+            if attempts > 1:
+                _log(log_dir, f"--- attempt {attempt} of {attempts} ---")
+            label = runner.name if attempt == 1 else f"{runner.name} {attempt}/{attempts}"
+            emit(StepStarted(ctx.name, label))
+            report = package_result(ctx.name, runner.run(ctx), self.request.python_executable)
+            if REGISTRY.cancelled.is_set():
+                report = replace(report, status=PackageStatus.INTERRUPTED)
+                break
+            if report.status is PackageStatus.NO_TESTS or attempt >= attempts:
+                break
+            again = (PackageStatus.FAILED if self.request.retest_until_pass
+                     else PackageStatus.PASSED)
+            if report.status is not again:
+                break
+        flaky = attempt > 1 and report.status is (
+            PackageStatus.PASSED if self.request.retest_until_pass else PackageStatus.FAILED)
+        return replace(report, attempts=attempt, max_attempts=attempts, flaky=flaky)
+
+
+def package_result(name: str, outcome: TestOutcome, python_executable: str) -> PackageTests:
+    """A package's result from what its runner found: failed when any test failed or erred;
+    the tests skipped for a missing linter and the tooling failures named."""
+    files: Sequence[ResultFile] = outcome.files
+    counts = Counts()
+    for result in files:
+        counts += result.counts
+    if outcome.no_tests:
+        return PackageTests(name, PackageStatus.NO_TESTS, counts,
+                            result_files=tuple(result.path for result in files),
+                            message=outcome.no_tests)
+    problems: list[Case] = []
+    missing: set[str] = set()
+    for result in files:
+        problems += result.problems()
+        missing.update(c.message[len(MISSING_LINTER_PREFIX):].strip() for c in result.cases
+                       if c.outcome is CaseOutcome.SKIPPED
+                       and c.message.startswith(MISSING_LINTER_PREFIX))
+    status = PackageStatus.FAILED if counts.failed else PackageStatus.PASSED
+    return PackageTests(name, status, counts, tuple(problems),
+                        tuple(result.path for result in files),
+                        missing_linters=tuple(sorted(missing)),
+                        tooling=tooling_failures(problems, python_executable))
+
+
+def _run(command: Command, env: Mapping[str, str], log_dir: Path,
+         on_line: Callable[[str, bool], None] | None, logged: bool) -> Completed:
+    """A runner's command, in the package's test environment plus the command's own variables;
+    its line logged as one that reproduces it by hand."""
+    shown = {**env, **command.env}
+    delta = env_delta(shown, os.environ)
+    _log(log_dir, f"Invoking command in '{command.cwd}': "
+                  f"{format_command(command.argv, command.cwd, delta)}")
+    return run_command(command.argv, cwd=command.cwd, env={**shown, **command.run_env},
+                       log_dir=log_dir if logged else None, on_line=on_line)
+
+
+def _reusable_later(report: PackageTests) -> bool:
+    """Only a plain pass is kept: not one that needed a retry (flaky), nor one where tests
+    were skipped because their linter is missing or the tooling failed."""
+    return (report.status is PackageStatus.PASSED and not report.flaky
+            and not report.missing_linters and not report.tooling
+            and not REGISTRY.cancelled.is_set())
+
+
+def _log(log_dir: Path, line: str) -> None:
+    with open(log_dir / "command.log", "a") as handle:
+        handle.write(line + "\n")
