@@ -85,19 +85,19 @@ def _result_fields(result: JobResult, run_log: Path) -> dict[str, object]:
             "log_dir": path_in_log(result.log_dir, run_log)}
 
 
-def _generator(plan: Selection, results: Iterable[JobResult]) -> str:
+def _generator(selection: Selection, results: Iterable[JobResult]) -> str:
     """The CMake generator of the run: from the CMakeCache.txt of a CMake package, preferring
     one built in this run (a file read or two: no subprocess, no import of the build types,
     which a no-op build never loads)."""
     cmake = [r.package for r in results
-             if inputs.is_file(plan.workspace.build_base / r.package / "CMakeCache.txt")]
+             if inputs.is_file(selection.workspace.build_base / r.package / "CMakeCache.txt")]
     if not cmake:
         return "none (no CMake package)"
     built_now = _built_now(results)
     built = [n for n in cmake if n in built_now]
     for name in [*built, *cmake][:2]:
         try:
-            text = (plan.workspace.build_base / name / "CMakeCache.txt").read_text(
+            text = (selection.workspace.build_base / name / "CMakeCache.txt").read_text(
                 errors="replace")
         except OSError:
             continue
@@ -112,7 +112,7 @@ def _built_now(results: Iterable[JobResult]) -> set[str]:
             if r.outcome is Outcome.FINISHED and r.message != "restored from cache"}
 
 
-def report_data(plan: Selection, facts: RunFacts, run_log: Path, jobs: JobGraph,
+def report_data(selection: Selection, facts: RunFacts, run_log: Path, jobs: JobGraph,
                results: Sequence[JobResult], samples: Sequence[CpuSample], origin: float,
                extra: Mapping[str, Mapping[str, object]] | None = None) -> dict[str, object]:
     """report.json of a run: each package with its dependencies among the run's `jobs` and its
@@ -123,11 +123,11 @@ def report_data(plan: Selection, facts: RunFacts, run_log: Path, jobs: JobGraph,
     building = facts.verb == "build"
     packages = []
     for result in sorted(results, key=lambda r: r.package):
-        package = plan.packages[result.package]
+        package = selection.packages[result.package]
         packages.append({
             "name": result.package, "build_type": package.build_type,
             "path": str(package.path),
-            "build_dir": str(plan.workspace.build_base / result.package),
+            "build_dir": str(selection.workspace.build_base / result.package),
             "dependencies": sorted(jobs.dependencies.get(result.package, ())),
             **({"restored": result.message == "restored from cache"} if building else {}),
             **_result_fields(result, run_log),
@@ -137,9 +137,9 @@ def report_data(plan: Selection, facts: RunFacts, run_log: Path, jobs: JobGraph,
     return {
         "format": FORMAT, "verb": facts.verb, "command": command_line(),
         "version": __version__, "started": started_at(origin),
-        "workspace": str(plan.workspace.root),
+        "workspace": str(selection.workspace.root),
         "cores": facts.cores, "workers": facts.workers,
-        "generator": _generator(plan, results) if building else "",
+        "generator": _generator(selection, results) if building else "",
         "compiler_cache": compiler, "compiler_cache_choice": facts.compiler_cache_choice,
         "artifact_cache": artifact_cache_text(facts.cache, facts.symlink_install)
         if building else "",

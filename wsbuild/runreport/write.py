@@ -25,7 +25,7 @@ def start_sampler(enabled: bool, origin: float) -> CpuSampler:
     return CpuSampler.started(origin=origin) if enabled else CpuSampler(origin=origin)
 
 
-def write_run_report(plan: Selection, facts: RunFacts, run_log: Path, jobs: JobGraph,
+def write_run_report(selection: Selection, facts: RunFacts, run_log: Path, jobs: JobGraph,
                      results: Sequence[JobResult], sampler: CpuSampler, *, page: bool,
                      extra: Mapping[str, Mapping[str, object]] | None = None
                      ) -> Path | str | None:
@@ -33,7 +33,7 @@ def write_run_report(plan: Selection, facts: RunFacts, run_log: Path, jobs: JobG
     was not written."""
     samples = sampler.stop()
     try:
-        write_report_json(run_log, report_data(plan, facts, run_log, jobs, results, samples,
+        write_report_json(run_log, report_data(selection, facts, run_log, jobs, results, samples,
                                          sampler.origin, extra))
         if not page:
             return None
@@ -44,10 +44,10 @@ def write_run_report(plan: Selection, facts: RunFacts, run_log: Path, jobs: JobG
         return f"report not written: {exc.strerror or exc}"
 
 
-def progress_of(plan: Selection, workers: int, *, durations: bool) -> Progress:
+def progress_of(selection: Selection, workers: int, *, durations: bool) -> Progress:
     """The status line's progress: the selected packages, their dependencies among them, and
     (`durations`) the build durations recorded last time, for the time left."""
-    selected = set(plan.selected)
-    dependencies = {n: plan.graph.direct(n) & selected for n in plan.selected}
-    recorded = read_durations(plan.workspace.build_base) if durations else {}
+    selected = set(selection.selected)
+    dependencies = {n: selection.graph.direct(n) & selected for n in selection.selected}
+    recorded = read_durations(selection.workspace.build_base) if durations else {}
     return Progress.of(dependencies, recorded, workers)

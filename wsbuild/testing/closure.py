@@ -27,18 +27,18 @@ def closure_under_test(graph: Graph, name: str) -> set[str]:
     return result
 
 
-def check_built(plan: Selection, merged: bool) -> None:
+def check_built(selection: Selection, merged: bool) -> None:
     """Refuse to test packages that are not built, or whose test environment is not: all at
     once. A package is built when it is installed and its build left what its test runner
     needs (CTest: a configured build directory)."""
     missing: dict[str, set[str]] = {}
-    install_base = plan.workspace.install_base
-    for name in plan.selected:
-        for dep in sorted({name} | closure_under_test(plan.graph, name)):
+    install_base = selection.workspace.install_base
+    for name in selection.selected:
+        for dep in sorted({name} | closure_under_test(selection.graph, name)):
             if not is_installed(install_base, dep, merged=merged):
                 missing.setdefault(dep, set()).add(name)
-        runner = get_build_type(plan.packages[name].build_type).test_runner
-        if runner is not None and not runner.built(plan.workspace.build_base / name):
+        runner = get_build_type(selection.packages[name].build_type).test_runner
+        if runner is not None and not runner.built(selection.workspace.build_base / name):
             missing.setdefault(name, set()).add(name)
     if not missing:
         return

@@ -86,15 +86,15 @@ class TestRequest:
         return 1 + max(self.retest_until_fail, self.retest_until_pass)
 
 
-def jobs_under_test(plan: Selection) -> JobGraph:
+def jobs_under_test(selection: Selection) -> JobGraph:
     """The run's jobs: the selected packages, each waiting for the selected ones its tests run
     against (`closure_under_test`)."""
-    selected = set(plan.selected)
-    return JobGraph.of(plan.selected,
-                       {n: closure_under_test(plan.graph, n) & selected for n in plan.selected})
+    selected = set(selection.selected)
+    return JobGraph.of(selection.selected,
+                       {n: closure_under_test(selection.graph, n) & selected for n in selection.selected})
 
 
-def run_tests(plan: Selection, request: TestRequest, emit: Emit) -> TestRun:
+def run_tests(selection: Selection, request: TestRequest, emit: Emit) -> TestRun:
     """Test the selected packages in one run as a build's (runreport/package_run.py: the same
     session, scheduler, timings and report). Test failures are results, not exceptions; a run
     cut short by Ctrl-C comes back with `interrupted` set."""
@@ -107,17 +107,17 @@ def run_tests(plan: Selection, request: TestRequest, emit: Emit) -> TestRun:
 
     started = time.monotonic()
     cpu_before = cpu_times()
-    ws = plan.workspace
+    ws = selection.workspace
     merged = resolve_layout(ws.install_base, request.merge_install, verb="test")
-    check_built(plan, merged)
+    check_built(selection, merged)
     options = SessionOptions(verb="test", merge_install=request.merge_install,
                              wait_for_lock=request.wait_for_lock)
     with open_session(ws, options, emit) as session:
         assert session.run_log is not None
-        jobs = jobs_under_test(plan)
-        run = PackageRun(plan, session.run_log, jobs, report=request.report, started=started,
+        jobs = jobs_under_test(selection)
+        run = PackageRun(selection, session.run_log, jobs, report=request.report, started=started,
                          cpu_before=cpu_before)
-        tester = PackageTester(plan, request, merged, session.environ, session.run_log)
+        tester = PackageTester(selection, request, merged, session.environ, session.run_log)
         reports: dict[str, PackageTests] = {}
         timed = run.timed(emit)  # a package's test steps enter the run's timings
 
@@ -182,14 +182,14 @@ def _failing(report: PackageTests, run_log: Path) -> list[dict[str, str | None]]
             for case in report.problems]
 
 
-def reusable_results(plan: Selection, request: TestRequest) -> set[str]:
+def reusable_results(selection: Selection, request: TestRequest) -> set[str]:
     """The selected packages whose last passing result `run_tests` would reuse now (what
     colcon-cache's selection options call a valid test cache). Takes no lock, writes nothing."""
     from wsbuild.prefix.layout import resolve_layout
     from wsbuild.session import LINT_SHIM
     from wsbuild.underlay.environment import prepare_underlay
 
-    ws = plan.workspace
+    ws = selection.workspace
     try:
         merged = resolve_layout(ws.install_base, request.merge_install, verb="test")
     except WorkspaceError:
@@ -197,13 +197,13 @@ def reusable_results(plan: Selection, request: TestRequest) -> set[str]:
     underlay = prepare_underlay(os.environ, executable=sys.executable, repair=False,
                                 shim_dir=ws.build_base / LINT_SHIM, notice=lambda _text: None,
                                 dry_run=True)
-    tester = PackageTester(plan, request, merged, underlay.environ, ws.log_base)
+    tester = PackageTester(selection, request, merged, underlay.environ, ws.log_base)
     valid = set()
-    for name in plan.selected:
+    for name in selection.selected:
         runner = tester.runner(name)
         if runner is None:
             continue
-        for dep in (name, *closure_under_test(plan.graph, name)):
+        for dep in (name, *closure_under_test(selection.graph, name)):
             # what environment_for reads of each prefix (package.dsv, its hooks): declared,
             # as every read of a run that only plans (wsbuild/inputs.py)
             share = package_prefix(ws.install_base, dep, merged=merged) / "share" / dep

@@ -32,7 +32,7 @@ class TestKeys:
 
     __test__ = False  # not a pytest test class
 
-    plan: Selection
+    selection: Selection
     request: TestRequest
     merged: bool
     _builds: dict[str, BuildRecord | None] = field(default_factory=dict)
@@ -49,7 +49,7 @@ class TestKeys:
         name = ctx.name
         own = self._build(name)
         closure = {dep: self._installed_output(dep) for dep in
-                   closure_under_test(self.plan.graph, name) if dep in self.plan.packages}
+                   closure_under_test(self.selection.graph, name) if dep in self.selection.packages}
         if own is None or None in closure.values():
             return None
         request = self.request
@@ -60,13 +60,13 @@ class TestKeys:
                    str(ctx.results_dir), self.merged, request.python_executable]
         return TestKey(
             build=own.key, closure={dep: key for dep, key in closure.items() if key is not None},
-            sources=source_signature(self.plan.packages[name].path, observed.files),
+            sources=source_signature(self.selection.packages[name].path, observed.files),
             options=json.dumps(options), environment=observed_environment(ctx.environ),
             tools=json.dumps([self._tools, *observed.tools]))
 
     def _build(self, name: str) -> BuildRecord | None:
         if name not in self._builds:
-            self._builds[name] = read_build_record(self.plan.workspace.build_base / name)
+            self._builds[name] = read_build_record(self.selection.workspace.build_base / name)
         return self._builds[name]
 
     def _installed_output(self, name: str) -> str | None:
@@ -78,6 +78,6 @@ class TestKeys:
         if not build.symlink_install:
             return build.key
         if name not in self._sources:
-            self._sources[name] = source_signature(self.plan.packages[name].path)
+            self._sources[name] = source_signature(self.selection.packages[name].path)
         return f"{build.key}+{self._sources[name]}"
 

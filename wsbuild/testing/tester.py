@@ -41,7 +41,7 @@ if TYPE_CHECKING:
 class PackageTester:
     """Runs one package's tests; shared by the worker threads (holds no per-package state)."""
 
-    plan: Selection
+    selection: Selection
     request: TestRequest
     merged: bool
     base_env: Mapping[str, str]
@@ -50,11 +50,11 @@ class PackageTester:
     keys: TestKeys | None = None
 
     def __post_init__(self) -> None:
-        self.order = self.plan.graph.topological_order()
-        self.keys = TestKeys(self.plan, self.request, self.merged)
+        self.order = self.selection.graph.topological_order()
+        self.keys = TestKeys(self.selection, self.request, self.merged)
 
     def runner(self, name: str) -> TestRunner | None:
-        return get_build_type(self.plan.packages[name].build_type).test_runner
+        return get_build_type(self.selection.packages[name].build_type).test_runner
 
     def context(self, name: str, runner: TestRunner, log_dir: Path | None) -> TestContext:
         """What the package's runner works with; without a log directory it may run nothing
@@ -70,8 +70,8 @@ class PackageTester:
             return _run(command, env, log_dir, on_line, logged)
 
         return TestContext(
-            package=self.plan.packages[name], build_dir=self.plan.workspace.build_base / name,
-            results_dir=results_dir(self.plan.workspace, name, self.request.test_result_base),
+            package=self.selection.packages[name], build_dir=self.selection.workspace.build_base / name,
+            results_dir=results_dir(self.selection.workspace, name, self.request.test_result_base),
             environ=env, arguments=arguments, python_executable=self.request.python_executable,
             strict_linters=self.request.strict_linters, run=run)
 
@@ -84,7 +84,7 @@ class PackageTester:
         if key is None:
             why = "not built by wsbuild (no build key), nor all of its test closure"
         else:
-            cached = read_cached_result(self.plan.workspace.build_base / name)
+            cached = read_cached_result(self.selection.workspace.build_base / name)
             if cached is None:
                 why = "no passing result recorded"
             elif cached.key != key:
@@ -101,8 +101,8 @@ class PackageTester:
         """The package's install last, after its test closure in dependency order."""
         from wsbuild.prefix import environment_for
 
-        closure = closure_under_test(self.plan.graph, name)
-        install_base = self.plan.workspace.install_base
+        closure = closure_under_test(self.selection.graph, name)
+        install_base = self.selection.workspace.install_base
         prefixes = [(package_prefix(install_base, dep, merged=self.merged), dep)
                     for dep in self.order if dep in closure]
         prefixes.append((package_prefix(install_base, name, merged=self.merged), name))
@@ -110,7 +110,7 @@ class PackageTester:
 
     def test(self, name: str, emit: Emit) -> PackageTests:
         started = time.monotonic()
-        package = self.plan.packages[name]
+        package = self.selection.packages[name]
         log_dir = self.run_log / name
         log_dir.mkdir(parents=True, exist_ok=True)
         runner = self.runner(name)

@@ -11,7 +11,7 @@ from collections.abc import Mapping
 from lxml import etree
 
 from wsbuild.workspace.manifest_elements import ElementReader
-from wsbuild.workspace.model import Dependency, DepKind, Package, VersionConstraint
+from wsbuild.workspace.model import Dependency, DepKind, VersionConstraint
 from wsbuild.workspace.names import (
     DEPENDENCY_NAME_RULE,
     is_valid_dependency_name,
