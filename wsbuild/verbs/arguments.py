@@ -50,7 +50,8 @@ def add_workspace_arguments(parser: argparse.ArgumentParser, *, selection: bool 
                                       "crawling)"))
     if selection:
         from wsbuild.verbs.cache_selection import add_cache_selection_arguments
-        from wsbuild.verbs.colcon import add_metadata_arguments, add_result_selection_arguments
+        from wsbuild.verbs.colcon import add_result_selection_arguments
+        from wsbuild.verbs.metas import add_metadata_arguments
 
         add_selection_arguments(group)
         add_result_selection_arguments(group)

@@ -17,6 +17,7 @@ if TYPE_CHECKING:  # the modules of the work are imported when the verb runs, no
     from wsbuild.builder.request import BuildRequest
     from wsbuild.cache.settings import CacheSettings
     from wsbuild.verbs.load import Loaded
+    from wsbuild.verbs.metas import MetadataRequest
     from wsbuild.workspace.selected import Selection
 
 BUILD_DOC = """Build the packages of the workspace into install/.
@@ -67,6 +68,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def _cmake_arguments(cmake: argparse._ArgumentGroup) -> None:
     cmake.add_argument("--cmake-args", action="append", metavar="ARG",
                        help="every configure, e.g. -DCMAKE_BUILD_TYPE=Release; end with --")
+    secondary(cmake.add_argument("--ament-cmake-args", action="append", metavar="ARG",
+                                 help="CMake arguments for ament_cmake packages only"))
     secondary(cmake.add_argument("--cmake-target", metavar="TARGET",
                                  help="build this target instead of the default one"))
     secondary(cmake.add_argument("--cmake-clean-cache", action="store_true",
@@ -120,6 +123,7 @@ def request_from_args(args: argparse.Namespace) -> BuildRequest:
             symlink_install=args.symlink_install,
             merge_install=args.merge_install,
             cmake_args=_split_args(args.cmake_args),
+            ament_cmake_args=_split_args(getattr(args, "ament_cmake_args", None)),
             cmake_target=args.cmake_target,
             cmake_clean_cache=args.cmake_clean_cache,
             cmake_clean_first=args.cmake_clean_first,
@@ -161,6 +165,7 @@ def run_build_verb(args: argparse.Namespace) -> int:
     from wsbuild.runreport.write import progress_of
     from wsbuild.verbs.colcon import console_from_args
     from wsbuild.verbs.load import load
+    from wsbuild.verbs.metas import metadata_from_args
     from wsbuild.workspace.selected import Selection
 
     request = request_from_args(args)
@@ -168,8 +173,7 @@ def run_build_verb(args: argparse.Namespace) -> int:
         raise WsbuildError("--json goes with --dry-run", hint="wsbuild build --dry-run --json")
     loaded = load(args, warn=print_warnings,
                   remember=not getattr(args, "dry_run", False))
-    request = _with_package_arguments(request, args, loaded,
-                                      write=not getattr(args, "dry_run", False))
+    request = _with_package_arguments(request, metadata_from_args(args), loaded)
     selection = Selection(loaded.workspace, loaded.packages, loaded.graph, loaded.selected)
     if getattr(args, "dry_run", False):
         return _dry_run(selection, request, json_output=args.json)
@@ -188,41 +192,25 @@ def run_build_verb(args: argparse.Namespace) -> int:
     return 0
 
 
-def _with_package_arguments(request: BuildRequest, args: argparse.Namespace, loaded: Loaded,
-                            *, write: bool) -> BuildRequest:
-    """The arguments only some packages get (--ament-cmake-args, colcon.meta's), added as one
-    initial-cache script (verbs/metas.py); what cannot reach one package alone is said."""
+def _with_package_arguments(request: BuildRequest, metadata: MetadataRequest,
+                            loaded: Loaded) -> BuildRequest:
+    """Each selected package's own options, from colcon.meta (verbs/metas.py): its plan
+    carries them, they reach its build only and enter its key only."""
     from dataclasses import replace
     from pathlib import Path
 
+    from wsbuild.builder.request import PackageOptions
     from wsbuild.report import print_notes
     from wsbuild.verbs import metas
 
-    packages = {n: (p.path, p.build_type) for n, p in loaded.packages.items()}
-    files = metas.metadata_files(args, os.environ, Path.cwd())
-    metadata = metas.read_metadata(files)
-    notes: list[str] = []
-    defines: list[str] = []
-    for item in _split_args(getattr(args, "ament_cmake_args", None)):
-        if item.startswith("-D") and "=" in item:
-            defines.append(item)
-        else:
-            notes.append(f"--ament-cmake-args '{item}' is ignored: only -D arguments reach "
-                         f"the ament_cmake packages alone (--cmake-args reaches all)")
-    for name in loaded.selected if defines else ():  # before colcon.meta's, which win
-        if packages[name][1] in metas.APPLIED["ament-cmake-args"]:
-            entry = metadata.by_name.setdefault(name, {})
-            entry["ament-cmake-args"] = [*defines, *entry.get("ament-cmake-args", [])]
-    wanted = metas.package_arguments(metadata, packages, loaded.selected)
-    print_notes(dict.fromkeys([*notes, *wanted.notes]))
-    if not wanted.defines:
-        return request
-    text = metas.cache_script(wanted.defines, loaded.workspace.build_base)
-    path = metas.script_path(text, loaded.workspace.build_base)
-    if write:
-        metas.write_script(path, text)
-    return replace(request, build=replace(
-        request.build, cmake_args=(*request.build.cmake_args, "-C", str(path))))
+    paths = {n: p.path for n, p in loaded.packages.items()}
+    found = metas.read_metadata(metas.metadata_files(metadata, os.environ, Path.cwd()))
+    wanted = metas.package_arguments(found, paths, loaded.selected, metas.BUILD_KEYS)
+    print_notes(dict.fromkeys(wanted.notes))
+    packages = {name: PackageOptions(cmake_args=own.get("cmake-args", ()),
+                                     ament_cmake_args=own.get("ament-cmake-args", ()))
+                for name, own in wanted.by_package.items()}
+    return replace(request, packages=packages) if packages else request
 
 
 def _dry_run(selection: Selection, request: BuildRequest, *, json_output: bool) -> int:

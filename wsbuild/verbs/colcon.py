@@ -103,15 +103,6 @@ def add_results_base_argument(parser: argparse._ActionsContainer) -> None:
              f"(default: {BUILD_BASE})"))
 
 
-def add_metadata_arguments(group: argparse._ActionsContainer) -> None:
-    """colcon-metadata's per-package metadata files."""
-    secondary(group.add_argument(
-        "--metas", nargs="*", metavar="PATH",
-        help="colcon.meta files, or directories holding them (default: ./colcon.meta)"))
-    secondary(group.add_argument("--ignore-user-meta", action="store_true",
-                                 help="not the metadata files under $COLCON_HOME/metadata"))
-
-
 def add_global_arguments(parser: argparse.ArgumentParser) -> None:
     """The options colcon takes before the verb."""
     parser.add_argument("--log-base", dest="global_log_base", metavar="DIR",
@@ -125,8 +116,6 @@ def add_build_arguments(parser: argparse.ArgumentParser) -> None:
     group = parser.add_argument_group("colcon's build options (--help-all only)")
     add_event_handler_argument(group)
     add_mixin_arguments(group)
-    secondary(group.add_argument("--ament-cmake-args", action="append", metavar="ARG",
-                                 help="CMake arguments for ament_cmake packages"))
     secondary(group.add_argument("--catkin-cmake-args", action="append", metavar="ARG",
                                  help="CMake arguments for catkin packages (ROS 1)"))
     secondary(group.add_argument("--catkin-skip-building-tests", action="store_true",

@@ -1,0 +1,104 @@
+"""A package's own options: colcon.meta's `cmake-args` and `ament-cmake-args` (and the command
+line's --ament-cmake-args) reach only the packages they are for, after the command line's
+--cmake-args as colcon extends a list option with a package's metadata, and enter only those
+packages' build keys: changing them rebuilds those packages and no other."""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Callable
+from pathlib import Path
+
+from conftest import run_wsbuild
+
+
+def cache_entry(build_dir: Path, name: str) -> str | None:
+    """The value CMakeCache.txt holds for `name` (None: not set)."""
+    for line in (build_dir / "CMakeCache.txt").read_text().splitlines():
+        if line.startswith(f"{name}:"):
+            return line.partition("=")[2]
+    return None
+
+
+def started(stdout: str) -> list[str]:
+    return sorted(line.split()[-1] for line in stdout.splitlines()
+                  if line.startswith("Starting >>>"))
+
+
+def write_meta(ws: Path, names: dict[str, dict[str, list[str]]]) -> None:
+    (ws / "colcon.meta").write_text(json.dumps({"names": names}))
+
+
+def test_a_package_define_reaches_only_its_package_and_rebuilds_only_it(
+        make_workspace: Callable[..., Path]) -> None:
+    ws = make_workspace({"pa": ("cmake", []), "pb": ("cmake", [])})
+    write_meta(ws, {"pa": {"cmake-args": ["-DFOO=1"]}})
+    first = run_wsbuild("build", "--cmake-args", "-DFOO=0", "-DSHARED=yes", "--", cwd=ws)
+    assert first.returncode == 0, first.stdout + first.stderr
+    # colcon's order: the package's metadata after the command line's, so it wins
+    assert cache_entry(ws / "build" / "pa", "FOO") == "1"
+    assert cache_entry(ws / "build" / "pb", "FOO") == "0"
+    assert cache_entry(ws / "build" / "pa", "SHARED") == "yes"
+    assert cache_entry(ws / "build" / "pb", "SHARED") == "yes"
+    assert "colcon.meta" not in first.stdout + first.stderr  # applied: no note
+
+    write_meta(ws, {"pa": {"cmake-args": ["-DFOO=2"]}})
+    dry = run_wsbuild("build", "--dry-run", "--json", "--cmake-args", "-DFOO=0",
+                      "-DSHARED=yes", "--", cwd=ws)
+    assert dry.returncode == 0, dry.stdout + dry.stderr
+    plan = {p["name"]: p for p in json.loads(dry.stdout)["packages"]}
+    assert plan["pb"]["up_to_date"] is True and plan["pb"]["reason"] is None
+    assert plan["pa"]["reason"]["kind"] == "options"
+    assert plan["pa"]["reason"]["details"] == [
+        "cmake_args: [-DFOO=0, -DSHARED=yes, -DFOO=1] → [-DFOO=0, -DSHARED=yes, -DFOO=2]"]
+
+    again = run_wsbuild("build", "--cmake-args", "-DFOO=0", "-DSHARED=yes", "--", cwd=ws)
+    assert again.returncode == 0, again.stdout + again.stderr
+    assert started(again.stdout) == ["pa"]
+    assert cache_entry(ws / "build" / "pa", "FOO") == "2"
+    assert cache_entry(ws / "build" / "pb", "FOO") == "0"
+
+
+def test_any_cmake_argument_of_a_package_reaches_it_not_only_defines(
+        make_workspace: Callable[..., Path]) -> None:
+    """No longer a `-C` script of `-D` settings: `-U`, `-W…` and the like reach the package."""
+    ws = make_workspace({"pa": ("cmake", []), "pb": ("cmake", [])})
+    write_meta(ws, {"pa": {"cmake-args": ["-Wno-dev", "-DBAR:BOOL=ON"]}})
+    result = run_wsbuild("build", "--dry-run", cwd=ws)
+    assert result.returncode == 0, result.stdout + result.stderr
+    configure = [line for line in result.stdout.splitlines() if " cmake " in f" {line} "
+                 and "CMAKE_INSTALL_PREFIX" in line]
+    [pa_line] = [line for line in configure if "/pa" in line.split("CMAKE_INSTALL_PREFIX")[1]
+                 .split()[0]]
+    [pb_line] = [line for line in configure if line is not pa_line]
+    assert pa_line.endswith("-Wno-dev -DBAR:BOOL=ON")
+    assert "-Wno-dev" not in pb_line and "BAR" not in pb_line
+    assert "ignored" not in result.stderr
+
+
+def test_ament_cmake_args_reach_ament_cmake_packages_only(
+        make_workspace: Callable[..., Path]) -> None:
+    ws = make_workspace({"pa": ("ament_cmake", []), "pc": ("cmake", [])})
+    write_meta(ws, {"pa": {"ament-cmake-args": ["-DMETA=here"]},
+                    "pc": {"ament-cmake-args": ["-DMETA=here"]}})
+    result = run_wsbuild("build", "--ament-cmake-args", "-DAMENT=on", "--", cwd=ws)
+    assert result.returncode == 0, result.stdout + result.stderr
+    assert cache_entry(ws / "build" / "pa", "AMENT") == "on"
+    assert cache_entry(ws / "build" / "pa", "META") == "here"
+    assert cache_entry(ws / "build" / "pc", "AMENT") is None
+    assert cache_entry(ws / "build" / "pc", "META") is None
+    # --ament-cmake-args are none of a plain CMake package's business: it stays up to date
+    changed = run_wsbuild("build", "--ament-cmake-args", "-DAMENT=off", "--", cwd=ws)
+    assert changed.returncode == 0, changed.stdout + changed.stderr
+    assert started(changed.stdout) == ["pa"]
+    assert cache_entry(ws / "build" / "pa", "AMENT") == "off"
+
+
+def test_a_key_wsbuild_does_not_apply_is_named(make_workspace: Callable[..., Path]) -> None:
+    ws = make_workspace({"pa": ("cmake", [])})
+    (ws / "colcon.meta").write_text(json.dumps(
+        {"names": {"pa": {"symlink-install": True, "pytest-args": ["-x"]}}}))
+    result = run_wsbuild("build", "--dry-run", cwd=ws)
+    assert result.returncode == 0, result.stdout + result.stderr
+    assert "colcon.meta: 'symlink-install' of pa is ignored" in result.stderr
+    assert "'pytest-args' of pa" not in result.stderr  # `wsbuild test` applies it
