@@ -102,3 +102,35 @@ def test_a_key_wsbuild_does_not_apply_is_named(make_workspace: Callable[..., Pat
     assert result.returncode == 0, result.stdout + result.stderr
     assert "colcon.meta: 'symlink-install' of pa is ignored" in result.stderr
     assert "'pytest-args' of pa" not in result.stderr  # `wsbuild test` applies it
+
+
+TWO_TESTS = "def test_fine():\n    pass\n\n\ndef test_broken():\n    assert False\n"
+
+
+def test_a_packages_pytest_args_reach_only_its_tests(
+        make_workspace: Callable[..., Path]) -> None:
+    """colcon.meta's `pytest-args` of one package (after --pytest-args) reach its pytest only,
+    and enter only its test key: another package's change of them leaves its result reused."""
+    ws = make_workspace({"pa": ("ament_python", []), "pb": ("ament_python", [])})
+    for name in ("pa", "pb"):
+        (ws / "src" / name / "test").mkdir()
+        (ws / "src" / name / "test" / "test_two.py").write_text(TWO_TESTS)
+    built = run_wsbuild("build", cwd=ws)
+    assert built.returncode == 0, built.stdout + built.stderr
+    write_meta(ws, {"pa": {"pytest-args": ["-k", "not broken"]}})
+    tested = run_wsbuild("test", "--pytest-args", "-k", "fine or broken", "--", cwd=ws)
+    assert tested.returncode == 1, tested.stdout + tested.stderr  # pb's broken test still runs
+    lines = tested.stdout.splitlines()
+    assert any(line.startswith("Finished <<< pa") for line in lines), tested.stdout
+    assert any(line.startswith("Failed   <<< pb") and line.endswith("1 failure")
+               for line in lines), tested.stdout
+    assert "colcon.meta" not in tested.stderr
+    assert "not broken" in (ws / "log" / "latest_test" / "pa" / "command.log").read_text()
+    assert "not broken" not in (ws / "log" / "latest_test" / "pb" / "command.log").read_text()
+
+    write_meta(ws, {"pa": {"pytest-args": ["-k", "not broken"]}, "pb": {"pytest-args": ["-x"]}})
+    again = run_wsbuild("test", "--pytest-args", "-k", "fine or broken", "--", cwd=ws)
+    assert again.returncode == 1, again.stdout + again.stderr
+    lines = again.stdout.splitlines()
+    assert any(line.startswith("[pa] cached: 1 test,") for line in lines), again.stdout
+    assert "Starting >>> pb" in lines and "Starting >>> pa" not in lines

@@ -164,7 +164,7 @@ def test_test_result_base_takes_colcons_layout(ws: Path, tmp_path: Path) -> None
 
 
 def test_a_pytest_that_cannot_start_is_an_error_not_a_pass(ws: Path, tmp_path: Path) -> None:
-    results, _, _ = run(ws, "good", pytest_args=("--no-such-option",),
+    results, _, _ = run(ws, "good", tool_arguments={"pytest": ("--no-such-option",)},
                         test_result_base=tmp_path)
     good = results["good"]
     assert good.status is PackageStatus.FAILED
@@ -176,16 +176,18 @@ def test_a_pytest_that_cannot_start_is_an_error_not_a_pass(ws: Path, tmp_path: P
 
 
 def test_pytest_args_reach_pytest(ws: Path, tmp_path: Path) -> None:
-    results, _, _ = run(ws, "bad", pytest_args=("-k", "not test_math"), test_result_base=tmp_path)
+    results, _, _ = run(ws, "bad", tool_arguments={"pytest": ("-k", "not test_math")},
+                        test_result_base=tmp_path)
     assert results["bad"].status is PackageStatus.PASSED
     assert results["bad"].counts == Counts(tests=1)
 
 
 def test_ctest_args_reach_ctest(ws: Path, tmp_path: Path) -> None:
-    results, _, _ = run(ws, "cm_bad", ctest_args=("-R", "^fine$"), test_result_base=tmp_path)
+    results, _, _ = run(ws, "cm_bad", tool_arguments={"ctest": ("-R", "^fine$")},
+                        test_result_base=tmp_path)
     assert results["cm_bad"].status is PackageStatus.PASSED
     assert results["cm_bad"].counts == Counts(tests=1)
-    results, _, _ = run(ws, "cm_bad", ctest_args=("-R", "^nothing_matches$"),
+    results, _, _ = run(ws, "cm_bad", tool_arguments={"ctest": ("-R", "^nothing_matches$")},
                         test_result_base=tmp_path)
     assert results["cm_bad"].status is PackageStatus.NO_TESTS
 

@@ -106,8 +106,10 @@ class TestRequest:
 
     __test__ = False  # not a pytest test class
 
-    pytest_args: tuple[str, ...] = ()
-    ctest_args: tuple[str, ...] = ()
+    #: a test tool's name ("pytest", "ctest") → the command line's arguments for it
+    tool_arguments: Mapping[str, tuple[str, ...]] = field(default_factory=dict)
+    #: package name → tool name → the arguments its colcon.meta adds (after the command line's)
+    package_arguments: Mapping[str, Mapping[str, tuple[str, ...]]] = field(default_factory=dict)
     retest_until_fail: int = 0
     retest_until_pass: int = 0
     #: results go to <test_result_base>/<pkg>/ instead of <build>/<pkg>/test_results/<pkg>/
@@ -127,6 +129,11 @@ class TestRequest:
     @property
     def max_attempts(self) -> int:
         return 1 + max(self.retest_until_fail, self.retest_until_pass)
+
+    def arguments(self, tool: str, package: str) -> tuple[str, ...]:
+        """What `tool` gets for `package`: the command line's, then its colcon.meta's."""
+        return (*self.tool_arguments.get(tool, ()),
+                *self.package_arguments.get(package, {}).get(tool, ()))
 
 
 # ------------------------------------------------------------------------------ planning
@@ -333,7 +340,7 @@ class _Tester:
             tools.append(f"{ctest}:{stat_signature(ctest) if ctest else ''}")
             extra = [build_dir / "CTestTestfile.cmake", build_dir / ".ninja_log"]
         # each tool's own arguments only: --pytest-args leave CTest's results valid
-        passed = request.pytest_args if tool is TestTool.PYTEST else request.ctest_args
+        passed = request.arguments(tool.value, name)
         options = [__version__, tool.value, list(passed),
                    request.retest_until_fail, request.retest_until_pass, request.strict_linters,
                    str(results_dir(self.plan.workspace, name, request.test_result_base)),
@@ -452,7 +459,7 @@ class _Tester:
         ]
         command = [self.request.python_executable, "-m", "pytest"]
         env = dict(env, PYTEST_ADDOPTS=pytest_addopts(options, env.get("PYTEST_ADDOPTS", ""),
-                                                      self.request.pytest_args))
+                                                      self.request.arguments("pytest", name)))
         colcon_result = build_dir / "pytest.xml"
         if colcon_result != junit and colcon_result.is_file():
             # colcon's result of this very suite: left in place it would be counted as current
@@ -506,7 +513,7 @@ class _Tester:
         raw.unlink(missing_ok=True)
         command = [ctest, "-C", _cmake_config(build_dir), "--output-on-failure",
                    "--force-new-ctest-process", "--output-junit", str(raw),
-                   *self.request.ctest_args]
+                   *self.request.arguments("ctest", name)]
         verdicts: dict[str, str] = {}
 
         def on_line(text: str, is_err: bool) -> None:

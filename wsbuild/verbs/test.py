@@ -4,6 +4,7 @@ and the runs around testing/runners.py and testing/junit.py."""
 from __future__ import annotations
 
 import argparse
+import os
 import sys
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -19,8 +20,9 @@ from wsbuild.verbs.arguments import (
 from wsbuild.workspace.root import BUILD_BASE
 
 if TYPE_CHECKING:  # the modules of the work are imported when the verb runs, not to parse
-    from wsbuild.verbs.load import Loaded
     from wsbuild.testing.runners import TestRequest
+    from wsbuild.verbs.load import Loaded
+    from wsbuild.verbs.metas import MetadataRequest
 
 TEST_DOC = """Run the tests of the packages against the built workspace.
 
@@ -119,9 +121,10 @@ def request_from_args(args: argparse.Namespace, root: Path) -> TestRequest:
     if until_fail and until_pass:
         raise WsbuildError("--retest-until-fail and --retest-until-pass exclude each other")
     base = getattr(args, "test_result_base", None)
+    tools = {"pytest": _passthrough(getattr(args, "pytest_args", None)),
+             "ctest": _passthrough(getattr(args, "ctest_args", None))}
     return TestRequest(
-        pytest_args=_passthrough(getattr(args, "pytest_args", None)),
-        ctest_args=_passthrough(getattr(args, "ctest_args", None)),
+        tool_arguments={tool: arguments for tool, arguments in tools.items() if arguments},
         retest_until_fail=until_fail,
         retest_until_pass=until_pass,
         test_result_base=(root / base).absolute() if base else None,
@@ -156,10 +159,12 @@ def run_test_verb(args: argparse.Namespace) -> int:
     from wsbuild.testing.runners import run_tests
     from wsbuild.verbs.colcon import console_from_args
     from wsbuild.verbs.load import load
+    from wsbuild.verbs.metas import metadata_from_args
     from wsbuild.workspace.selected import Selection
 
     loaded = load(args, warn=print_warnings)
-    request = request_from_args(args, loaded.workspace.root)
+    request = _with_package_arguments(request_from_args(args, loaded.workspace.root),
+                                      metadata_from_args(args), loaded)
     plan = Selection(loaded.workspace, loaded.packages, loaded.graph, loaded.selected)
     console = console_from_args(args)
     reporter = Reporter(verb="test", console=console, log_base=loaded.workspace.log_base,
@@ -182,6 +187,25 @@ def run_test_verb(args: argparse.Namespace) -> int:
     if run.interrupted:
         raise Interrupted("tests interrupted")
     return 1 if run.failed else 0
+
+
+def _with_package_arguments(request: TestRequest, metadata: MetadataRequest,
+                            loaded: Loaded) -> TestRequest:
+    """Each selected package's own test tool arguments, from colcon.meta's `pytest-args` and
+    `ctest-args` (verbs/metas.py): after the command line's, for that package only."""
+    from dataclasses import replace
+
+    from wsbuild.report import print_notes
+    from wsbuild.verbs import metas
+
+    paths = {n: p.path for n, p in loaded.packages.items()}
+    found = metas.read_metadata(metas.metadata_files(metadata, os.environ, Path.cwd()))
+    wanted = metas.package_arguments(found, paths, loaded.selected,
+                                     tuple(metas.TEST_KEYS.values()))
+    print_notes(dict.fromkeys(wanted.notes))
+    packages = {name: {tool: own[key] for tool, key in metas.TEST_KEYS.items() if key in own}
+                for name, own in wanted.by_package.items()}
+    return replace(request, package_arguments=packages) if packages else request
 
 
 def _missing_ros_pytest(loaded: Loaded, python_executable: str) -> str:
