@@ -7,6 +7,7 @@ import argparse
 import os
 import shlex
 import sys
+from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 from wsbuild.errors import WsbuildError
@@ -16,7 +17,8 @@ from wsbuild.verbs.arguments import add_base_arguments, add_scheduling_arguments
 if TYPE_CHECKING:  # the modules of the work are imported when the verb runs, not to parse
     from wsbuild.builder.request import BuildRequest
     from wsbuild.cache.settings import CacheSettings
-    from wsbuild.verbs.load import Loaded
+    from wsbuild.report import Console
+    from wsbuild.verbs.load import Loaded, LoadRequest
     from wsbuild.verbs.metas import MetadataRequest
     from wsbuild.workspace.selected import Selection
 
@@ -142,14 +144,14 @@ def request_from_args(args: argparse.Namespace) -> BuildRequest:
         force=getattr(args, "force", False),
         compiler_cache=getattr(args, "compiler_cache", "auto"),
         timings=getattr(args, "timings", False),
-        cache=_cache_settings(args),
+        cache=_cache_settings_from_args(args),
         allow_overriding=tuple(getattr(args, "allow_overriding", None) or ()),
         report=not getattr(args, "no_report", False),
         distribute=distribute_spec(getattr(args, "distribute", None), os.environ),
     )
 
 
-def _cache_settings(args: argparse.Namespace) -> CacheSettings | None:
+def _cache_settings_from_args(args: argparse.Namespace) -> CacheSettings | None:
     """--cache URL / --no-cache / --cache-read-only over WSBUILD_CACHE; None when off."""
     from wsbuild.cache.settings import settings_from_environment
 
@@ -158,30 +160,58 @@ def _cache_settings(args: argparse.Namespace) -> CacheSettings | None:
     return settings if settings.enabled else None
 
 
+@dataclass(frozen=True, slots=True)
+class BuildVerbRequest:
+    """Everything `wsbuild build` was asked: made of the command line once, at the verb's
+    entry; nothing below it sees the command line."""
+
+    load: LoadRequest
+    build: BuildRequest
+    metadata: MetadataRequest
+    console: Console
+    #: --dry-run (--json: as JSON)
+    dry_run: bool = False
+    json: bool = False
+    #: --install-deps
+    install_deps: bool = False
+
+
+def build_verb_request_from_args(args: argparse.Namespace) -> BuildVerbRequest:
+    from wsbuild.verbs.cache_selection import cache_selection_from_args
+    from wsbuild.verbs.colcon import console_from_args
+    from wsbuild.verbs.load import load_request_from_args
+    from wsbuild.verbs.metas import metadata_from_args
+
+    build = request_from_args(args)
+    dry_run = bool(getattr(args, "dry_run", False))
+    if getattr(args, "json", False) and not dry_run:
+        raise WsbuildError("--json goes with --dry-run", hint="wsbuild build --dry-run --json")
+    return BuildVerbRequest(
+        load=load_request_from_args(args, cache=cache_selection_from_args(args, build=build)),
+        build=build, metadata=metadata_from_args(args), console=console_from_args(args),
+        dry_run=dry_run, json=bool(getattr(args, "json", False)),
+        install_deps=bool(getattr(args, "install_deps", False)))
+
+
 def run_build_verb(args: argparse.Namespace) -> int:
     """Build the selected packages."""
     from wsbuild.builder.pipeline import run_build
     from wsbuild.report import Reporter
     from wsbuild.runreport.write import progress_of
-    from wsbuild.verbs.colcon import console_from_args
     from wsbuild.verbs.load import load
-    from wsbuild.verbs.metas import metadata_from_args
     from wsbuild.workspace.selected import Selection
 
-    request = request_from_args(args)
-    if getattr(args, "json", False) and not args.dry_run:
-        raise WsbuildError("--json goes with --dry-run", hint="wsbuild build --dry-run --json")
-    loaded = load(args, warn=print_warnings,
-                  remember=not getattr(args, "dry_run", False))
-    request = _with_package_arguments(request, metadata_from_args(args), loaded)
+    verb = build_verb_request_from_args(args)
+    loaded = load(verb.load, warn=print_warnings, remember=not verb.dry_run)
+    request = _with_package_arguments(verb.build, verb.metadata, loaded)
     selection = Selection(loaded.workspace, loaded.packages, loaded.graph, loaded.selected)
-    if getattr(args, "dry_run", False):
-        return _dry_run(selection, request, json_output=args.json)
-    if getattr(args, "install_deps", False):
+    if verb.dry_run:
+        return _dry_run(selection, request, json_output=verb.json)
+    if verb.install_deps:
         from wsbuild.verbs.deps import install_for_build
 
-        install_for_build(args, loaded)
-    reporter = Reporter(console=console_from_args(args), log_base=loaded.workspace.log_base,
+        install_for_build(loaded)
+    reporter = Reporter(console=verb.console, log_base=loaded.workspace.log_base,
                         progress=progress_of(selection, request.run.workers, durations=True))
     reporter.package_list([(n, loaded.packages[n].build_type) for n in loaded.selected])
     reporter.start_ticker()

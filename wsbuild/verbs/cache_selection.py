@@ -15,12 +15,14 @@ from __future__ import annotations
 
 import argparse
 import sys
+from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 from wsbuild.verbs.arguments import secondary
 
 if TYPE_CHECKING:  # imported when the options are given, not to parse them
     from wsbuild.builder.request import BuildRequest
+    from wsbuild.testing.runners import TestRequest
     from wsbuild.workspace.selected import Selection
 
 #: the caches colcon-cache keeps a lockfile for, as --packages-select-cache-key names them
@@ -41,40 +43,55 @@ def add_cache_selection_arguments(group: argparse._ActionsContainer) -> None:
         help="the cache --packages-*-cache-* judge: build or test (default: the verb's)"))
 
 
-def cache_selection_given(args: argparse.Namespace) -> bool:
-    return bool(getattr(args, "packages_select_cache_invalid", False)
-                or getattr(args, "packages_skip_cache_valid", False))
+@dataclass(frozen=True, slots=True)
+class CacheSelection:
+    """A cache-based selection given: which cache judges (`build` or `test`), and the requests
+    it judges with (those of the verb's own command line, else a plain build's or test's)."""
+
+    key: str
+    build: BuildRequest
+    test: TestRequest
 
 
-def select_by_cache(args: argparse.Namespace, selection: Selection) -> list[str]:
+def cache_selection_from_args(args: argparse.Namespace, *, build: BuildRequest | None = None,
+                              test: TestRequest | None = None) -> CacheSelection | None:
+    """The cache-based selection `args` give (None: none); `build`, `test`: the verb's own
+    requests (`build` judges by its build options, `test` by its test options)."""
+    if not (getattr(args, "packages_select_cache_invalid", False)
+            or getattr(args, "packages_skip_cache_valid", False)):
+        return None
+    from wsbuild.testing.runners import TestRequest
+
+    key = getattr(args, "packages_select_cache_key", None) or ("test" if test else "build")
+    return CacheSelection(key=key, build=build or _plain_build(), test=test or TestRequest())
+
+
+def select_by_cache(selection_by: CacheSelection, selection: Selection) -> list[str]:
     """The selected packages whose cache (build, or test) is invalid: both options select
     the same packages, since wsbuild keeps no reference lockfile that could be missing."""
+    from dataclasses import replace
+
     from wsbuild.builder.pipeline import plan_build
     from wsbuild.builder.plan import Decision
     from wsbuild.engine.recording import recorder
+    from wsbuild.testing.runners import reusable_results
 
     watcher = recorder()
     if watcher is not None:
         # the answer depends on the whole plan, more than a record describes: no replay (a
         # later read_only() or no_op() of the verb sets an outcome again, so not drop())
         watcher.spoiled = True
-    key = args.packages_select_cache_key or ("test" if args.verb == "test" else "build")
-    plan = plan_build(selection, _request(args), lambda _event: None)
+    # no build cache: whether a package would be restored or built, it is invalid either way
+    plan = plan_build(selection, replace(selection_by.build, cache=None), lambda _event: None)
     valid = {p.name for p in plan.packages if p.decision is Decision.UP_TO_DATE}
-    if key == "test":
-        valid &= _cached_results_apply(args, selection)
+    if selection_by.key == "test":
+        # a run with --no-test-cache still judges by the cached results
+        valid &= reusable_results(selection, selection_by.test)
     return [name for name in selection.selected if name not in valid]
 
 
-def _request(args: argparse.Namespace) -> BuildRequest:
-    """The build the plan judges by: the command line's for `build`, else a plain one; no
-    build cache (whether a package would be restored or built, it is invalid either way)."""
-    from dataclasses import replace
-
-    if args.verb == "build":
-        from wsbuild.verbs.build import request_from_args
-
-        return replace(request_from_args(args), cache=None)
+def _plain_build() -> BuildRequest:
+    """What a plain `wsbuild build` asks for."""
     from wsbuild.build_types import BuildOptions
     from wsbuild.builder.request import BuildRequest, RunOptions, cpu_count
 
@@ -82,14 +99,3 @@ def _request(args: argparse.Namespace) -> BuildRequest:
         build=BuildOptions(jobs=cpu_count(), python_executable=sys.executable),
         run=RunOptions(workers=cpu_count(), sequential=False, continue_on_error=False,
                        wait_for_lock=True))
-
-
-def _cached_results_apply(args: argparse.Namespace, selection: Selection) -> set[str]:
-    """The packages whose last passing test result `wsbuild test` would reuse now (testing/
-    cached_result.py), judged with the command line's test options for `test`, else a plain
-    `wsbuild test`'s; a run with --no-test-cache still judges by the cached results."""
-    from wsbuild.testing.runners import reusable_results
-    from wsbuild.verbs.test import request_from_args
-
-    request = request_from_args(args, selection.workspace.root)
-    return reusable_results(selection, request)

@@ -81,18 +81,6 @@ def add_mixin_arguments(parser: argparse._ActionsContainer) -> None:
                                   help="more *.mixin files to take mixins from"))
 
 
-def add_result_selection_arguments(group: argparse._ActionsContainer) -> None:
-    """colcon-package-selection's selections by the previous build or test run (one of them)."""
-    group = group.add_mutually_exclusive_group()
-    for option, text in (
-        ("--packages-select-build-failed", "only packages whose last build failed"),
-        ("--packages-skip-build-finished", "leave out packages whose last build finished"),
-        ("--packages-select-test-failures", "only packages whose last tests failed"),
-        ("--packages-skip-test-passed", "leave out packages whose last tests passed"),
-    ):
-        secondary(group.add_argument(option, action="store_true", help=text))
-
-
 def add_results_base_argument(parser: argparse._ActionsContainer) -> None:
     """--build-base for the verbs that only read it (the result-based selections)."""
     from wsbuild.workspace.root import BUILD_BASE
@@ -109,6 +97,16 @@ def add_global_arguments(parser: argparse.ArgumentParser) -> None:
                         help="log directory of the verb (colcon's place for it; default: log)")
     parser.add_argument("--log-level", metavar="LEVEL",
                         help="accepted for colcon compatibility (wsbuild keeps no log of its own)")
+
+
+def apply_global_arguments(args: argparse.Namespace) -> None:
+    """While parsing: colcon's `--log-base` given before the verb becomes the verb's (the
+    verb's own --log-base wins)."""
+    from wsbuild.workspace.root import LOG_BASE
+
+    given = getattr(args, "global_log_base", None)
+    if given and getattr(args, "log_base", LOG_BASE) == LOG_BASE:
+        args.log_base = given
 
 
 def add_build_arguments(parser: argparse.ArgumentParser) -> None:

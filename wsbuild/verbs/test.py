@@ -6,6 +6,7 @@ from __future__ import annotations
 import argparse
 import os
 import sys
+from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -20,8 +21,9 @@ from wsbuild.verbs.arguments import (
 from wsbuild.workspace.root import BUILD_BASE
 
 if TYPE_CHECKING:  # the modules of the work are imported when the verb runs, not to parse
+    from wsbuild.report import Console
     from wsbuild.testing.runners import TestRequest
-    from wsbuild.verbs.load import Loaded
+    from wsbuild.verbs.load import Loaded, LoadRequest
     from wsbuild.verbs.metas import MetadataRequest
 
 TEST_DOC = """Run the tests of the packages against the built workspace.
@@ -144,6 +146,34 @@ def _passthrough(values: list[str] | None) -> tuple[str, ...]:
     return tuple(v.lstrip() for v in values or [] if v.strip())
 
 
+@dataclass(frozen=True, slots=True)
+class TestVerbRequest:
+    """Everything `wsbuild test` was asked: made of the command line once, at the verb's
+    entry; nothing below it sees the command line."""
+
+    __test__ = False  # not a pytest test class
+
+    load: LoadRequest
+    test: TestRequest
+    metadata: MetadataRequest
+    console: Console
+    #: log/<run>/report.html (--no-report: off)
+    report: bool = True
+
+
+def test_verb_request_from_args(args: argparse.Namespace) -> TestVerbRequest:
+    from wsbuild.verbs.cache_selection import cache_selection_from_args
+    from wsbuild.verbs.colcon import console_from_args
+    from wsbuild.verbs.load import load_request_from_args, workspace_root
+    from wsbuild.verbs.metas import metadata_from_args
+
+    test = request_from_args(args, workspace_root(getattr(args, "workspace_dir", None)))
+    return TestVerbRequest(
+        load=load_request_from_args(args, cache=cache_selection_from_args(args, test=test)),
+        test=test, metadata=metadata_from_args(args), console=console_from_args(args),
+        report=not getattr(args, "no_report", False))
+
+
 def run_test_verb(args: argparse.Namespace) -> int:
     """Run the tests of the selected packages; 1 when any test fails or errors."""
     from wsbuild.builder.request import cpu_count
@@ -157,23 +187,21 @@ def run_test_verb(args: argparse.Namespace) -> int:
     )
     from wsbuild.testing.results import summary_lines
     from wsbuild.testing.runners import run_tests
-    from wsbuild.verbs.colcon import console_from_args
     from wsbuild.verbs.load import load
-    from wsbuild.verbs.metas import metadata_from_args
     from wsbuild.workspace.selected import Selection
 
-    loaded = load(args, warn=print_warnings)
-    request = _with_package_arguments(request_from_args(args, loaded.workspace.root),
-                                      metadata_from_args(args), loaded)
+    verb = test_verb_request_from_args(args)
+    loaded = load(verb.load, warn=print_warnings)
+    request = _with_package_arguments(verb.test, verb.metadata, loaded)
     plan = Selection(loaded.workspace, loaded.packages, loaded.graph, loaded.selected)
-    console = console_from_args(args)
+    console = verb.console
     reporter = Reporter(verb="test", console=console, log_base=loaded.workspace.log_base,
                         progress=progress_of(plan, request.workers, durations=False))
     reporter.package_list([(n, loaded.packages[n].build_type) for n in loaded.selected])
     missing = _missing_ros_pytest(loaded, request.python_executable)
     if missing:
         reporter(Notice(missing, warning=True))
-    watch = RunWatch(test_dependencies(plan), enabled=not getattr(args, "no_report", False))
+    watch = RunWatch(test_dependencies(plan), enabled=verb.report)
     reporter.start_ticker()
     try:
         run = run_tests(plan, request, watch.watching(reporter))
@@ -229,7 +257,7 @@ def run_test_result_verb(args: argparse.Namespace) -> int:
     from wsbuild.testing.junit import collect_results, report_lines
     from wsbuild.verbs.load import workspace_root
 
-    root = workspace_root(args)
+    root = workspace_root(args.workspace_dir)
     base = root / (getattr(args, "test_result_base", None) or getattr(args, "build_base", None)
                    or BUILD_BASE)
     if not base.is_dir():
