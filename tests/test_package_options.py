@@ -59,6 +59,27 @@ def test_a_package_define_reaches_only_its_package_and_rebuilds_only_it(
     assert cache_entry(ws / "build" / "pb", "FOO") == "0"
 
 
+def test_the_cache_selection_judges_each_package_with_its_own_options(
+        make_workspace: Callable[..., Path]) -> None:
+    """colcon-cache's --packages-select-cache-invalid plans as `build` would: with colcon.meta's
+    options of each package, so a package built with them is valid until they change."""
+    ws = make_workspace({"pa": ("cmake", []), "pb": ("cmake", [])})
+    write_meta(ws, {"pa": {"cmake-args": ["-DFOO=1"]}})
+    assert run_wsbuild("build", cwd=ws).returncode == 0
+
+    def invalid() -> list[str]:
+        listed = run_wsbuild("list", "-n", "--packages-select-cache-invalid", cwd=ws)
+        assert listed.returncode == 0, listed.stderr
+        return listed.stdout.split()
+
+    assert invalid() == []
+    write_meta(ws, {"pa": {"cmake-args": ["-DFOO=2"]}})
+    assert invalid() == ["pa"]
+    built = run_wsbuild("build", "--packages-select-cache-invalid", cwd=ws)
+    assert built.returncode == 0, built.stdout + built.stderr
+    assert started(built.stdout) == ["pa"]
+
+
 def test_any_cmake_argument_of_a_package_reaches_it_not_only_defines(
         make_workspace: Callable[..., Path]) -> None:
     """No longer a `-C` script of `-D` settings: `-U`, `-W…` and the like reach the package."""

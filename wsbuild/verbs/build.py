@@ -18,7 +18,7 @@ if TYPE_CHECKING:  # the modules of the work are imported when the verb runs, no
     from wsbuild.builder.request import BuildRequest
     from wsbuild.cache.settings import CacheSettings
     from wsbuild.report import Console
-    from wsbuild.verbs.load import Loaded, LoadRequest
+    from wsbuild.verbs.load import LoadRequest
     from wsbuild.verbs.metas import MetadataRequest
     from wsbuild.workspace.selected import Selection
 
@@ -198,12 +198,16 @@ def run_build_verb(args: argparse.Namespace) -> int:
     from wsbuild.builder.pipeline import run_build
     from wsbuild.report import Reporter
     from wsbuild.runreport.write import progress_of
+    from wsbuild.report import print_notes
+    from wsbuild.verbs import metas
     from wsbuild.verbs.load import load
     from wsbuild.workspace.selected import Selection
 
     verb = build_verb_request_from_args(args)
     loaded = load(verb.load, warn=print_warnings, remember=not verb.dry_run)
-    request = _with_package_arguments(verb.build, verb.metadata, loaded)
+    request, notes = metas.with_build_arguments(verb.build, verb.metadata, loaded.packages,
+                                                loaded.selected)
+    print_notes(dict.fromkeys(notes))
     selection = Selection(loaded.workspace, loaded.packages, loaded.graph, loaded.selected)
     if verb.dry_run:
         return _dry_run(selection, request, json_output=verb.json)
@@ -222,27 +226,6 @@ def run_build_verb(args: argparse.Namespace) -> int:
     return 0
 
 
-def _with_package_arguments(request: BuildRequest, metadata: MetadataRequest,
-                            loaded: Loaded) -> BuildRequest:
-    """Each selected package's own options, from colcon.meta (verbs/metas.py): its plan
-    carries them, they reach its build only and enter its key only."""
-    from dataclasses import replace
-    from pathlib import Path
-
-    from wsbuild.builder.request import PackageOptions
-    from wsbuild.report import print_notes
-    from wsbuild.verbs import metas
-
-    paths = {n: p.path for n, p in loaded.packages.items()}
-    found = metas.read_metadata(metas.metadata_files(metadata, os.environ, Path.cwd()))
-    wanted = metas.package_arguments(found, paths, loaded.selected, metas.BUILD_KEYS)
-    print_notes(dict.fromkeys(wanted.notes))
-    packages = {name: PackageOptions(cmake_args=own.get("cmake-args", ()),
-                                     ament_cmake_args=own.get("ament-cmake-args", ()))
-                for name, own in wanted.by_package.items()}
-    return replace(request, packages=packages) if packages else request
-
-
 def _dry_run(selection: Selection, request: BuildRequest, *, json_output: bool) -> int:
     """Print what the build would do; exit 2 when it would refuse to start."""
     import json
@@ -258,3 +241,4 @@ def _dry_run(selection: Selection, request: BuildRequest, *, json_output: bool) 
     else:
         print("\n".join(plan_lines(build_plan, steps)))
     return 2 if build_plan.refusal else 0
+

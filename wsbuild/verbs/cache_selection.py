@@ -23,6 +23,7 @@ from wsbuild.verbs.arguments import secondary
 if TYPE_CHECKING:  # imported when the options are given, not to parse them
     from wsbuild.builder.request import BuildRequest
     from wsbuild.testing.runners import TestRequest
+    from wsbuild.verbs.metas import MetadataRequest
     from wsbuild.workspace.selected import Selection
 
 #: the caches colcon-cache keeps a lockfile for, as --packages-select-cache-key names them
@@ -51,6 +52,8 @@ class CacheSelection:
     key: str
     build: BuildRequest
     test: TestRequest
+    #: the colcon.meta files whose per-package options the requests get, as the verbs do
+    metadata: MetadataRequest
 
 
 def cache_selection_from_args(args: argparse.Namespace, *, build: BuildRequest | None = None,
@@ -61,9 +64,11 @@ def cache_selection_from_args(args: argparse.Namespace, *, build: BuildRequest |
             or getattr(args, "packages_skip_cache_valid", False)):
         return None
     from wsbuild.testing.runners import TestRequest
+    from wsbuild.verbs.metas import metadata_from_args
 
     key = getattr(args, "packages_select_cache_key", None) or ("test" if test else "build")
-    return CacheSelection(key=key, build=build or _plain_build(), test=test or TestRequest())
+    return CacheSelection(key=key, build=build or _plain_build(), test=test or TestRequest(),
+                          metadata=metadata_from_args(args))
 
 
 def select_by_cache(selection_by: CacheSelection, selection: Selection) -> list[str]:
@@ -75,18 +80,25 @@ def select_by_cache(selection_by: CacheSelection, selection: Selection) -> list[
     from wsbuild.builder.plan import Decision
     from wsbuild.engine.recording import recorder
     from wsbuild.testing.runners import reusable_results
+    from wsbuild.verbs.metas import with_build_arguments, with_test_arguments
 
     watcher = recorder()
     if watcher is not None:
         # the answer depends on the whole plan, more than a record describes: no replay (a
         # later read_only() or no_op() of the verb sets an outcome again, so not drop())
         watcher.spoiled = True
+    packages, selected = selection.packages, selection.selected
+    # each package judged with its own options, as the verb would build or test it (the
+    # verb says what colcon.meta holds that it does not apply)
+    build, _ = with_build_arguments(selection_by.build, selection_by.metadata, packages, selected)
     # no build cache: whether a package would be restored or built, it is invalid either way
-    plan = plan_build(selection, replace(selection_by.build, cache=None), lambda _event: None)
+    plan = plan_build(selection, replace(build, cache=None), lambda _event: None)
     valid = {p.name for p in plan.packages if p.decision is Decision.UP_TO_DATE}
     if selection_by.key == "test":
+        test, _ = with_test_arguments(selection_by.test, selection_by.metadata, packages,
+                                      selected)
         # a run with --no-test-cache still judges by the cached results
-        valid &= reusable_results(selection, selection_by.test)
+        valid &= reusable_results(selection, test)
     return [name for name in selection.selected if name not in valid]
 
 

@@ -12,9 +12,15 @@ import os
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from wsbuild.errors import WsbuildError
 from wsbuild import inputs
+
+if TYPE_CHECKING:  # imported when a verb applies the metadata
+    from wsbuild.builder.request import BuildRequest
+    from wsbuild.testing.runners import TestRequest
+    from wsbuild.workspace.model import Package
 
 META_FILE = "colcon.meta"
 USER_DIR = "metadata"
@@ -170,3 +176,39 @@ def package_arguments(metadata: Metadata, paths: Mapping[str, Path], selected: l
             if key in keys and arguments:
                 by_package.setdefault(name, {})[key] = arguments
     return PackageArguments(by_package, tuple(notes))
+
+
+def with_build_arguments(request: BuildRequest, metadata: MetadataRequest,
+                         packages: Mapping[str, Package],
+                         selected: list[str]) -> tuple[BuildRequest, tuple[str, ...]]:
+    """`request` with each selected package's own options (`cmake-args`, `ament-cmake-args`):
+    its plan carries them, they reach its build only and enter its key only; and the notes of
+    what is not applied."""
+    from dataclasses import replace
+
+    from wsbuild.builder.request import PackageOptions
+
+    found = read_metadata(metadata_files(metadata, os.environ, Path.cwd()))
+    wanted = package_arguments(found, _paths(packages), selected, BUILD_KEYS)
+    own = {name: PackageOptions(cmake_args=given.get("cmake-args", ()),
+                                ament_cmake_args=given.get("ament-cmake-args", ()))
+           for name, given in wanted.by_package.items()}
+    return (replace(request, packages=own) if own else request), wanted.notes
+
+
+def with_test_arguments(request: TestRequest, metadata: MetadataRequest,
+                        packages: Mapping[str, Package],
+                        selected: list[str]) -> tuple[TestRequest, tuple[str, ...]]:
+    """`request` with each selected package's own test tool arguments (`pytest-args`,
+    `ctest-args`, after the command line's, for that package only); and the notes."""
+    from dataclasses import replace
+
+    found = read_metadata(metadata_files(metadata, os.environ, Path.cwd()))
+    wanted = package_arguments(found, _paths(packages), selected, tuple(TEST_KEYS.values()))
+    own = {name: {tool: given[key] for tool, key in TEST_KEYS.items() if key in given}
+           for name, given in wanted.by_package.items()}
+    return (replace(request, package_arguments=own) if own else request), wanted.notes
+
+
+def _paths(packages: Mapping[str, Package]) -> dict[str, Path]:
+    return {name: package.path for name, package in packages.items()}

@@ -187,12 +187,16 @@ def run_test_verb(args: argparse.Namespace) -> int:
     )
     from wsbuild.testing.results import summary_lines
     from wsbuild.testing.runners import run_tests
+    from wsbuild.report import print_notes
+    from wsbuild.verbs import metas
     from wsbuild.verbs.load import load
     from wsbuild.workspace.selected import Selection
 
     verb = test_verb_request_from_args(args)
     loaded = load(verb.load, warn=print_warnings)
-    request = _with_package_arguments(verb.test, verb.metadata, loaded)
+    request, notes = metas.with_test_arguments(verb.test, verb.metadata, loaded.packages,
+                                               loaded.selected)
+    print_notes(dict.fromkeys(notes))
     plan = Selection(loaded.workspace, loaded.packages, loaded.graph, loaded.selected)
     console = verb.console
     reporter = Reporter(verb="test", console=console, log_base=loaded.workspace.log_base,
@@ -215,25 +219,6 @@ def run_test_verb(args: argparse.Namespace) -> int:
     if run.interrupted:
         raise Interrupted("tests interrupted")
     return 1 if run.failed else 0
-
-
-def _with_package_arguments(request: TestRequest, metadata: MetadataRequest,
-                            loaded: Loaded) -> TestRequest:
-    """Each selected package's own test tool arguments, from colcon.meta's `pytest-args` and
-    `ctest-args` (verbs/metas.py): after the command line's, for that package only."""
-    from dataclasses import replace
-
-    from wsbuild.report import print_notes
-    from wsbuild.verbs import metas
-
-    paths = {n: p.path for n, p in loaded.packages.items()}
-    found = metas.read_metadata(metas.metadata_files(metadata, os.environ, Path.cwd()))
-    wanted = metas.package_arguments(found, paths, loaded.selected,
-                                     tuple(metas.TEST_KEYS.values()))
-    print_notes(dict.fromkeys(wanted.notes))
-    packages = {name: {tool: own[key] for tool, key in metas.TEST_KEYS.items() if key in own}
-                for name, own in wanted.by_package.items()}
-    return replace(request, package_arguments=packages) if packages else request
 
 
 def _missing_ros_pytest(loaded: Loaded, python_executable: str) -> str:
@@ -291,3 +276,4 @@ def _delete_results(paths: list[Path], *, ask: bool) -> int:
         path.unlink(missing_ok=True)
     print(f"deleted {len(paths)} result file(s)")
     return 0
+
