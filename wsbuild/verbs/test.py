@@ -4,7 +4,6 @@ and the runs around testing/runners.py and testing/junit.py."""
 from __future__ import annotations
 
 import argparse
-import os
 import sys
 from dataclasses import dataclass
 from pathlib import Path
