@@ -79,9 +79,9 @@ def boundary_violations(module: str, path: Path, entries: set[tuple[str, str]]) 
             if called.endswith("_from_args") and not boundary and module != "wsbuild.cli":
                 found.append(f"{where}:{call.lineno} {name}() calls {called}: the namespace is "
                              "converted at the verb's entry only")
-            if called == "getattr" and call.args and isinstance(call.args[0], ast.Name) \
-                    and call.args[0].id in ("args", "parsed_args") and not (boundary or
-                                                                           parse_stage):
+            reads = called == "getattr" and call.args and isinstance(call.args[0], ast.Name) \
+                and call.args[0].id in ("args", "parsed_args")
+            if reads and not (boundary or parse_stage):
                 found.append(f"{where}:{call.lineno} {name}() reads options with getattr below "
                              "the verb boundary")
             if parse_stage or not held:

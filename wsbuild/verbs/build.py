@@ -241,4 +241,3 @@ def _dry_run(selection: Selection, request: BuildRequest, *, json_output: bool) 
     else:
         print("\n".join(plan_lines(build_plan, steps)))
     return 2 if build_plan.refusal else 0
-

@@ -9,6 +9,7 @@ from collections.abc import Iterable
 from typing import TYPE_CHECKING
 
 from wsbuild.verbs.arguments import secondary
+from wsbuild.verbs.mixin import add_mixin_arguments
 
 if TYPE_CHECKING:
     from wsbuild.report import Console
@@ -71,14 +72,6 @@ def add_event_handler_argument(parser: argparse._ActionsContainer) -> None:
         "--event-handlers", nargs="*", type=event_handler_switch, metavar="NAME+|NAME-",
         help="colcon's event handlers, e.g. console_direct+ (live output), console_cohesion+ "
              "(output per package), summary-, status-"))
-
-
-def add_mixin_arguments(parser: argparse._ActionsContainer) -> None:
-    secondary(parser.add_argument(
-        "--mixin", nargs="*", metavar="NAME",
-        help="colcon-mixin's named option sets, e.g. release ccache (wsbuild mixin show)"))
-    secondary(parser.add_argument("--mixin-files", nargs="*", metavar="FILE",
-                                  help="more *.mixin files to take mixins from"))
 
 
 def add_results_base_argument(parser: argparse._ActionsContainer) -> None:

@@ -103,7 +103,7 @@ def run_deps(args: argparse.Namespace) -> int:
     if request.from_source and not request.dry_run and found.plan.from_source:
         loaded, names, found = _fetch_sources(request, load_request, loaded, names, found)
     print("\n".join(plan_lines(found, constraint=_constraint(request, found),
-                                dry_run=request.dry_run)))
+                               dry_run=request.dry_run)))
     if request.dry_run or not (found.plan.steps or found.plan.test_tools):
         if found.plan.from_source and not request.dry_run:
             _from_source_error(found)
@@ -203,7 +203,7 @@ def _survey(request: DepsRequest, loaded: Loaded, names: list[str] | None = None
     packages = [loaded.packages[name]
                 for name in (loaded.selected if names is None else names)]
     return survey(packages, loaded.packages, parse_types(request.types), environ=os.environ,
-                   shim_dir=loaded.workspace.build_base / ".wsbuild" / "lint_shim",
+                  shim_dir=loaded.workspace.build_base / ".wsbuild" / "lint_shim",
                   skip=frozenset(request.skip_keys), refresh=request.refresh)
 
 

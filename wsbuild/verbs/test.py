@@ -275,4 +275,3 @@ def _delete_results(paths: list[Path], *, ask: bool) -> int:
         path.unlink(missing_ok=True)
     print(f"deleted {len(paths)} result file(s)")
     return 0
-
