@@ -125,7 +125,7 @@ def request_from_args(args: argparse.Namespace) -> BuildRequest:
             symlink_install=args.symlink_install,
             merge_install=args.merge_install,
             cmake_args=_split_args(args.cmake_args),
-            ament_cmake_args=_split_args(getattr(args, "ament_cmake_args", None)),
+            ament_cmake_args=_split_args(args.ament_cmake_args),
             cmake_target=args.cmake_target,
             cmake_clean_cache=args.cmake_clean_cache,
             cmake_clean_first=args.cmake_clean_first,
@@ -140,14 +140,14 @@ def request_from_args(args: argparse.Namespace) -> BuildRequest:
             wait_for_lock=not args.no_wait,
         ),
         skip_dependency_check=args.skip_dependency_check,
-        strict_dependencies=getattr(args, "strict_dependencies", False),
-        force=getattr(args, "force", False),
-        compiler_cache=getattr(args, "compiler_cache", "auto"),
-        timings=getattr(args, "timings", False),
+        strict_dependencies=args.strict_dependencies,
+        force=args.force,
+        compiler_cache=args.compiler_cache,
+        timings=args.timings,
         cache=_cache_settings_from_args(args),
-        allow_overriding=tuple(getattr(args, "allow_overriding", None) or ()),
-        report=not getattr(args, "no_report", False),
-        distribute=distribute_spec(getattr(args, "distribute", None), os.environ),
+        allow_overriding=tuple(args.allow_overriding or ()),
+        report=not args.no_report,
+        distribute=distribute_spec(args.distribute, os.environ),
     )
 
 
@@ -183,14 +183,14 @@ def build_verb_request_from_args(args: argparse.Namespace) -> BuildVerbRequest:
     from wsbuild.verbs.metas import metadata_from_args
 
     build = request_from_args(args)
-    dry_run = bool(getattr(args, "dry_run", False))
-    if getattr(args, "json", False) and not dry_run:
+    dry_run = args.dry_run
+    if args.json and not dry_run:
         raise WsbuildError("--json goes with --dry-run", hint="wsbuild build --dry-run --json")
     return BuildVerbRequest(
         load=load_request_from_args(args, cache=cache_selection_from_args(args, build=build)),
         build=build, metadata=metadata_from_args(args), console=console_from_args(args),
-        dry_run=dry_run, json=bool(getattr(args, "json", False)),
-        install_deps=bool(getattr(args, "install_deps", False)))
+        dry_run=dry_run, json=args.json,
+        install_deps=args.install_deps)
 
 
 def run_build_verb(args: argparse.Namespace) -> int:

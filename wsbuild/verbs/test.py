@@ -110,32 +110,32 @@ def request_from_args(args: argparse.Namespace, root: Path) -> TestRequest:
     from wsbuild.builder.request import cpu_count
     from wsbuild.testing.runners import TestRequest
 
-    workers = getattr(args, "parallel_workers", None)
+    workers = args.parallel_workers
     workers = cpu_count() if workers is None else workers
     if workers < 1:
         raise WsbuildError(f"--parallel-workers must be at least 1, got {workers}")
-    until_fail = getattr(args, "retest_until_fail", 0) or 0
-    until_pass = getattr(args, "retest_until_pass", 0) or 0
+    until_fail = args.retest_until_fail or 0
+    until_pass = args.retest_until_pass or 0
     for flag, value in (("--retest-until-fail", until_fail), ("--retest-until-pass", until_pass)):
         if value < 0:
             raise WsbuildError(f"{flag} must not be negative, got {value}")
     if until_fail and until_pass:
         raise WsbuildError("--retest-until-fail and --retest-until-pass exclude each other")
-    base = getattr(args, "test_result_base", None)
-    tools = {"pytest": _passthrough(getattr(args, "pytest_args", None)),
-             "ctest": _passthrough(getattr(args, "ctest_args", None))}
+    base = args.test_result_base
+    tools = {"pytest": _passthrough(args.pytest_args),
+             "ctest": _passthrough(args.ctest_args)}
     return TestRequest(
         tool_arguments={tool: arguments for tool, arguments in tools.items() if arguments},
         retest_until_fail=until_fail,
         retest_until_pass=until_pass,
         test_result_base=(root / base).absolute() if base else None,
-        merge_install=True if getattr(args, "merge_install", False) else None,
-        workers=1 if getattr(args, "executor", "parallel") == "sequential" else workers,
-        abort_on_error=getattr(args, "abort_on_error", False),
-        wait_for_lock=not getattr(args, "no_wait", False),
+        merge_install=True if args.merge_install else None,
+        workers=1 if args.executor == "sequential" else workers,
+        abort_on_error=args.abort_on_error,
+        wait_for_lock=not args.no_wait,
         python_executable=sys.executable,
-        strict_linters=getattr(args, "strict_linters", False),
-        reuse_results=not getattr(args, "no_test_cache", False),
+        strict_linters=args.strict_linters,
+        reuse_results=not args.no_test_cache,
     )
 
 
@@ -166,11 +166,11 @@ def test_verb_request_from_args(args: argparse.Namespace) -> TestVerbRequest:
     from wsbuild.verbs.load import load_request_from_args, workspace_root
     from wsbuild.verbs.metas import metadata_from_args
 
-    test = request_from_args(args, workspace_root(getattr(args, "workspace_dir", None)))
+    test = request_from_args(args, workspace_root(args.workspace_dir))
     return TestVerbRequest(
         load=load_request_from_args(args, cache=cache_selection_from_args(args, test=test)),
         test=test, metadata=metadata_from_args(args), console=console_from_args(args),
-        report=not getattr(args, "no_report", False))
+        report=not args.no_report)
 
 
 def run_test_verb(args: argparse.Namespace) -> int:
