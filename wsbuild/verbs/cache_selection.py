@@ -6,9 +6,10 @@ reuse its last passing result now (testing/cached_result.py: nothing its tests c
 changed, judged with `test`'s own options). colcon-cache's lockfiles (`colcon cache lock`) are
 not read.
 
-`build` judges with the command line's own build options; the other verbs with those of a
-plain `wsbuild build` (a package built with other options counts as invalid: it is processed,
-never wrongly skipped).
+`build` judges with the command line's own build options (`test` with its test options); the
+other verbs with those of a plain `wsbuild build` (a package built with other options counts as
+invalid: it is processed, never wrongly skipped); each package with its colcon.meta options
+added, as the verbs add them.
 """
 
 from __future__ import annotations
