@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import argparse
 from collections.abc import Callable, Mapping
 from pathlib import Path
 
@@ -22,7 +21,8 @@ from wsbuild.testing.results import (
 )
 from wsbuild.testing.closure import check_built, closure_under_test
 from wsbuild.testing.runners import TestRequest, run_tests
-from wsbuild.verbs.load import load
+from wsbuild.verbs.load import LoadRequest, load
+from wsbuild.workspace.selection import SelectionOptions
 from wsbuild.workspace.root import Workspace
 
 FLAKY_TEST = '''from pathlib import Path
@@ -100,8 +100,8 @@ def ws(tmp_path_factory: pytest.TempPathFactory) -> Path:
 
 
 def plan_for(root: Path, *names: str) -> Selection:
-    loaded = load(argparse.Namespace(workspace_dir=str(root), base_paths=None, paths=None,
-                                     packages_select=list(names) or None))
+    loaded = load(LoadRequest(workspace_dir=str(root),
+                              selection=SelectionOptions(packages_select=names or None)))
     return Selection(loaded.workspace, loaded.packages, loaded.graph, loaded.selected)
 
 

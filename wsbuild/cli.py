@@ -133,7 +133,12 @@ class _Tree:
                                                "(every option: --help-all)")
         sub.set_defaults(func=func)
         _help_arguments(sub)
-        add_workspace_arguments(sub, selection=selection)
+        group = add_workspace_arguments(sub, selection=selection)
+        if selection:  # the selections by earlier results and by cache, and colcon.meta
+            from wsbuild.verbs import cache_selection, metas, results
+            results.add_result_selection_arguments(group)
+            cache_selection.add_cache_selection_arguments(group)
+            metas.add_metadata_arguments(group)
         return sub
 
 
@@ -476,16 +481,13 @@ def _print_choices(verb: str | None) -> None:
 
 def _finish(parser: argparse.ArgumentParser, verb: str, args: argparse.Namespace,
             environ: Mapping[str, str], cwd: Path) -> None:
-    """After parsing: the mixins the command line names, and colcon's `--log-base` given
-    before the verb (the verb's own --log-base wins)."""
+    """After parsing: the mixins the command line names, and colcon's options before the verb."""
+    from wsbuild.verbs.colcon import apply_global_arguments
     from wsbuild.verbs.mixin import NOT_MIXED, apply_mixins
-    from wsbuild.workspace.root import LOG_BASE
 
     if verb and verb.split(".")[0] not in NOT_MIXED:
         apply_mixins(parser, verb, args, environ, cwd)
-    given = getattr(args, "global_log_base", None)
-    if given and getattr(args, "log_base", LOG_BASE) == LOG_BASE:
-        args.log_base = given
+    apply_global_arguments(args)
 
 
 def _internal_error() -> int:

@@ -56,6 +56,8 @@ class BuildOptions:
     symlink_install: bool = False
     merge_install: bool = False
     cmake_args: tuple[str, ...] = ()
+    #: CMake arguments for ament_cmake packages only, after `cmake_args` (--ament-cmake-args)
+    ament_cmake_args: tuple[str, ...] = ()
     cmake_target: str | None = None
     cmake_clean_cache: bool = False
     cmake_clean_first: bool = False
@@ -210,8 +212,8 @@ class BuildType(Protocol):
 #: options that change how a build runs, never what it installs
 _RUN_ONLY_OPTIONS = ("jobs", "compiler_launcher")
 #: options only CMake reads
-_CMAKE_OPTIONS = ("cmake_args", "cmake_target", "cmake_clean_cache", "cmake_clean_first",
-                  "cmake_force_configure", "underlay_cmake_args")
+_CMAKE_OPTIONS = ("cmake_args", "ament_cmake_args", "cmake_target", "cmake_clean_cache",
+                  "cmake_clean_first", "cmake_force_configure", "underlay_cmake_args")
 
 
 @dataclass(frozen=True, slots=True)

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from wsbuild.build_types import BuildContext
+from wsbuild.build_types import BuildContext, BuildOptions, cmake_key_options
 from wsbuild.build_types.cmake import CMakeBuildType
 from wsbuild.build_types.ctest import CTEST
 from wsbuild.build_types.test_runner import TestRunner
@@ -22,11 +22,15 @@ class AmentCMakeBuildType(CMakeBuildType):
     def installs_in_place(self, ctx: BuildContext) -> bool:
         return ctx.options.symlink_install
 
+    def key_options(self, options: BuildOptions) -> dict[str, object]:
+        return cmake_key_options(options)
+
     def configure_args(self, ctx: BuildContext) -> list[str]:
         args = CMakeBuildType.configure_args(self, ctx)
         if ctx.options.symlink_install:
             args.insert(1, "-DAMENT_CMAKE_SYMLINK_INSTALL=1")
-        return args
+        # after the other CMake arguments, as colcon-ros appends them
+        return [*args, *ctx.options.ament_cmake_args]
 
 
 BUILD_TYPE = AmentCMakeBuildType()

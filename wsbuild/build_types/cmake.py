@@ -145,7 +145,8 @@ class CMakeBuildType:
         "PKG_CONFIG_LIBDIR", "SOURCE_DATE_EPOCH")
 
     def key_options(self, options: BuildOptions) -> dict[str, object]:
-        return cmake_key_options(options)
+        # --ament-cmake-args reach ament_cmake packages only (AmentCMakeBuildType)
+        return {k: v for k, v in cmake_key_options(options).items() if k != "ament_cmake_args"}
 
     def steps(self, ctx: BuildContext) -> list[Step]:
         steps = []

@@ -179,7 +179,7 @@ class PackageBuild:
             build_dir=self.build_dir,
             install_prefix=self.prefix,
             stage_prefix=self.stage_prefix,
-            options=self.run.options,
+            options=self.planned.options.applied_to(self.run.options),
             environ=environ,
             run=self._run_command,
             warn=self.warnings.append,

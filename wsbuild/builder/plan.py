@@ -20,7 +20,7 @@ from typing import TYPE_CHECKING
 from wsbuild.build_types import BuildOptions, environment_digests, get_build_type
 from wsbuild.builder.fingerprint import BuildState, Reason, SourceSnapshot
 from wsbuild.builder.overrides import Override
-from wsbuild.builder.request import BuildRequest
+from wsbuild.builder.request import BuildRequest, PackageOptions
 from wsbuild.engine.ready_queue import JobGraph, start_order
 from wsbuild.errors import DependencyError
 from wsbuild.session import Session
@@ -70,6 +70,9 @@ class PackagePlan:
     note: str = ""
     #: what the last build recorded (a package to build or restore, or one cut off)
     previous: BuildState | None = None
+    #: what its build gets beyond the run's options (colcon.meta's); only these of all
+    #: packages' own options enter its key
+    options: PackageOptions = PackageOptions()
 
     def cut_off_state(self) -> BuildState:
         """The state of a package early cutoff keeps: what it last recorded, with the key and
@@ -91,7 +94,8 @@ class Refusal:
 
 @dataclass(frozen=True, slots=True)
 class BuildPlan:
-    #: the options every package is built with (the request's, with the underlay's CMake args)
+    #: the options every package is built with (the request's, with the underlay's CMake args);
+    #: a package's own (`PackagePlan.options`) come after them
     options: BuildOptions
     #: in the order the build starts them with one worker: the up-to-date ones (settled
     #: before any job starts), then the others as the scheduler's ready queue hands them out
@@ -175,17 +179,19 @@ def plan_package(selection: Selection, request: BuildRequest, options: BuildOpti
     from wsbuild.builder.fingerprint import cutoff_note, digest_of, read_state, snapshot_sources
 
     package = selection.packages[name]
+    own = request.packages.get(name, PackageOptions())
     old = read_state(selection.workspace.build_base / name)
     snapshot = snapshot_sources(package.path, old.files if old else {})
     prefix = _prefix(selection, session, name)
-    inputs = package_inputs(selection, options, name, prefix, underlay, session.environ)
+    inputs = package_inputs(selection, own.applied_to(options), name, prefix, underlay,
+                            session.environ)
     settings = digest_of(inputs)
     dep_keys = dependency_keys(selection, selection.graph.build_closure(name), keys)
     reason = rebuild_reason(selection, request, name, old, snapshot, settings, dep_keys, inputs,
                             pending, seen)
     common = dict(name=name, build_type=package.build_type, prefix=prefix, inputs=inputs,
                   settings=settings, dependency_keys=dep_keys, snapshot=snapshot,
-                  snapshot_root=package.path)
+                  snapshot_root=package.path, options=own)
     if reason is None and old is not None:
         note = cutoff_note(old, dep_keys)
         if not note:

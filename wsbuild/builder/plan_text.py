@@ -116,7 +116,8 @@ def planned_commands(build_plan: BuildPlan, selection: Selection, session: Sessi
         ctx = BuildContext(
             package=selection.packages[planned.name], build_dir=build_dir,
             install_prefix=planned.prefix, stage_prefix=planned.prefix,
-            options=options, environ=environ, run=_not_run, warn=lambda _text: None,
+            options=planned.options.applied_to(options), environ=environ, run=_not_run,
+            warn=lambda _text: None,
             dependency_prefixes=tuple(prefix for prefix, _ in dependencies),
             jobserver_fifo=RUN_JOBSERVER)
         steps = tuple(get_build_type(planned.build_type).steps(ctx))
@@ -136,7 +137,7 @@ def _export_line(env: Mapping[str, str]) -> str:
 
 def _missing_scripts(commands: PlannedCommands) -> list[str]:
     """CMake initial-cache scripts (`-C FILE`) the commands name that do not exist yet: the
-    build writes them before it starts (the lint stand-ins, colcon.meta's arguments)."""
+    build writes them before it starts (the lint stand-ins)."""
     missing: list[str] = []
     for planned in commands.packages.values():
         for step in planned.steps:

@@ -1,11 +1,12 @@
 """What a `wsbuild build` (or `wsbuild test`) run was asked to do: validated, frozen records.
 
-`verbs/build.py:request_from_args` turns command-line arguments into these; the build room reads them.
+`verbs/build.py` makes these of the command line and colcon.meta; the build room reads them.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from collections.abc import Mapping
+from dataclasses import dataclass, field, replace
 
 from wsbuild.build_types import BuildOptions
 from wsbuild.cache.settings import CacheSettings
@@ -26,9 +27,28 @@ class RunOptions:
 
 
 @dataclass(frozen=True, slots=True)
+class PackageOptions:
+    """What one package's build gets beyond the run's options (colcon.meta's `cmake-args` and
+    `ament-cmake-args` for it): they extend the run's lists, as colcon extends a list option
+    with a package's metadata values."""
+
+    cmake_args: tuple[str, ...] = ()
+    ament_cmake_args: tuple[str, ...] = ()
+
+    def applied_to(self, options: BuildOptions) -> BuildOptions:
+        """The run's `options` with this package's own added after them."""
+        if not self.cmake_args and not self.ament_cmake_args:
+            return options
+        return replace(options, cmake_args=(*options.cmake_args, *self.cmake_args),
+                       ament_cmake_args=(*options.ament_cmake_args, *self.ament_cmake_args))
+
+
+@dataclass(frozen=True, slots=True)
 class BuildRequest:
     build: BuildOptions
     run: RunOptions
+    #: package name → what its build gets beyond `build` (a package not named: nothing)
+    packages: Mapping[str, PackageOptions] = field(default_factory=dict)
     skip_dependency_check: bool = False
     #: --strict-dependencies: unresolved build dependencies refuse the build (exit 2)
     strict_dependencies: bool = False

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import argparse
 import os
+from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -35,8 +36,10 @@ MORE_SELECTION = ("also --packages-{select,skip,up-to,ignore}-regex, -above-and-
                   "-select-build-failed, …: --help-all")
 
 
-def add_workspace_arguments(parser: argparse.ArgumentParser, *, selection: bool = True) -> None:
-    """-C/--workspace, --base-paths, --paths, and (with `selection`) the --packages-* options."""
+def add_workspace_arguments(parser: argparse.ArgumentParser, *,
+                            selection: bool = True) -> argparse._ArgumentGroup:
+    """-C/--workspace, --base-paths, --paths, and (with `selection`) colcon's --packages-*
+    options; the group, for the selections other modules declare (cli.py adds them)."""
     if selection:
         group = parser.add_argument_group("workspace and packages (selection as in colcon)",
                                           MORE_SELECTION)
@@ -49,13 +52,8 @@ def add_workspace_arguments(parser: argparse.ArgumentParser, *, selection: bool 
                                  help="package directories, shell wildcards allowed (no "
                                       "crawling)"))
     if selection:
-        from wsbuild.verbs.cache_selection import add_cache_selection_arguments
-        from wsbuild.verbs.colcon import add_metadata_arguments, add_result_selection_arguments
-
         add_selection_arguments(group)
-        add_result_selection_arguments(group)
-        add_cache_selection_arguments(group)
-        add_metadata_arguments(group)
+    return group
 
 
 def add_workspace_option(group: argparse._ActionsContainer, *, found: str = "the directory "
@@ -152,17 +150,27 @@ def selection_from_args(args: argparse.Namespace) -> SelectionOptions:
     return SelectionOptions(**values)
 
 
-def workspace_from_args(args: argparse.Namespace, root: Path) -> Workspace:
-    """The workspace at `root` with the bases `args` name (colcon's defaults otherwise)."""
-    log_base = getattr(args, "log_base", None) or LOG_BASE
-    if log_base == os.devnull:
-        log_base = _discarded_log_base()
-    return Workspace.at(
-        root,
-        build_base=getattr(args, "build_base", None) or BUILD_BASE,
-        install_base=getattr(args, "install_base", None) or INSTALL_BASE,
-        log_base=log_base,
-    )
+@dataclass(frozen=True, slots=True)
+class Bases:
+    """--build-base, --install-base, --log-base as given (colcon's defaults otherwise)."""
+
+    build_base: str = BUILD_BASE
+    install_base: str = INSTALL_BASE
+    log_base: str = LOG_BASE
+
+    def workspace(self, root: Path) -> Workspace:
+        """The workspace at `root` with these bases."""
+        log_base = self.log_base
+        if log_base == os.devnull:
+            log_base = _discarded_log_base()
+        return Workspace.at(root, build_base=self.build_base, install_base=self.install_base,
+                            log_base=log_base)
+
+
+def bases_from_args(args: argparse.Namespace) -> Bases:
+    return Bases(build_base=getattr(args, "build_base", None) or BUILD_BASE,
+                 install_base=getattr(args, "install_base", None) or INSTALL_BASE,
+                 log_base=getattr(args, "log_base", None) or LOG_BASE)
 
 
 def _discarded_log_base() -> str:

@@ -7,6 +7,7 @@ import argparse
 import os
 import shlex
 import sys
+from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 from wsbuild.errors import WsbuildError
@@ -16,7 +17,9 @@ from wsbuild.verbs.arguments import add_base_arguments, add_scheduling_arguments
 if TYPE_CHECKING:  # the modules of the work are imported when the verb runs, not to parse
     from wsbuild.builder.request import BuildRequest
     from wsbuild.cache.settings import CacheSettings
-    from wsbuild.verbs.load import Loaded
+    from wsbuild.reporter import Console
+    from wsbuild.verbs.load import LoadRequest
+    from wsbuild.verbs.metas import MetadataRequest
     from wsbuild.workspace.selection import Selection
 
 BUILD_DOC = """Build the packages of the workspace into install/.
@@ -67,6 +70,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def _cmake_arguments(cmake: argparse._ArgumentGroup) -> None:
     cmake.add_argument("--cmake-args", action="append", metavar="ARG",
                        help="every configure, e.g. -DCMAKE_BUILD_TYPE=Release; end with --")
+    secondary(cmake.add_argument("--ament-cmake-args", action="append", metavar="ARG",
+                                 help="CMake arguments for ament_cmake packages only"))
     secondary(cmake.add_argument("--cmake-target", metavar="TARGET",
                                  help="build this target instead of the default one"))
     secondary(cmake.add_argument("--cmake-clean-cache", action="store_true",
@@ -120,6 +125,7 @@ def request_from_args(args: argparse.Namespace) -> BuildRequest:
             symlink_install=args.symlink_install,
             merge_install=args.merge_install,
             cmake_args=_split_args(args.cmake_args),
+            ament_cmake_args=_split_args(args.ament_cmake_args),
             cmake_target=args.cmake_target,
             cmake_clean_cache=args.cmake_clean_cache,
             cmake_clean_first=args.cmake_clean_first,
@@ -134,18 +140,18 @@ def request_from_args(args: argparse.Namespace) -> BuildRequest:
             wait_for_lock=not args.no_wait,
         ),
         skip_dependency_check=args.skip_dependency_check,
-        strict_dependencies=getattr(args, "strict_dependencies", False),
-        force=getattr(args, "force", False),
-        compiler_cache=getattr(args, "compiler_cache", "auto"),
-        timings=getattr(args, "timings", False),
-        cache=_cache_settings(args),
-        allow_overriding=tuple(getattr(args, "allow_overriding", None) or ()),
-        report=not getattr(args, "no_report", False),
-        distribute=distribute_spec(getattr(args, "distribute", None), os.environ),
+        strict_dependencies=args.strict_dependencies,
+        force=args.force,
+        compiler_cache=args.compiler_cache,
+        timings=args.timings,
+        cache=_cache_settings_from_args(args),
+        allow_overriding=tuple(args.allow_overriding or ()),
+        report=not args.no_report,
+        distribute=distribute_spec(args.distribute, os.environ),
     )
 
 
-def _cache_settings(args: argparse.Namespace) -> CacheSettings | None:
+def _cache_settings_from_args(args: argparse.Namespace) -> CacheSettings | None:
     """--cache URL / --no-cache / --cache-read-only over WSBUILD_CACHE; None when off."""
     from wsbuild.cache.settings import settings_from_environment
 
@@ -154,30 +160,62 @@ def _cache_settings(args: argparse.Namespace) -> CacheSettings | None:
     return settings if settings.enabled else None
 
 
+@dataclass(frozen=True, slots=True)
+class BuildVerbRequest:
+    """Everything `wsbuild build` was asked: made of the command line once, at the verb's
+    entry; nothing below it sees the command line."""
+
+    load: LoadRequest
+    build: BuildRequest
+    metadata: MetadataRequest
+    console: Console
+    #: --dry-run (--json: as JSON)
+    dry_run: bool = False
+    json: bool = False
+    #: --install-deps
+    install_deps: bool = False
+
+
+def build_verb_request_from_args(args: argparse.Namespace) -> BuildVerbRequest:
+    from wsbuild.verbs.cache_selection import cache_selection_from_args
+    from wsbuild.verbs.colcon import console_from_args
+    from wsbuild.verbs.load import load_request_from_args
+    from wsbuild.verbs.metas import metadata_from_args
+
+    build = request_from_args(args)
+    dry_run = args.dry_run
+    if args.json and not dry_run:
+        raise WsbuildError("--json goes with --dry-run", hint="wsbuild build --dry-run --json")
+    return BuildVerbRequest(
+        load=load_request_from_args(args, cache=cache_selection_from_args(args, build=build)),
+        build=build, metadata=metadata_from_args(args), console=console_from_args(args),
+        dry_run=dry_run, json=args.json,
+        install_deps=args.install_deps)
+
+
 def run_build_verb(args: argparse.Namespace) -> int:
     """Build the selected packages."""
     from wsbuild.builder.pipeline import run_build
     from wsbuild.reporter import Reporter
     from wsbuild.runreport.write import progress_of
-    from wsbuild.verbs.colcon import console_from_args
+    from wsbuild.reporter import print_notes
+    from wsbuild.verbs import metas
     from wsbuild.verbs.load import load
     from wsbuild.workspace.selection import Selection
 
-    request = request_from_args(args)
-    if getattr(args, "json", False) and not args.dry_run:
-        raise WsbuildError("--json goes with --dry-run", hint="wsbuild build --dry-run --json")
-    loaded = load(args, warn=print_warnings,
-                  remember=not getattr(args, "dry_run", False))
-    request = _with_package_arguments(request, args, loaded,
-                                      write=not getattr(args, "dry_run", False))
+    verb = build_verb_request_from_args(args)
+    loaded = load(verb.load, warn=print_warnings, remember=not verb.dry_run)
+    request, notes = metas.with_build_arguments(verb.build, verb.metadata, loaded.packages,
+                                                loaded.selected)
+    print_notes(dict.fromkeys(notes))
     selection = Selection(loaded.workspace, loaded.packages, loaded.graph, loaded.selected)
-    if getattr(args, "dry_run", False):
-        return _dry_run(selection, request, json_output=args.json)
-    if getattr(args, "install_deps", False):
+    if verb.dry_run:
+        return _dry_run(selection, request, json_output=verb.json)
+    if verb.install_deps:
         from wsbuild.verbs.deps import install_for_build
 
-        install_for_build(args, loaded)
-    reporter = Reporter(console=console_from_args(args), log_base=loaded.workspace.log_base,
+        install_for_build(loaded)
+    reporter = Reporter(console=verb.console, log_base=loaded.workspace.log_base,
                         progress=progress_of(selection, request.run.workers, durations=True))
     reporter.package_list([(n, loaded.packages[n].build_type) for n in loaded.selected])
     reporter.start_ticker()
@@ -186,43 +224,6 @@ def run_build_verb(args: argparse.Namespace) -> int:
     finally:
         reporter.stop()
     return 0
-
-
-def _with_package_arguments(request: BuildRequest, args: argparse.Namespace, loaded: Loaded,
-                            *, write: bool) -> BuildRequest:
-    """The arguments only some packages get (--ament-cmake-args, colcon.meta's), added as one
-    initial-cache script (verbs/metas.py); what cannot reach one package alone is said."""
-    from dataclasses import replace
-    from pathlib import Path
-
-    from wsbuild.reporter import print_notes
-    from wsbuild.verbs import metas
-
-    packages = {n: (p.path, p.build_type) for n, p in loaded.packages.items()}
-    files = metas.metadata_files(args, os.environ, Path.cwd())
-    metadata = metas.read_metadata(files)
-    notes: list[str] = []
-    defines: list[str] = []
-    for item in _split_args(getattr(args, "ament_cmake_args", None)):
-        if item.startswith("-D") and "=" in item:
-            defines.append(item)
-        else:
-            notes.append(f"--ament-cmake-args '{item}' is ignored: only -D arguments reach "
-                         f"the ament_cmake packages alone (--cmake-args reaches all)")
-    for name in loaded.selected if defines else ():  # before colcon.meta's, which win
-        if packages[name][1] in metas.APPLIED["ament-cmake-args"]:
-            entry = metadata.by_name.setdefault(name, {})
-            entry["ament-cmake-args"] = [*defines, *entry.get("ament-cmake-args", [])]
-    wanted = metas.package_arguments(metadata, packages, loaded.selected)
-    print_notes(dict.fromkeys([*notes, *wanted.notes]))
-    if not wanted.defines:
-        return request
-    text = metas.cache_script(wanted.defines, loaded.workspace.build_base)
-    path = metas.script_path(text, loaded.workspace.build_base)
-    if write:
-        metas.write_script(path, text)
-    return replace(request, build=replace(
-        request.build, cmake_args=(*request.build.cmake_args, "-C", str(path))))
 
 
 def _dry_run(selection: Selection, request: BuildRequest, *, json_output: bool) -> int:

@@ -6,21 +6,25 @@ reuse its last passing result now (testing/cached_result.py: nothing its tests c
 changed, judged with `test`'s own options). colcon-cache's lockfiles (`colcon cache lock`) are
 not read.
 
-`build` judges with the command line's own build options; the other verbs with those of a
-plain `wsbuild build` (a package built with other options counts as invalid: it is processed,
-never wrongly skipped).
+`build` judges with the command line's own build options (`test` with its test options); the
+other verbs with those of a plain `wsbuild build` (a package built with other options counts as
+invalid: it is processed, never wrongly skipped); each package with its colcon.meta options
+added, as the verbs add them.
 """
 
 from __future__ import annotations
 
 import argparse
 import sys
+from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 from wsbuild.verbs.arguments import secondary
 
 if TYPE_CHECKING:  # imported when the options are given, not to parse them
     from wsbuild.builder.request import BuildRequest
+    from wsbuild.testing.runners import TestRequest
+    from wsbuild.verbs.metas import MetadataRequest
     from wsbuild.workspace.selection import Selection
 
 #: the caches colcon-cache keeps a lockfile for, as --packages-select-cache-key names them
@@ -41,40 +45,66 @@ def add_cache_selection_arguments(group: argparse._ActionsContainer) -> None:
         help="the cache --packages-*-cache-* judge: build or test (default: the verb's)"))
 
 
-def cache_selection_given(args: argparse.Namespace) -> bool:
-    return bool(getattr(args, "packages_select_cache_invalid", False)
-                or getattr(args, "packages_skip_cache_valid", False))
+@dataclass(frozen=True, slots=True)
+class CacheSelection:
+    """A cache-based selection given: which cache judges (`build` or `test`), and the requests
+    it judges with (those of the verb's own command line, else a plain build's or test's)."""
+
+    key: str
+    build: BuildRequest
+    test: TestRequest
+    #: the colcon.meta files whose per-package options the requests get, as the verbs do
+    metadata: MetadataRequest
 
 
-def select_by_cache(args: argparse.Namespace, selection: Selection) -> list[str]:
+def cache_selection_from_args(args: argparse.Namespace, *, build: BuildRequest | None = None,
+                              test: TestRequest | None = None) -> CacheSelection | None:
+    """The cache-based selection `args` give (None: none); `build`, `test`: the verb's own
+    requests (`build` judges by its build options, `test` by its test options)."""
+    if not (getattr(args, "packages_select_cache_invalid", False)
+            or getattr(args, "packages_skip_cache_valid", False)):
+        return None
+    from wsbuild.testing.runners import TestRequest
+    from wsbuild.verbs.metas import metadata_from_args
+
+    key = getattr(args, "packages_select_cache_key", None) or ("test" if test else "build")
+    return CacheSelection(key=key, build=build or _plain_build(), test=test or TestRequest(),
+                          metadata=metadata_from_args(args))
+
+
+def select_by_cache(selection_by: CacheSelection, selection: Selection) -> list[str]:
     """The selected packages whose cache (build, or test) is invalid: both options select
     the same packages, since wsbuild keeps no reference lockfile that could be missing."""
+    from dataclasses import replace
+
     from wsbuild.builder.pipeline import plan_build
     from wsbuild.builder.plan import Decision
     from wsbuild.engine.recording import replay_recorder
+    from wsbuild.testing.runners import reusable_results
+    from wsbuild.verbs.metas import with_build_arguments, with_test_arguments
 
     watcher = replay_recorder()
     if watcher is not None:
         # the answer depends on the whole plan, more than a record describes: no replay (a
         # later read_only() or no_op() of the verb sets an outcome again, so not drop())
         watcher.spoiled = True
-    key = args.packages_select_cache_key or ("test" if args.verb == "test" else "build")
-    plan = plan_build(selection, _request(args), lambda _event: None)
+    packages, selected = selection.packages, selection.selected
+    # each package judged with its own options, as the verb would build or test it (the
+    # verb says what colcon.meta holds that it does not apply)
+    build, _ = with_build_arguments(selection_by.build, selection_by.metadata, packages, selected)
+    # no build cache: whether a package would be restored or built, it is invalid either way
+    plan = plan_build(selection, replace(build, cache=None), lambda _event: None)
     valid = {p.name for p in plan.packages if p.decision is Decision.UP_TO_DATE}
-    if key == "test":
-        valid &= _cached_results_apply(args, selection)
+    if selection_by.key == "test":
+        test, _ = with_test_arguments(selection_by.test, selection_by.metadata, packages,
+                                      selected)
+        # a run with --no-test-cache still judges by the cached results
+        valid &= reusable_results(selection, test)
     return [name for name in selection.selected if name not in valid]
 
 
-def _request(args: argparse.Namespace) -> BuildRequest:
-    """The build the plan judges by: the command line's for `build`, else a plain one; no
-    build cache (whether a package would be restored or built, it is invalid either way)."""
-    from dataclasses import replace
-
-    if args.verb == "build":
-        from wsbuild.verbs.build import request_from_args
-
-        return replace(request_from_args(args), cache=None)
+def _plain_build() -> BuildRequest:
+    """What a plain `wsbuild build` asks for."""
     from wsbuild.build_types import BuildOptions
     from wsbuild.builder.request import BuildRequest, RunOptions, cpu_count
 
@@ -82,14 +112,3 @@ def _request(args: argparse.Namespace) -> BuildRequest:
         build=BuildOptions(jobs=cpu_count(), python_executable=sys.executable),
         run=RunOptions(workers=cpu_count(), sequential=False, continue_on_error=False,
                        wait_for_lock=True))
-
-
-def _cached_results_apply(args: argparse.Namespace, selection: Selection) -> set[str]:
-    """The packages whose last passing test result `wsbuild test` would reuse now (testing/
-    cached_result.py), judged with the command line's test options for `test`, else a plain
-    `wsbuild test`'s; a run with --no-test-cache still judges by the cached results."""
-    from wsbuild.testing.runners import reusable_results
-    from wsbuild.verbs.test import request_from_args
-
-    request = request_from_args(args, selection.workspace.root)
-    return reusable_results(selection, request)

@@ -14,7 +14,7 @@ from pathlib import Path
 
 from wsbuild.errors import WorkspaceError
 from wsbuild.reporter import print_warnings
-from wsbuild.verbs.arguments import add_base_arguments, selection_from_args, workspace_from_args
+from wsbuild.verbs.arguments import add_base_arguments
 from wsbuild.words import plural
 
 CLEAN_DOC = """Remove what builds left in build/, install/ and log/.
@@ -250,20 +250,21 @@ def deletion_confirmed(yes_option: str) -> bool:
 def run_clean(args: argparse.Namespace) -> int:
     """Remove build/, install/ and log/ entries of the selected packages (default: all)."""
     from wsbuild.engine.lock import workspace_lock
-    from wsbuild.verbs.load import load, workspace_root
+    from wsbuild.verbs.load import load, load_request_from_args, workspace_root
     from wsbuild.workspace.selection import SelectionOptions
 
+    request = load_request_from_args(args)
     kinds = [k for k in (BUILD, INSTALL, LOG) if getattr(args, k)] or [BUILD, INSTALL, LOG]
-    selected = selection_from_args(args) != SelectionOptions() or bool(args.paths)
+    selected = request.selection != SelectionOptions() or bool(request.paths)
     if selected:
-        loaded = load(args, warn=print_warnings)
+        loaded = load(request, warn=print_warnings)
         workspace = loaded.workspace
         packages: list[str] | None = loaded.selected
         sources = [p.path for p in loaded.packages.values()]
     else:
-        workspace = workspace_from_args(args, workspace_root(args))
+        workspace = request.bases.workspace(workspace_root(request.workspace_dir))
         packages = None
-        sources = [Path(p).absolute() for p in args.base_paths] if args.base_paths else (
+        sources = [Path(p).absolute() for p in request.base_paths] if request.base_paths else (
             workspace.default_base_paths())
     root = workspace.root
     bases = {BUILD: workspace.build_base, INSTALL: workspace.install_base,

@@ -9,6 +9,7 @@ from collections.abc import Iterable
 from typing import TYPE_CHECKING
 
 from wsbuild.verbs.arguments import secondary
+from wsbuild.verbs.mixin import add_mixin_arguments
 
 if TYPE_CHECKING:
     from wsbuild.reporter import Console
@@ -73,26 +74,6 @@ def add_event_handler_argument(parser: argparse._ActionsContainer) -> None:
              "(output per package), summary-, status-"))
 
 
-def add_mixin_arguments(parser: argparse._ActionsContainer) -> None:
-    secondary(parser.add_argument(
-        "--mixin", nargs="*", metavar="NAME",
-        help="colcon-mixin's named option sets, e.g. release ccache (wsbuild mixin show)"))
-    secondary(parser.add_argument("--mixin-files", nargs="*", metavar="FILE",
-                                  help="more *.mixin files to take mixins from"))
-
-
-def add_result_selection_arguments(group: argparse._ActionsContainer) -> None:
-    """colcon-package-selection's selections by the previous build or test run (one of them)."""
-    group = group.add_mutually_exclusive_group()
-    for option, text in (
-        ("--packages-select-build-failed", "only packages whose last build failed"),
-        ("--packages-skip-build-finished", "leave out packages whose last build finished"),
-        ("--packages-select-test-failures", "only packages whose last tests failed"),
-        ("--packages-skip-test-passed", "leave out packages whose last tests passed"),
-    ):
-        secondary(group.add_argument(option, action="store_true", help=text))
-
-
 def add_results_base_argument(parser: argparse._ActionsContainer) -> None:
     """--build-base for the verbs that only read it (the result-based selections)."""
     from wsbuild.workspace.root import BUILD_BASE
@@ -103,15 +84,6 @@ def add_results_base_argument(parser: argparse._ActionsContainer) -> None:
              f"(default: {BUILD_BASE})"))
 
 
-def add_metadata_arguments(group: argparse._ActionsContainer) -> None:
-    """colcon-metadata's per-package metadata files."""
-    secondary(group.add_argument(
-        "--metas", nargs="*", metavar="PATH",
-        help="colcon.meta files, or directories holding them (default: ./colcon.meta)"))
-    secondary(group.add_argument("--ignore-user-meta", action="store_true",
-                                 help="not the metadata files under $COLCON_HOME/metadata"))
-
-
 def add_global_arguments(parser: argparse.ArgumentParser) -> None:
     """The options colcon takes before the verb."""
     parser.add_argument("--log-base", dest="global_log_base", metavar="DIR",
@@ -120,13 +92,21 @@ def add_global_arguments(parser: argparse.ArgumentParser) -> None:
                         help="accepted for colcon compatibility (wsbuild keeps no log of its own)")
 
 
+def apply_global_arguments(args: argparse.Namespace) -> None:
+    """While parsing: colcon's `--log-base` given before the verb becomes the verb's (the
+    verb's own --log-base wins)."""
+    from wsbuild.workspace.root import LOG_BASE
+
+    given = getattr(args, "global_log_base", None)
+    if given and getattr(args, "log_base", LOG_BASE) == LOG_BASE:
+        args.log_base = given
+
+
 def add_build_arguments(parser: argparse.ArgumentParser) -> None:
     """colcon build's options that wsbuild's own list lacks."""
     group = parser.add_argument_group("colcon's build options (--help-all only)")
     add_event_handler_argument(group)
     add_mixin_arguments(group)
-    secondary(group.add_argument("--ament-cmake-args", action="append", metavar="ARG",
-                                 help="CMake arguments for ament_cmake packages"))
     secondary(group.add_argument("--catkin-cmake-args", action="append", metavar="ARG",
                                  help="CMake arguments for catkin packages (ROS 1)"))
     secondary(group.add_argument("--catkin-skip-building-tests", action="store_true",

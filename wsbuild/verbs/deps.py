@@ -7,6 +7,7 @@ from __future__ import annotations
 import argparse
 import shlex
 import sys
+from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -15,7 +16,7 @@ if TYPE_CHECKING:
     from wsbuild.deps.needs import Need
     from wsbuild.deps.plan import DepsPlan
     from wsbuild.deps.survey import Survey
-    from wsbuild.verbs.load import Loaded
+    from wsbuild.verbs.load import Loaded, LoadRequest
 
 DEPS_DOC = """Check or install the dependencies of the packages that nothing provides.
 
@@ -63,29 +64,55 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              "remembered for a day")
 
 
+@dataclass(frozen=True, slots=True)
+class DepsRequest:
+    """What `wsbuild deps` was asked (also what `build --install-deps` asks of it)."""
+
+    action: str = "check"
+    dry_run: bool = False
+    #: -y: also run apt-get
+    assume_yes: bool = False
+    #: --types as given (None: build,run,test)
+    types: str | None = None
+    #: --constraint (None: the lock file wsbuild ships for the underlay's ROS distro)
+    constraint: Path | None = None
+    skip_keys: tuple[str, ...] = ()
+    from_source: bool = False
+    refresh: bool = False
+
+
+def deps_request_from_args(args: argparse.Namespace) -> DepsRequest:
+    return DepsRequest(action=args.action, dry_run=args.dry_run, assume_yes=args.assume_yes,
+                       types=args.types, constraint=args.constraint,
+                       skip_keys=tuple(args.skip_keys), from_source=args.from_source,
+                       refresh=args.refresh)
+
+
 def run_deps(args: argparse.Namespace) -> int:
     """Check, plan or install the selected packages' missing dependencies."""
     from wsbuild.reporter import print_warnings
-    from wsbuild.verbs.load import load
+    from wsbuild.verbs.load import load, load_request_from_args
 
-    loaded = load(args, warn=print_warnings)
+    request, load_request = deps_request_from_args(args), load_request_from_args(args)
+    loaded = load(load_request, warn=print_warnings)
     names = list(loaded.selected)
-    found = _survey(args, loaded, names)
-    if args.action == "check" and not args.dry_run:
+    found = _survey(request, loaded, names)
+    if request.action == "check" and not request.dry_run:
         print("\n".join(check_lines(found)))
         return 1 if found.plan.missing else 0
-    if args.from_source and not args.dry_run and found.plan.from_source:
-        loaded, names, found = _fetch_sources(args, loaded, names, found)
-    print("\n".join(plan_lines(found, constraint=args.constraint, dry_run=args.dry_run)))
-    if args.dry_run or not (found.plan.steps or found.plan.test_tools):
-        if found.plan.from_source and not args.dry_run:
+    if request.from_source and not request.dry_run and found.plan.from_source:
+        loaded, names, found = _fetch_sources(request, load_request, loaded, names, found)
+    print("\n".join(plan_lines(found, constraint=_constraint(request, found),
+                               dry_run=request.dry_run)))
+    if request.dry_run or not (found.plan.steps or found.plan.test_tools):
+        if found.plan.from_source and not request.dry_run:
             _from_source_error(found)
         return 1 if found.plan.unresolved or found.plan.from_source else 0
-    return _install(args, loaded, found, names)
+    return _install(request, loaded, found, names)
 
 
-def _fetch_sources(args: argparse.Namespace, loaded: Loaded, names: list[str],
-                   found: Survey) -> tuple[Loaded, list[str], Survey]:
+def _fetch_sources(request: DepsRequest, load_request: LoadRequest, loaded: Loaded,
+                   names: list[str], found: Survey) -> tuple[Loaded, list[str], Survey]:
     """`--from-source`: clone the repositories of the keys available from source, look at
     the packages they bring, and again for their own keys, until nothing new is wanted."""
     import os
@@ -116,10 +143,10 @@ def _fetch_sources(args: argparse.Namespace, loaded: Loaded, names: list[str],
             return loaded, names, found
         fetched |= set(new)
         wanted = [f.key for f in found.plan.from_source]
-        loaded = load(args, warn=print_warnings)
+        loaded = load(load_request, warn=print_warnings)
         names = [n for n in names if n in loaded.packages]
         names += [k for k in wanted if k in loaded.packages and k not in names]
-        found = _survey(args, loaded, names)
+        found = _survey(request, loaded, names)
         print(f"from source: {len(fetched)} repositories in {repos_file.name} "
               f"(vcs-import src < {repos_file.name} fetches them again)")
 
@@ -140,21 +167,28 @@ def _from_source_error(found: Survey) -> None:
           "above): wsbuild deps install --from-source fetches them into src/", file=sys.stderr)
 
 
-def install_for_build(args: argparse.Namespace, loaded: Loaded) -> None:
+def install_for_build(loaded: Loaded) -> None:
     """`wsbuild build --install-deps`: `deps install -y` for the build's selection, first.
     What cannot be installed is reported and the build goes on (it warns about build
     dependencies itself)."""
-    deps_args = argparse.Namespace(**vars(args))
-    deps_args.assume_yes, deps_args.constraint = True, None
-    deps_args.types, deps_args.skip_keys, deps_args.refresh = None, [], False
-    found = _survey(deps_args, loaded)
+    request = DepsRequest(action="install", assume_yes=True)
+    found = _survey(request, loaded)
     if not (found.plan.steps or found.plan.test_tools):
         return
-    print("\n".join(plan_lines(found, constraint=deps_args.constraint, dry_run=False)))
-    _install(deps_args, loaded, found)
+    print("\n".join(plan_lines(found, constraint=_constraint(request, found), dry_run=False)))
+    _install(request, loaded, found)
 
 
-def _survey(args: argparse.Namespace, loaded: Loaded, names: list[str] | None = None,
+def _constraint(request: DepsRequest, found: Survey) -> Path | None:
+    """The pip constraints file: --constraint's, else the one shipped for the distro."""
+    from wsbuild.underlay.constraints import distro_constraints
+
+    if request.constraint is not None:
+        return request.constraint.absolute()
+    return distro_constraints(found.distro)
+
+
+def _survey(request: DepsRequest, loaded: Loaded, names: list[str] | None = None,
             ) -> Survey:
     import os
 
@@ -162,23 +196,18 @@ def _survey(args: argparse.Namespace, loaded: Loaded, names: list[str] | None = 
     from wsbuild.deps.survey import survey
     from wsbuild.errors import WsbuildError
 
-    from wsbuild.underlay.constraints import distro_constraints
-
-    if args.constraint is not None and not args.constraint.is_file():
-        raise WsbuildError("the constraints file does not exist", path=args.constraint,
+    if request.constraint is not None and not request.constraint.is_file():
+        raise WsbuildError("the constraints file does not exist", path=request.constraint,
                            hint="give an existing pip constraints file, or leave --constraint "
                                 "out to use the one wsbuild ships for the underlay's ROS distro")
-    constraint = args.constraint.absolute() if args.constraint is not None else None
     packages = [loaded.packages[name]
                 for name in (loaded.selected if names is None else names)]
-    found = survey(packages, loaded.packages, parse_types(args.types), environ=os.environ,
-                   shim_dir=loaded.workspace.build_base / ".wsbuild" / "lint_shim",
-                   skip=frozenset(args.skip_keys), refresh=getattr(args, "refresh", False))
-    args.constraint = constraint or distro_constraints(found.distro)
-    return found
+    return survey(packages, loaded.packages, parse_types(request.types), environ=os.environ,
+                  shim_dir=loaded.workspace.build_base / ".wsbuild" / "lint_shim",
+                  skip=frozenset(request.skip_keys), refresh=request.refresh)
 
 
-def _install(args: argparse.Namespace, loaded: Loaded, found: Survey,
+def _install(request: DepsRequest, loaded: Loaded, found: Survey,
              names: list[str] | None = None) -> int:
     import os
 
@@ -186,13 +215,13 @@ def _install(args: argparse.Namespace, loaded: Loaded, found: Survey,
     from wsbuild.underlay.repair import repair_underlay
 
     report = install(found.plan, venv=found.venv, python=found.python,
-                     constraint=args.constraint, assume_yes=args.assume_yes,
+                     constraint=_constraint(request, found), assume_yes=request.assume_yes,
                      environ=os.environ, repair=repair_underlay)
     print("\n".join(report_lines(report)))
     for outcome in report.failed:
         print(f"wsbuild: error: {outcome.step.need.key}: {outcome.step.installer.value} "
               f"{' '.join(outcome.step.packages)} failed: {outcome.message}", file=sys.stderr)
-    after = _survey(args, loaded, names)
+    after = _survey(request, loaded, names)
     still = {s.need.key for s in after.plan.steps} | {u.need.key for u in after.plan.unresolved}
     ok = {o.step.need.key for o in report.outcomes if o.ok}
     for key in sorted(ok & still):

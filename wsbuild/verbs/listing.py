@@ -93,9 +93,9 @@ def _read_only(loaded: Loaded) -> None:
 
 def run_list(args: argparse.Namespace) -> int:
     """List the selected packages."""
-    from wsbuild.verbs.load import load
+    from wsbuild.verbs.load import load, load_request_from_args
 
-    loaded = load(args, warn=print_warnings, remember=True)
+    loaded = load(load_request_from_args(args), warn=print_warnings, remember=True)
     _read_only(loaded)
     graph_style = "dot" if getattr(args, "topological_graph_dot", False) else "text" if \
         getattr(args, "topological_graph", False) else None
@@ -234,9 +234,9 @@ def format_graph(graph: Graph, names: list[str], style: str) -> str:
 
 def run_graph(args: argparse.Namespace) -> int:
     """Print the dependency graph of the selected packages."""
-    from wsbuild.verbs.load import load
+    from wsbuild.verbs.load import load, load_request_from_args
 
-    loaded = load(args, warn=print_warnings, remember=True)
+    loaded = load(load_request_from_args(args), warn=print_warnings, remember=True)
     _read_only(loaded)
     style = "dot" if args.dot else "mermaid" if args.mermaid else "text"
     text = format_graph(loaded.graph, loaded.selected, style)
@@ -248,9 +248,9 @@ def run_graph(args: argparse.Namespace) -> int:
 def run_info(args: argparse.Namespace) -> int:
     """Describe packages in detail."""
     from wsbuild.errors import SelectionError
-    from wsbuild.verbs.load import load
+    from wsbuild.verbs.load import load, load_request_from_args
 
-    loaded = load(args, warn=print_warnings, remember=True)
+    loaded = load(load_request_from_args(args), warn=print_warnings, remember=True)
     _read_only(loaded)
     lookup = _lookup(loaded.workspace.build_base)
     blocks = []

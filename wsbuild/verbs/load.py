@@ -11,9 +11,10 @@ import os
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from wsbuild.build_types import KnownBuildTypes
-from wsbuild.verbs.arguments import selection_from_args, workspace_from_args
+from wsbuild.verbs.arguments import Bases, bases_from_args, selection_from_args
 from wsbuild.workspace.discover import discover_packages, expand_paths
 from wsbuild.workspace.graph import Graph, build_graph
 from wsbuild.workspace.model import Package
@@ -24,6 +25,9 @@ from wsbuild.workspace.selection import (
     select_packages,
 )
 
+if TYPE_CHECKING:  # imported when the selection is given
+    from wsbuild.verbs.cache_selection import CacheSelection
+    from wsbuild.verbs.results import ResultSelection
 
 #: under the build base: what each package.xml read gave (workspace/memo.py)
 MANIFEST_MEMO = Path(".wsbuild") / "manifests.json"
@@ -38,12 +42,49 @@ class Loaded:
     warnings: tuple[str, ...]
 
 
-def workspace_root(args: argparse.Namespace) -> Path:
+@dataclass(frozen=True, slots=True)
+class LoadRequest:
+    """Where the workspace is and which of its packages a verb takes: made of the command line
+    once, at the verb's entry (`load_request_from_args`)."""
+
+    #: -C/--workspace (None: found from the current directory)
+    workspace_dir: str | None = None
+    #: --base-paths (None: <workspace>/src), --paths (None: crawl the base paths)
+    base_paths: tuple[str, ...] | None = None
+    paths: tuple[str, ...] | None = None
+    bases: Bases = Bases()
+    selection: SelectionOptions = SelectionOptions()
+    #: the result-based selection given (verbs/results.py), if any
+    results: ResultSelection | None = None
+    #: the cache-based selection given (verbs/cache_selection.py), if any
+    cache: CacheSelection | None = None
+
+
+def load_request_from_args(args: argparse.Namespace, *,
+                           cache: CacheSelection | None = None) -> LoadRequest:
+    """The LoadRequest of a verb's options (`cache`: the verb's own cache-based selection,
+    judged by its build or test request; else one judged as a plain build and test would)."""
+    from wsbuild.verbs.cache_selection import cache_selection_from_args
+    from wsbuild.verbs.results import result_selection_from_args
+
+    base_paths, paths = getattr(args, "base_paths", None), getattr(args, "paths", None)
+    return LoadRequest(
+        workspace_dir=getattr(args, "workspace_dir", None),
+        base_paths=None if base_paths is None else tuple(base_paths),
+        paths=None if paths is None else tuple(paths),
+        bases=bases_from_args(args),
+        selection=selection_from_args(args),
+        results=result_selection_from_args(args),
+        cache=cache or cache_selection_from_args(args),
+    )
+
+
+def workspace_root(workspace_dir: str | None) -> Path:
     """The workspace root: `-C/--workspace` if given, else found from the current directory."""
     from wsbuild.workspace.root import find_workspace_root
 
-    if args.workspace_dir:
-        root = Path(args.workspace_dir).absolute()
+    if workspace_dir:
+        root = Path(workspace_dir).absolute()
         if not root.is_dir():
             from wsbuild.errors import WorkspaceError
 
@@ -53,24 +94,24 @@ def workspace_root(args: argparse.Namespace) -> Path:
     return find_workspace_root(Path.cwd())
 
 
-def load(args: argparse.Namespace, *, select: bool = True,
+def load(request: LoadRequest, *, select: bool = True,
          warn: Callable[[Sequence[str]], None] | None = None,
          remember: bool = False) -> Loaded:
-    """Discover the workspace named by `args` and apply the selection options.
+    """Discover the workspace `request` names and apply its selection.
 
     The discovery's warnings are in the result, and handed to `warn` (the verb's output point)
     as soon as they are known: before a selection error ends the verb. What each package.xml
     read gave is remembered under the build base and used by every verb; `remember` writes it
     down (the verbs a user runs again and again on an unchanged workspace; never a dry run or
     `clean`, which leave build/ as it is)."""
-    workspace = workspace_from_args(args, workspace_root(args))
+    workspace = request.bases.workspace(workspace_root(request.workspace_dir))
     cwd = Path.cwd()
     base_paths = (
-        [Path(p).absolute() for p in args.base_paths]
-        if args.base_paths
+        [Path(p).absolute() for p in request.base_paths]
+        if request.base_paths
         else workspace.default_base_paths()
     )
-    paths = expand_paths(args.paths, cwd) if args.paths else []
+    paths = expand_paths(list(request.paths), cwd) if request.paths else []
     discovery = discover_packages(
         [workspace.build_base, workspace.install_base, workspace.log_base],
         base_paths=base_paths,
@@ -86,21 +127,23 @@ def load(args: argparse.Namespace, *, select: bool = True,
     warnings = (*discovery.warnings, *check_version_constraints(packages))
     if warn is not None:
         warn(warnings)
-    options = selection_from_args(args) if select else SelectionOptions()
+    options = request.selection if select else SelectionOptions()
     ignored = ignored_packages(options, packages)
     if ignored:
         packages = {n: p for n, p in packages.items() if n not in ignored}
     graph = build_graph(packages)
     if select:
-        from wsbuild.verbs.results import select_by_results
+        selected = select_packages(options, graph)
+        if request.results is not None:
+            from wsbuild.verbs.results import select_by_results
 
-        selected = select_by_results(args, workspace.build_base, select_packages(options, graph))
-        from wsbuild.verbs.cache_selection import cache_selection_given, select_by_cache
-
-        if cache_selection_given(args):
+            selected = select_by_results(request.results, workspace.build_base, selected)
+        if request.cache is not None:
+            from wsbuild.verbs.cache_selection import select_by_cache
             from wsbuild.workspace.selection import Selection
 
-            selected = select_by_cache(args, Selection(workspace, packages, graph, selected))
+            selected = select_by_cache(request.cache,
+                                       Selection(workspace, packages, graph, selected))
     else:
         selected = graph.topological_order()
     return Loaded(workspace, packages, graph, selected, warnings)

@@ -1,31 +1,35 @@
 """colcon-metadata's per-package metadata: `colcon.meta` files (`--metas`, default
 ./colcon.meta) and $COLCON_HOME/metadata/*.meta (unless --ignore-user-meta), read strictly, and
-their per-package CMake arguments handed to each package's configure.
-
-wsbuild's build takes one set of `--cmake-args` for the whole run, so a package's own `-D`
-arguments reach its CMake through one initial-cache script (`cmake -C`) that sets them only
-when CMake configures that package's build directory. Other metadata keys, and arguments that
-are not `-D`, are reported as ignored.
+the arguments they give each package: `cmake-args` and `ament-cmake-args` for its build,
+`pytest-args` and `ctest-args` for its tests (each after the command line's, as colcon extends
+a list option with a package's metadata). Other metadata keys are reported as ignored.
 """
 
 from __future__ import annotations
 
 import argparse
-import hashlib
 import os
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from wsbuild.errors import WsbuildError
 from wsbuild import inputs
 
+if TYPE_CHECKING:  # imported when a verb applies the metadata
+    from wsbuild.builder.request import BuildRequest
+    from wsbuild.testing.runners import TestRequest
+    from wsbuild.workspace.model import Package
+
 META_FILE = "colcon.meta"
 USER_DIR = "metadata"
-#: metadata keys wsbuild applies per package, and the build types each reaches
-APPLIED = {"cmake-args": ("cmake", "ament_cmake"), "ament-cmake-args": ("ament_cmake",)}
-#: where the initial-cache script goes, under the build base
-SCRIPT_DIR = Path(".wsbuild")
+#: the metadata keys `wsbuild build` applies per package
+BUILD_KEYS = ("cmake-args", "ament-cmake-args")
+#: the metadata keys `wsbuild test` applies per package: a test tool's name → its key
+TEST_KEYS = {"pytest": "pytest-args", "ctest": "ctest-args"}
+#: every metadata key wsbuild applies (the others are ignored with a note)
+APPLIED = (*BUILD_KEYS, *TEST_KEYS.values())
 
 
 class MetadataError(WsbuildError):
@@ -59,15 +63,42 @@ def _merge(target: dict[str, object], key: str, value: object) -> None:
         target[key] = value
 
 
-def metadata_files(args: argparse.Namespace, environ: Mapping[str, str], cwd: Path) -> list[Path]:
+@dataclass(frozen=True, slots=True)
+class MetadataRequest:
+    """Which metadata files apply: `--metas` (None: ./colcon.meta if there) and the user's
+    unless `--ignore-user-meta`."""
+
+    metas: tuple[str, ...] | None = None
+    ignore_user_meta: bool = False
+
+
+def add_metadata_arguments(group: argparse._ActionsContainer) -> None:
+    """colcon-metadata's options."""
+    from wsbuild.verbs.arguments import secondary
+
+    secondary(group.add_argument(
+        "--metas", nargs="*", metavar="PATH",
+        help="colcon.meta files, or directories holding them (default: ./colcon.meta)"))
+    secondary(group.add_argument("--ignore-user-meta", action="store_true",
+                                 help="not the metadata files under $COLCON_HOME/metadata"))
+
+
+def metadata_from_args(args: argparse.Namespace) -> MetadataRequest:
+    metas = getattr(args, "metas", None)
+    return MetadataRequest(metas=None if metas is None else tuple(metas),
+                           ignore_user_meta=bool(getattr(args, "ignore_user_meta", False)))
+
+
+def metadata_files(request: MetadataRequest, environ: Mapping[str, str],
+                   cwd: Path) -> list[Path]:
     """The metadata files that apply, in colcon-metadata's order: the user's, then --metas."""
     from wsbuild.verbs.mixin import config_home
 
     files: list[Path] = []
-    if not getattr(args, "ignore_user_meta", False):
+    if not request.ignore_user_meta:
         user = config_home(environ) / USER_DIR
         files += [Path(f) for f in inputs.walk_files(user) if f.endswith(".meta")]
-    metas = getattr(args, "metas", None)
+    metas = request.metas
     for meta in metas if metas is not None else [META_FILE]:
         path = cwd / meta
         if inputs.is_dir(path):
@@ -120,80 +151,64 @@ def read_metadata(files: list[Path]) -> Metadata:
 
 @dataclass(frozen=True, slots=True)
 class PackageArguments:
-    """What the metadata asks of the selected packages: `-D` arguments per package, and a note
-    for everything wsbuild does not apply."""
+    """What the metadata asks of the selected packages: per package, the arguments of each key
+    the verb applies (`cmake-args` → ("-DX=1",)), and a note for each key no verb applies."""
 
-    defines: Mapping[str, tuple[str, ...]]
+    by_package: Mapping[str, Mapping[str, tuple[str, ...]]]
     notes: tuple[str, ...]
 
 
-def package_arguments(metadata: Metadata, packages: Mapping[str, tuple[Path, str]],
-                      selected: list[str]) -> PackageArguments:
-    """`packages`: name → (path, build type)."""
-    defines: dict[str, tuple[str, ...]] = {}
+def package_arguments(metadata: Metadata, paths: Mapping[str, Path], selected: list[str],
+                      keys: tuple[str, ...]) -> PackageArguments:
+    """The metadata values of `keys` (those the verb applies) for each selected package;
+    `paths`: package name → its directory. The keys another verb applies are left to it; any
+    other key gets a note. Each item of a list is one argument, as colcon-metadata has it."""
+    by_package: dict[str, dict[str, tuple[str, ...]]] = {}
     notes: list[str] = []
     for name in selected:
-        path, build_type = packages[name]
-        values = metadata.for_package(name, path)
-        found: list[str] = []
-        for key, value in values.items():
+        for key, value in metadata.for_package(name, paths[name]).items():
             if key not in APPLIED:
                 notes.append(f"colcon.meta: '{key}' of {name} is ignored: wsbuild applies "
-                             f"cmake-args and ament-cmake-args per package")
-                continue
-            if build_type not in APPLIED[key]:
+                             f"{', '.join(APPLIED)} per package")
                 continue
             items = value if isinstance(value, list) else [value]
-            for item in map(str, items):
-                item = item.strip()
-                if item.startswith("-D") and "=" in item:
-                    found.append(item)
-                elif item:
-                    notes.append(f"colcon.meta: {key} '{item}' of {name} is ignored: only -D "
-                                 f"arguments reach a single package's CMake")
-        if found:
-            defines[name] = tuple(found)
-    return PackageArguments(defines, tuple(notes))
+            arguments = tuple(item for item in (str(v).strip() for v in items) if item)
+            if key in keys and arguments:
+                by_package.setdefault(name, {})[key] = arguments
+    return PackageArguments(by_package, tuple(notes))
 
 
-def _cmake_set(define: str) -> str:
-    """`-DNAME[:TYPE]=value` → a `set(… CACHE … FORCE)` line (the package's value wins over
-    --cmake-args, as colcon appends metadata arguments to the command line's)."""
-    name, _, value = define[2:].partition("=")
-    name, _, kind = name.partition(":")
-    bracket = "=" * (max((len(r) for r in _equals_runs(value)), default=0) + 1)
-    return f'  set({name} [{bracket}[{value}]{bracket}] CACHE {kind or "STRING"} "colcon.meta" FORCE)'
+def with_build_arguments(request: BuildRequest, metadata: MetadataRequest,
+                         packages: Mapping[str, Package],
+                         selected: list[str]) -> tuple[BuildRequest, tuple[str, ...]]:
+    """`request` with each selected package's own options (`cmake-args`, `ament-cmake-args`):
+    its plan carries them, they reach its build only and enter its key only; and the notes of
+    what is not applied."""
+    from dataclasses import replace
+
+    from wsbuild.builder.request import PackageOptions
+
+    found = read_metadata(metadata_files(metadata, os.environ, Path.cwd()))
+    wanted = package_arguments(found, _paths(packages), selected, BUILD_KEYS)
+    own = {name: PackageOptions(cmake_args=given.get("cmake-args", ()),
+                                ament_cmake_args=given.get("ament-cmake-args", ()))
+           for name, given in wanted.by_package.items()}
+    return (replace(request, packages=own) if own else request), wanted.notes
 
 
-def _equals_runs(text: str) -> list[str]:
-    import re
+def with_test_arguments(request: TestRequest, metadata: MetadataRequest,
+                        packages: Mapping[str, Package],
+                        selected: list[str]) -> tuple[TestRequest, tuple[str, ...]]:
+    """`request` with each selected package's own test tool arguments (`pytest-args`,
+    `ctest-args`, after the command line's, for that package only); and the notes."""
+    from dataclasses import replace
 
-    return re.findall(r"=+", text)
-
-
-def cache_script(defines: Mapping[str, tuple[str, ...]], build_base: Path) -> str:
-    """The initial-cache script: each package's settings, for its build directory only."""
-    lines = ["# written by wsbuild from colcon.meta: each package's -D arguments, set when CMake",
-             "# configures that package's build directory"]
-    for name in sorted(defines):
-        lines.append(f'if(CMAKE_BINARY_DIR STREQUAL [==[{build_base / name}]==])')
-        lines += [_cmake_set(define) for define in defines[name]]
-        lines.append("endif()")
-    return "\n".join(lines) + "\n"
+    found = read_metadata(metadata_files(metadata, os.environ, Path.cwd()))
+    wanted = package_arguments(found, _paths(packages), selected, tuple(TEST_KEYS.values()))
+    own = {name: {tool: given[key] for tool, key in TEST_KEYS.items() if key in given}
+           for name, given in wanted.by_package.items()}
+    return (replace(request, package_arguments=own) if own else request), wanted.notes
 
 
-def script_path(text: str, build_base: Path) -> Path:
-    """Named by its content: a change of the metadata is a change of the CMake arguments, so
-    the packages are configured again."""
-    digest = hashlib.sha256(text.encode()).hexdigest()[:12]
-    return build_base / SCRIPT_DIR / f"colcon_meta-{digest}.cmake"
-
-
-def write_script(path: Path, text: str) -> None:
-    """Write the script once (its name is its content)."""
-    if path.is_file():
-        return
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(path.name + ".tmp")
-    tmp.write_text(text, encoding="utf-8")
-    os.replace(tmp, path)
+def _paths(packages: Mapping[str, Package]) -> dict[str, Path]:
+    return {name: package.path for name, package in packages.items()}

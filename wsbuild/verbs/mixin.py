@@ -162,6 +162,17 @@ def application_order(mixins: Mapping[str, Mixin], requested: str) -> list[str]:
     return order
 
 
+def add_mixin_arguments(parser: argparse._ActionsContainer) -> None:
+    """--mixin and --mixin-files (apply_mixins reads them)."""
+    from wsbuild.verbs.arguments import secondary
+
+    secondary(parser.add_argument(
+        "--mixin", nargs="*", metavar="NAME",
+        help="colcon-mixin's named option sets, e.g. release ccache (wsbuild mixin show)"))
+    secondary(parser.add_argument("--mixin-files", nargs="*", metavar="FILE",
+                                  help="more *.mixin files to take mixins from"))
+
+
 def apply_mixins(parser: argparse.ArgumentParser, verb: str, args: argparse.Namespace,
                  environ: Mapping[str, str], cwd: Path | None = None) -> None:
     """Merge the mixins `args.mixin` names into `args` as colcon-mixin does: a list option

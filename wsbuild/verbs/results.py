@@ -11,6 +11,7 @@ workspace last built by colcon works too.
 from __future__ import annotations
 
 import argparse
+from dataclasses import dataclass
 from enum import Enum
 from pathlib import Path
 from wsbuild import inputs
@@ -70,13 +71,36 @@ def _colcon_result(build_dir: Path, verb: str) -> Previous | None:
     return Previous.FINISHED if text == "0" else Previous.FAILED
 
 
-def select_by_results(args: argparse.Namespace, build_base: Path,
-                      names: list[str]) -> list[str]:
-    """`names` narrowed by the result-based selection option `args` gives (if any)."""
+@dataclass(frozen=True, slots=True)
+class ResultSelection:
+    """The one result-based selection option given: its name (a key of RESULT_OPTIONS)."""
+
+    option: str
+
+
+def add_result_selection_arguments(group: argparse._ActionsContainer) -> None:
+    """colcon-package-selection's selections by the previous build or test run (one of them)."""
+    from wsbuild.verbs.arguments import secondary
+
+    group = group.add_mutually_exclusive_group()
+    for option, text in (
+        ("--packages-select-build-failed", "only packages whose last build failed"),
+        ("--packages-skip-build-finished", "leave out packages whose last build finished"),
+        ("--packages-select-test-failures", "only packages whose last tests failed"),
+        ("--packages-skip-test-passed", "leave out packages whose last tests passed"),
+    ):
+        secondary(group.add_argument(option, action="store_true", help=text))
+
+
+def result_selection_from_args(args: argparse.Namespace) -> ResultSelection | None:
     given = [dest for dest in RESULT_OPTIONS if getattr(args, dest, False)]
-    if not given:
-        return names
-    option = given[0]
+    return ResultSelection(given[0]) if given else None
+
+
+def select_by_results(selection: ResultSelection, build_base: Path,
+                      names: list[str]) -> list[str]:
+    """`names` narrowed by the result-based `selection`."""
+    option = selection.option
     read = previous_build if RESULT_OPTIONS[option] == "build" else previous_test
     results = {name: read(build_base / name) for name in names}
     if option.startswith("packages_select"):

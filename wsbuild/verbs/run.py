@@ -71,7 +71,7 @@ def run_executable(args: argparse.Namespace) -> int:
     """Run an executable of an installed package."""
     from wsbuild.verbs.load import workspace_root
 
-    root = workspace_root(args)
+    root = workspace_root(args.workspace_dir)
     install_base = root / (args.install_base or INSTALL_BASE)
     environ = dict(os.environ)
     prefixes = _package_prefixes(environ, install_base)

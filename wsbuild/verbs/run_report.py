@@ -37,7 +37,7 @@ def run_report(args: argparse.Namespace) -> int:
     from wsbuild.runreport.report_json import REPORT_HTML
     from wsbuild.verbs.load import workspace_root
 
-    log_base = workspace_root(args) / args.log_base
+    log_base = workspace_root(args.workspace_dir) / args.log_base
     run_dir = log_base / args.run
     if not run_dir.is_dir():
         runs = sorted(p.name for p in log_base.glob("*_*") if p.is_dir() and not p.is_symlink())

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import argparse
 import sys
+from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -19,8 +20,10 @@ from wsbuild.verbs.arguments import (
 from wsbuild.workspace.root import BUILD_BASE
 
 if TYPE_CHECKING:  # the modules of the work are imported when the verb runs, not to parse
-    from wsbuild.verbs.load import Loaded
+    from wsbuild.reporter import Console
     from wsbuild.testing.runners import TestRequest
+    from wsbuild.verbs.load import Loaded, LoadRequest
+    from wsbuild.verbs.metas import MetadataRequest
 
 TEST_DOC = """Run the tests of the packages against the built workspace.
 
@@ -107,32 +110,33 @@ def request_from_args(args: argparse.Namespace, root: Path) -> TestRequest:
     from wsbuild.builder.request import cpu_count
     from wsbuild.testing.runners import TestRequest
 
-    workers = getattr(args, "parallel_workers", None)
+    workers = args.parallel_workers
     workers = cpu_count() if workers is None else workers
     if workers < 1:
         raise WsbuildError(f"--parallel-workers must be at least 1, got {workers}")
-    until_fail = getattr(args, "retest_until_fail", 0) or 0
-    until_pass = getattr(args, "retest_until_pass", 0) or 0
+    until_fail = args.retest_until_fail or 0
+    until_pass = args.retest_until_pass or 0
     for flag, value in (("--retest-until-fail", until_fail), ("--retest-until-pass", until_pass)):
         if value < 0:
             raise WsbuildError(f"{flag} must not be negative, got {value}")
     if until_fail and until_pass:
         raise WsbuildError("--retest-until-fail and --retest-until-pass exclude each other")
-    base = getattr(args, "test_result_base", None)
+    base = args.test_result_base
+    tools = {"pytest": _passthrough(args.pytest_args),
+             "ctest": _passthrough(args.ctest_args)}
     return TestRequest(
-        tool_arguments={"pytest": _passthrough(getattr(args, "pytest_args", None)),
-                        "ctest": _passthrough(getattr(args, "ctest_args", None))},
+        tool_arguments={tool: arguments for tool, arguments in tools.items() if arguments},
         retest_until_fail=until_fail,
         retest_until_pass=until_pass,
         test_result_base=(root / base).absolute() if base else None,
-        merge_install=True if getattr(args, "merge_install", False) else None,
-        workers=1 if getattr(args, "executor", "parallel") == "sequential" else workers,
-        abort_on_error=getattr(args, "abort_on_error", False),
-        wait_for_lock=not getattr(args, "no_wait", False),
+        merge_install=True if args.merge_install else None,
+        workers=1 if args.executor == "sequential" else workers,
+        abort_on_error=args.abort_on_error,
+        wait_for_lock=not args.no_wait,
         python_executable=sys.executable,
-        strict_linters=getattr(args, "strict_linters", False),
-        reuse_results=not getattr(args, "no_test_cache", False),
-        report=not getattr(args, "no_report", False),
+        strict_linters=args.strict_linters,
+        reuse_results=not args.no_test_cache,
+        report=not args.no_report,
     )
 
 
@@ -142,6 +146,31 @@ def _passthrough(values: list[str] | None) -> tuple[str, ...]:
     return tuple(v.lstrip() for v in values or [] if v.strip())
 
 
+@dataclass(frozen=True, slots=True)
+class TestVerbRequest:
+    """Everything `wsbuild test` was asked: made of the command line once, at the verb's
+    entry; nothing below it sees the command line."""
+
+    __test__ = False  # not a pytest test class
+
+    load: LoadRequest
+    test: TestRequest
+    metadata: MetadataRequest
+    console: Console
+
+
+def test_verb_request_from_args(args: argparse.Namespace) -> TestVerbRequest:
+    from wsbuild.verbs.cache_selection import cache_selection_from_args
+    from wsbuild.verbs.colcon import console_from_args
+    from wsbuild.verbs.load import load_request_from_args, workspace_root
+    from wsbuild.verbs.metas import metadata_from_args
+
+    test = request_from_args(args, workspace_root(args.workspace_dir))
+    return TestVerbRequest(
+        load=load_request_from_args(args, cache=cache_selection_from_args(args, test=test)),
+        test=test, metadata=metadata_from_args(args), console=console_from_args(args))
+
+
 def run_test_verb(args: argparse.Namespace) -> int:
     """Run the tests of the selected packages; 1 when any test fails or errors."""
     from wsbuild.events import Notice, Summary
@@ -149,23 +178,27 @@ def run_test_verb(args: argparse.Namespace) -> int:
     from wsbuild.runreport.write import progress_of
     from wsbuild.testing.results import summary_lines
     from wsbuild.testing.runners import run_tests
-    from wsbuild.verbs.colcon import console_from_args
+    from wsbuild.reporter import print_notes
+    from wsbuild.verbs import metas
     from wsbuild.verbs.load import load
     from wsbuild.workspace.selection import Selection
 
-    loaded = load(args, warn=print_warnings)
-    request = request_from_args(args, loaded.workspace.root)
-    plan = Selection(loaded.workspace, loaded.packages, loaded.graph, loaded.selected)
-    console = console_from_args(args)
+    verb = test_verb_request_from_args(args)
+    loaded = load(verb.load, warn=print_warnings)
+    request, notes = metas.with_test_arguments(verb.test, verb.metadata, loaded.packages,
+                                               loaded.selected)
+    print_notes(dict.fromkeys(notes))
+    selection = Selection(loaded.workspace, loaded.packages, loaded.graph, loaded.selected)
+    console = verb.console
     reporter = Reporter(verb="test", console=console, log_base=loaded.workspace.log_base,
-                        progress=progress_of(plan, request.workers, durations=False))
+                        progress=progress_of(selection, request.workers, durations=False))
     reporter.package_list([(n, loaded.packages[n].build_type) for n in loaded.selected])
     missing = _missing_ros_pytest(loaded, request.python_executable)
     if missing:
         reporter(Notice(missing, warning=True))
     reporter.start_ticker()
     try:
-        run = run_tests(plan, request, reporter)  # timings and report: runreport/package_run.py
+        run = run_tests(selection, request, reporter)  # timings, report: runreport/package_run.py
         if console.summary:
             reporter(Summary(tuple(summary_lines(run, shown=Path.cwd()))))
     finally:
@@ -197,7 +230,7 @@ def run_test_result_verb(args: argparse.Namespace) -> int:
     from wsbuild.testing.junit import collect_results, report_lines
     from wsbuild.verbs.load import workspace_root
 
-    root = workspace_root(args)
+    root = workspace_root(args.workspace_dir)
     base = root / (getattr(args, "test_result_base", None) or getattr(args, "build_base", None)
                    or BUILD_BASE)
     if not base.is_dir():
