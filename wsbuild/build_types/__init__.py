@@ -222,10 +222,15 @@ class BuildTypeBase:
     Subclass it and override what differs (`name` and `steps` at least)."""
 
     name: str = ""
-    test_runner: TestRunner | None = None
     hooks: EnvironmentHooks = EnvironmentHooks()
     estimate_base: float = 0.3
     key_environment: tuple[str, ...] = ("SOURCE_DATE_EPOCH",)
+
+    @property
+    def test_runner(self) -> TestRunner | None:
+        """No tests; a subclass names its runner as a field or a property (the built-ins use
+        a property, so a build that runs no test imports no runner)."""
+        return None
 
     def steps(self, ctx: BuildContext) -> list[Step]:
         raise NotImplementedError(f"build type '{self.name}' defines no steps")
@@ -313,7 +318,9 @@ _REQUIRED = ("name", "steps", "test_runner", "hooks", "estimate_base", "key_opti
 
 def _checked(loaded: object, name: str, value: str) -> BuildType:
     """What an entry point loaded must be a whole build type: else an error naming it."""
-    missing = [attr for attr in _REQUIRED if not hasattr(loaded, attr)]
+    # the class first: asking the instance would run a property (a runner imported on a build)
+    missing = [attr for attr in _REQUIRED
+               if not hasattr(type(loaded), attr) and not hasattr(loaded, attr)]
     if missing or getattr(loaded, "name", None) != name:
         why = f"lacks {', '.join(missing)}" if missing else \
             f"is named {getattr(loaded, 'name', None)!r}"

@@ -6,15 +6,12 @@ from dataclasses import dataclass
 
 from wsbuild.build_types import BuildContext, BuildOptions, cmake_key_options
 from wsbuild.build_types.cmake import CMakeBuildType
-from wsbuild.build_types.ctest import CTEST
-from wsbuild.build_types.test_runner import TestRunner
 from wsbuild.prefix.hooks import EnvironmentHooks
 
 
 @dataclass(frozen=True, slots=True)
 class AmentCMakeBuildType(CMakeBuildType):
     name: str = "ament_cmake"
-    test_runner: TestRunner | None = CTEST
     hooks: EnvironmentHooks = EnvironmentHooks(cmake_prefix_path=True, ament=True,
                                                ament_local_setup=True)
     estimate_base: float = 2.0

@@ -8,22 +8,30 @@ them, with a warning that says what to add to `data_files`.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 from pathlib import PurePosixPath
 
 from wsbuild.build_types import BuildContext, BuildTypeBase, Step, StepFailed
 from wsbuild.build_types.python import python_steps
-from wsbuild.build_types.pybuild.tests import PYTEST
-from wsbuild.build_types.test_runner import TestRunner
 from wsbuild.prefix.hooks import EnvironmentHooks
 
 INDEX_DIR = PurePosixPath("share/ament_index/resource_index/packages")
+
+if TYPE_CHECKING:
+    from wsbuild.build_types.test_runner import TestRunner
 
 
 @dataclass(frozen=True, slots=True)
 class AmentPythonBuildType(BuildTypeBase):
     name: str = "ament_python"
-    test_runner: TestRunner | None = PYTEST
     hooks: EnvironmentHooks = EnvironmentHooks(ament=True)
+
+    @property
+    def test_runner(self) -> TestRunner | None:
+        """pytest's (build_types/pybuild/tests.py), imported when asked for: a build runs no test."""
+        from wsbuild.build_types.pybuild.tests import PYTEST
+
+        return PYTEST
 
     def steps(self, ctx: BuildContext) -> list[Step]:
         return python_steps(ctx, ament=True)

@@ -24,7 +24,7 @@ import sys
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from wsbuild.build_types import (
     COMPILER_ENVIRONMENT,
@@ -35,10 +35,11 @@ from wsbuild.build_types import (
     cmake_key_options,
     environment_digests,
 )
-from wsbuild.build_types.ctest import CTEST
-from wsbuild.build_types.test_runner import TestRunner
 from wsbuild.prefix.hooks import EnvironmentHooks
 from wsbuild.prefix.stage import direct_install
+
+if TYPE_CHECKING:
+    from wsbuild.build_types.test_runner import TestRunner
 
 #: what the last configure used, to know when to configure again
 CONFIGURE_RECORD = Path(".wsbuild") / "cmake_configure.json"
@@ -133,7 +134,6 @@ def _manifest_files(ctx: BuildContext) -> list[str]:
 @dataclass(frozen=True, slots=True)
 class CMakeBuildType:
     name: str = "cmake"
-    test_runner: TestRunner | None = CTEST
     #: colcon-ros gives a plain CMake package with a package.xml its pkg-config paths
     hooks: EnvironmentHooks = EnvironmentHooks(cmake_prefix_path=True, pkg_config_path=True)
     estimate_base: float = 1.5
@@ -143,6 +143,13 @@ class CMakeBuildType:
         *COMPILER_ENVIRONMENT, "CMAKE_BUILD_TYPE", "CMAKE_TOOLCHAIN_FILE",
         "CMAKE_C_COMPILER_LAUNCHER", "CMAKE_CXX_COMPILER_LAUNCHER", "PKG_CONFIG_PATH",
         "PKG_CONFIG_LIBDIR", "SOURCE_DATE_EPOCH")
+
+    @property
+    def test_runner(self) -> TestRunner | None:
+        """CTest's (ctest.py), imported when asked for: a build runs no test."""
+        from wsbuild.build_types.ctest import CTEST
+
+        return CTEST
 
     def key_options(self, options: BuildOptions) -> dict[str, object]:
         # --ament-cmake-args reach ament_cmake packages only (AmentCMakeBuildType)

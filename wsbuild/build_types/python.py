@@ -10,17 +10,22 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 from wsbuild.build_types import BuildContext, BuildTypeBase, Step
-from wsbuild.build_types.pybuild.tests import PYTEST
-from wsbuild.build_types.test_runner import TestRunner
 
 if TYPE_CHECKING:
+    from wsbuild.build_types.test_runner import TestRunner
     from wsbuild.build_types.pybuild.recipe import PythonBuildPlan
 
 
 @dataclass(frozen=True, slots=True)
 class PythonBuildType(BuildTypeBase):
     name: str = "python"
-    test_runner: TestRunner | None = PYTEST
+
+    @property
+    def test_runner(self) -> TestRunner | None:
+        """pytest's (build_types/pybuild/tests.py), imported when asked for: a build runs no test."""
+        from wsbuild.build_types.pybuild.tests import PYTEST
+
+        return PYTEST
 
     def steps(self, ctx: BuildContext) -> list[Step]:
         return python_steps(ctx)
