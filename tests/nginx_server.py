@@ -107,13 +107,15 @@ class NginxServer:
             self.process.stderr.close()
         self.process = None
 
-    def requests(self, at_least: int = 0) -> list[str]:
-        """The access log: one 'METHOD /uri STATUS auth=…' line per request. nginx logs a
-        request after answering it: with `at_least`, wait (up to 10 s) for that many lines."""
+    def requests(self, at_least: int = 0, method: str = "") -> list[str]:
+        """The access log: one 'METHOD /uri STATUS auth=…' line per request (only `method`'s,
+        when given). nginx logs a request after answering it: with `at_least`, wait (up to
+        10 s) for that many lines."""
         path = self.home / "access.log"
         deadline = time.monotonic() + 10
         while True:
             lines = path.read_text().splitlines() if path.exists() else []
+            lines = [line for line in lines if line.startswith(f"{method} ")] if method else lines
             if len(lines) >= at_least or time.monotonic() > deadline:
                 return lines
             time.sleep(0.02)

@@ -277,16 +277,6 @@ def test_server_stopped_mid_run(tmp_path: Path, template: Path, nginx: NginxServ
     assert (ws / "install" / "cached_talker" / "lib" / "cached_talker" / "talker").exists()
 
 
-def _logged_puts(nginx: NginxServer, at_least: int) -> int:
-    """The PUT requests in nginx's access log, waiting (up to 10 s) until there are `at_least`."""
-    deadline = time.monotonic() + 10
-    while True:
-        puts = sum(line.startswith("PUT") for line in nginx.requests())
-        if puts >= at_least or time.monotonic() > deadline:
-            return puts
-        time.sleep(0.02)
-
-
 def test_read_only_restores_but_writes_nothing(tmp_path: Path, template: Path,
                                                nginx: NginxServer) -> None:
     ws = tmp_path / "ws"
@@ -294,7 +284,7 @@ def test_read_only_restores_but_writes_nothing(tmp_path: Path, template: Path,
     run_build(ws, "--cache", nginx.url, env=env_for(tmp_path / "trusted"))
     stored = nginx.stored("ac") + nginx.stored("cas")
     # nginx logs a request after answering it: wait until every stored file's PUT is logged
-    puts = _logged_puts(nginx, at_least=len(stored))
+    puts = len(nginx.requests(at_least=len(stored), method="PUT"))
 
     fresh_clone(ws, template)
     (ws / "src" / "cached_util" / "cached_util" / "util.py").write_text("VALUE = 8\n")

@@ -216,6 +216,20 @@ _CMAKE_OPTIONS = ("cmake_args", "ament_cmake_args", "cmake_target", "cmake_clean
                   "cmake_clean_first", "cmake_force_configure", "underlay_cmake_args")
 
 
+class RunnerNamed:
+    """A build type's test runner named by `module:attribute` and imported when first asked
+    for, so that a build, which runs no test, imports no runner. The built-ins name theirs so:
+    `test_runner = RunnerNamed("wsbuild.build_types.ctest:CTEST")`."""
+
+    def __init__(self, target: str) -> None:
+        self.target = target
+
+    def __get__(self, instance: object, owner: type | None = None) -> TestRunner | None:
+        if instance is None:  # asked of the class (the entry-point check): import nothing
+            return self  # type: ignore[return-value]
+        return _load_entry_point(self.target)  # type: ignore[return-value]
+
+
 @dataclass(frozen=True, slots=True)
 class BuildTypeBase:
     """Defaults for a build type: no tests, a plain prefix's hooks, CMake options ignored.
@@ -228,8 +242,8 @@ class BuildTypeBase:
 
     @property
     def test_runner(self) -> TestRunner | None:
-        """No tests; a subclass names its runner as a field or a property (the built-ins use
-        a property, so a build that runs no test imports no runner)."""
+        """No tests; a subclass names its runner as a field, or with `RunnerNamed` (the
+        built-ins: a build that runs no test imports no runner)."""
         return None
 
     def steps(self, ctx: BuildContext) -> list[Step]:

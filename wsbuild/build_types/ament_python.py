@@ -8,17 +8,13 @@ them, with a warning that says what to add to `data_files`.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
 from pathlib import PurePosixPath
 
-from wsbuild.build_types import BuildContext, BuildTypeBase, Step, StepFailed
+from wsbuild.build_types import BuildContext, BuildTypeBase, RunnerNamed, Step, StepFailed
 from wsbuild.build_types.python import python_steps
 from wsbuild.prefix.hooks import EnvironmentHooks
 
 INDEX_DIR = PurePosixPath("share/ament_index/resource_index/packages")
-
-if TYPE_CHECKING:
-    from wsbuild.build_types.test_runner import TestRunner
 
 
 @dataclass(frozen=True, slots=True)
@@ -26,12 +22,7 @@ class AmentPythonBuildType(BuildTypeBase):
     name: str = "ament_python"
     hooks: EnvironmentHooks = EnvironmentHooks(ament=True)
 
-    @property
-    def test_runner(self) -> TestRunner | None:
-        """pytest's (build_types/pybuild/tests.py), imported when asked for: a build runs no test."""
-        from wsbuild.build_types.pybuild.tests import PYTEST
-
-        return PYTEST
+    test_runner = RunnerNamed("wsbuild.build_types.pybuild.tests:PYTEST")
 
     def steps(self, ctx: BuildContext) -> list[Step]:
         return python_steps(ctx, ament=True)

@@ -24,13 +24,14 @@ import sys
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 from wsbuild.build_types import (
     COMPILER_ENVIRONMENT,
     BuildContext,
     BuildOptions,
     Command,
+    RunnerNamed,
     Step,
     cmake_key_options,
     environment_digests,
@@ -38,8 +39,6 @@ from wsbuild.build_types import (
 from wsbuild.prefix.hooks import EnvironmentHooks
 from wsbuild.prefix.stage import direct_install
 
-if TYPE_CHECKING:
-    from wsbuild.build_types.test_runner import TestRunner
 
 #: what the last configure used, to know when to configure again
 CONFIGURE_RECORD = Path(".wsbuild") / "cmake_configure.json"
@@ -144,12 +143,7 @@ class CMakeBuildType:
         "CMAKE_C_COMPILER_LAUNCHER", "CMAKE_CXX_COMPILER_LAUNCHER", "PKG_CONFIG_PATH",
         "PKG_CONFIG_LIBDIR", "SOURCE_DATE_EPOCH")
 
-    @property
-    def test_runner(self) -> TestRunner | None:
-        """CTest's (ctest.py), imported when asked for: a build runs no test."""
-        from wsbuild.build_types.ctest import CTEST
-
-        return CTEST
+    test_runner = RunnerNamed("wsbuild.build_types.ctest:CTEST")
 
     def key_options(self, options: BuildOptions) -> dict[str, object]:
         # --ament-cmake-args reach ament_cmake packages only (AmentCMakeBuildType)

@@ -49,6 +49,11 @@ class Counts:
                 f"{plural(self.failures, 'failure')}, {self.skipped} skipped")
 
     @classmethod
+    def total(cls, counts: Iterable[Counts]) -> Counts:
+        """The sum of several results' counts."""
+        return sum(counts, cls())
+
+    @classmethod
     def of(cls, cases: Iterable[Case]) -> Counts:
         outcomes = [c.outcome for c in cases]
         return cls(tests=len(outcomes), errors=outcomes.count(CaseOutcome.ERROR),

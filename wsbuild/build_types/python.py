@@ -9,10 +9,9 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
-from wsbuild.build_types import BuildContext, BuildTypeBase, Step
+from wsbuild.build_types import BuildContext, BuildTypeBase, RunnerNamed, Step
 
 if TYPE_CHECKING:
-    from wsbuild.build_types.test_runner import TestRunner
     from wsbuild.build_types.pybuild.recipe import PythonBuildPlan
 
 
@@ -20,12 +19,7 @@ if TYPE_CHECKING:
 class PythonBuildType(BuildTypeBase):
     name: str = "python"
 
-    @property
-    def test_runner(self) -> TestRunner | None:
-        """pytest's (build_types/pybuild/tests.py), imported when asked for: a build runs no test."""
-        from wsbuild.build_types.pybuild.tests import PYTEST
-
-        return PYTEST
+    test_runner = RunnerNamed("wsbuild.build_types.pybuild.tests:PYTEST")
 
     def steps(self, ctx: BuildContext) -> list[Step]:
         return python_steps(ctx)

@@ -30,10 +30,7 @@ class Collected:
 
     @property
     def counts(self) -> Counts:
-        total = Counts()
-        for result in self.results:
-            total += result.counts
-        return total
+        return Counts.total(result.counts for result in self.results)
 
 
 def collect_results(base: Path) -> Collected:

@@ -74,10 +74,7 @@ class TestRun:
 
     @property
     def counts(self) -> Counts:
-        total = Counts()
-        for result in self.results:
-            total += result.counts
-        return total
+        return Counts.total(result.counts for result in self.results)
 
     @property
     def failed(self) -> bool:

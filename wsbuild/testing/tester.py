@@ -167,9 +167,7 @@ def package_result(name: str, outcome: TestOutcome, python_executable: str) -> P
     """A package's result from what its runner found: failed when any test failed or erred;
     the tests skipped for a missing linter and the tooling failures named."""
     files: Sequence[ResultFile] = outcome.files
-    counts = Counts()
-    for result in files:
-        counts += result.counts
+    counts = Counts.total(result.counts for result in files)
     if outcome.no_tests:
         return PackageTests(name, PackageStatus.NO_TESTS, counts,
                             result_files=tuple(result.path for result in files),

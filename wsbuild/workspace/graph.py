@@ -24,6 +24,9 @@ class Graph:
     #: reverse_edges' answer, made on the first question
     _reverse: dict[str, frozenset[str]] = field(default_factory=dict, compare=False,
                                                 repr=False)
+    #: the whole graph's topological order, made on the first question (a build asks for it
+    #: while selecting, planning, printing and finishing)
+    _order: list[str] = field(default_factory=list, compare=False, repr=False)
 
     def direct(self, name: str, categories: Collection[DepCategory] = ALL_CATEGORIES) -> set[str]:
         per_category = self.edges[name]
@@ -77,6 +80,8 @@ class Graph:
 
     def topological_order(self, names: Collection[str] | None = None) -> list[str]:
         """Dependencies before dependents, ties broken by name; raise CycleError on a cycle."""
+        if names is None and self._order:
+            return list(self._order)
         subset = set(self.packages) if names is None else set(names)
         order, stuck = toposort({n: self.direct(n) & subset for n in subset})
         if stuck:
@@ -84,6 +89,8 @@ class Graph:
                 "dependency cycle: " + " → ".join(self.find_cycle(stuck)),
                 hint="remove one of these dependencies (test_depend counts too)",
             )
+        if names is None:
+            self._order.extend(order)
         return order
 
     def find_cycle(self, among: set[str]) -> list[str]:
