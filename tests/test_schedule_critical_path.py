@@ -11,7 +11,7 @@ import pytest
 
 from test_build_helpers import build, write_cmake
 from wsbuild.engine.ready_queue import JobGraph
-from wsbuild.engine.schedule import FailurePolicy, critical_path, remaining_work, run_jobs
+from wsbuild.engine.schedule import FailurePolicy, run_jobs
 from wsbuild.builder.weights import estimate_seconds, package_weights
 from wsbuild.engine.timings import read_durations
 from wsbuild.engine.jobs import JobResult, Outcome
@@ -21,6 +21,14 @@ from wsbuild.workspace.model import Package
 #                                └─ f(1)
 DEPS = {"a": set(), "b": set(), "c": {"a"}, "d": {"b"}, "e": {"d"}, "f": {"b"}}
 WEIGHTS = {"a": 1, "b": 2, "c": 1, "d": 5, "e": 1, "f": 1}
+
+
+def remaining_work(dependencies: dict[str, set[str]], weights: dict[str, float]) -> dict[str, float]:
+    return JobGraph.of(dependencies, dependencies).remaining_work(weights)
+
+
+def critical_path(dependencies: dict[str, set[str]], weights: dict[str, float]) -> list[str]:
+    return JobGraph.of(dependencies, dependencies).critical_path(weights)
 
 
 def test_remaining_work_is_own_weight_plus_heaviest_chain_of_dependents() -> None:

@@ -4,7 +4,7 @@ Which job starts next is ready_queue.py's answer (dependencies settled, critical
 then the given order), the same a plan's start order is made of. Weights are each package's
 duration in the last recorded build (kept in `build/.wsbuild/durations.json`, see
 `timings.py`), or an estimate from its number of interface and source files when none is
-recorded. `critical_path()` returns the chain that bounds the run from below.
+recorded. `JobGraph.critical_path()` gives the chain that bounds the run from below.
 """
 
 from __future__ import annotations
@@ -13,7 +13,7 @@ import queue
 import signal
 import threading
 import time
-from collections.abc import Callable, Iterable, Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import replace
 from enum import Enum
 
@@ -158,17 +158,3 @@ class RunInterrupted(KeyboardInterrupt):
     def __init__(self, results: list[JobResult]) -> None:
         super().__init__()
         self.results = results
-
-
-def remaining_work(dependencies: Mapping[str, Iterable[str]],
-                   weights: Mapping[str, float]) -> dict[str, float]:
-    """For every name in `dependencies`: its weight plus the heaviest chain of names that depend
-    on it, directly or not (dependencies outside the mapping are ignored; a missing weight is 0)."""
-    return JobGraph.of(dependencies, dependencies).remaining_work(weights)
-
-
-def critical_path(dependencies: Mapping[str, Iterable[str]],
-                  weights: Mapping[str, float]) -> list[str]:
-    """The heaviest chain of packages, dependencies first: the lower bound of a run's wall time
-    with unlimited CPUs. Ties go to the name first in `dependencies`' order."""
-    return JobGraph.of(dependencies, dependencies).critical_path(weights)
