@@ -147,6 +147,10 @@ def _workspace_defaults(ws: Path) -> None:
     (ws / "wsbuild.yaml").write_text("build:\n  cmake-args: [-DWSB_PROBE=1]\n")
 
 
+def _package_metadata(ws: Path) -> None:
+    (ws / "colcon.meta").write_text('{"names": {"pc": {"cmake-args": ["-DWSB_PROBE=1"]}}}')
+
+
 def _user_defaults(ws: Path) -> None:
     (ws.parent / "colcon-home" / "defaults.yaml").write_text(
         "build:\n  cmake-args: [-DWSB_PROBE=1]\n")
@@ -170,6 +174,7 @@ CHANGES = {
     "an installed file removed": (_remove_installed_file, "pa"),
     "a workspace defaults file written": (_workspace_defaults, "pc"),
     "the user's defaults file written": (_user_defaults, "pc"),
+    "a package's colcon.meta written": (_package_metadata, "pc"),
     "an interrupted build's marker": (_unfinished_build, "pc"),
     "a setup script removed": (_setup_script_removed, None),
 }
