@@ -5,9 +5,11 @@ from __future__ import annotations
 
 import fcntl
 import os
+import shutil
 import signal
 import subprocess
 import sys
+import tempfile
 from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
 
@@ -15,9 +17,14 @@ import pytest
 
 REPO = Path(__file__).resolve().parent.parent
 
-# No build cache unless a test asks for one (tests/test_cache_*.py): a restore would stand in
-# for the build a test means to run, and ~/.cache/wsbuild would fill up.
-os.environ["WSBUILD_CACHE"] = "off"
+# The suite runs wsbuild in its default configuration: the local build cache is on, so every
+# "up to date", "restored" and "cached" it answers is tested as users get it. The cache lives in
+# a directory of the session's own (pytest_configure; removed at its end), not ~/.cache/wsbuild;
+# a test that needs the cache off says why.
+CACHE_VARIABLE = "WSBUILD_CACHE_DIR"
+# DDS stays on this machine however the suite is started (scripts/test.sh exports it too); a
+# run in-process and one in a subprocess then see one environment
+os.environ.setdefault("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
 
 # The inputs oracle (engine/inputs_oracle.py): every wsbuild run the suite records also traces
 # its own file accesses and writes down those no declaration (wsbuild/inputs.py) covers. Each
@@ -29,16 +36,42 @@ ORACLE_VARIABLE = "WSBUILD_INPUTS_ORACLE"
 
 def pytest_configure(config: pytest.Config) -> None:
     if hasattr(config, "workerinput"):
-        return  # an xdist worker: its controller's file
+        return  # an xdist worker: its controller's file and cache
     oracle_dir = REPO / ".pytest_cache"
     oracle_dir.mkdir(exist_ok=True)
     oracle = oracle_dir / f"inputs-oracle-{os.getpid()}.txt"
     oracle.unlink(missing_ok=True)
     os.environ[ORACLE_VARIABLE] = str(oracle)
+    step_oracle = oracle_dir / f"step-oracle-{os.getpid()}.txt"
+    for stale in (step_oracle, Path(f"{step_oracle}.checked")):
+        stale.unlink(missing_ok=True)
+    os.environ[SUITE_STEP_ORACLE] = str(step_oracle)
+    os.environ.pop(STEP_ORACLE_VARIABLE, None)  # on only where a test asks for it
+    os.environ.pop("WSBUILD_CACHE", None)  # a developer's remote cache or `off`: not here
+    os.environ[CACHE_VARIABLE] = tempfile.mkdtemp(prefix="wsbuild-suite-cache-")
 
 
 def _oracle_file() -> Path:
     return Path(os.environ[ORACLE_VARIABLE])
+
+
+# The build-step oracle (builder/step_trace.py): the builds of the tests that use the
+# `traced_steps` fixture run each build step under strace, and write down every file a step
+# read that the package's record does not hold; a non-empty file fails the session, naming
+# the package, the step and the file.
+STEP_ORACLE_VARIABLE = "WSBUILD_STEP_TRACE"
+SUITE_STEP_ORACLE = "WSBUILD_SUITE_STEP_ORACLE"
+
+
+def _step_oracle_file() -> Path:
+    return Path(os.environ[SUITE_STEP_ORACLE])
+
+
+@pytest.fixture
+def traced_steps(monkeypatch: pytest.MonkeyPatch) -> Path:
+    """The builds this test starts run their steps under the build-step oracle."""
+    monkeypatch.setenv(STEP_ORACLE_VARIABLE, os.environ[SUITE_STEP_ORACLE])
+    return _step_oracle_file()
 
 PACKAGE_XML = """<?xml version="1.0"?>
 <package format="3">
@@ -287,10 +320,18 @@ def _undeclared_inputs() -> list[str]:
         return []
 
 
+def _unrecorded_reads() -> list[str]:
+    try:
+        return _step_oracle_file().read_text().splitlines()
+    except FileNotFoundError:
+        return []
+
+
 def pytest_sessionfinish(session: pytest.Session, exitstatus: int) -> None:
     if hasattr(session.config, "workerinput"):
         return  # an xdist worker: the controller counts and decides
-    if (_unexpected_skips or _undeclared_inputs()) and exitstatus == 0:
+    shutil.rmtree(os.environ.get(CACHE_VARIABLE, ""), ignore_errors=True)
+    if (_unexpected_skips or _undeclared_inputs() or _unrecorded_reads()) and exitstatus == 0:
         session.exitstatus = pytest.ExitCode.TESTS_FAILED
 
 
@@ -305,5 +346,16 @@ def pytest_terminal_summary(terminalreporter: pytest.TerminalReporter) -> None:
     terminalreporter.write_line(
         f"{sum(1 for line in undeclared if not line.startswith('#'))} undeclared inputs of "
         f"recorded runs (wsbuild/inputs.py; the oracle's file: {_oracle_file()})")
+    unrecorded = _unrecorded_reads()
+    for line in unrecorded:
+        terminalreporter.write_line(f"UNRECORDED READ {line}")
+    try:
+        checked = Path(f"{_step_oracle_file()}.checked").read_text().splitlines()
+    except FileNotFoundError:
+        checked = []
+    terminalreporter.write_line(
+        f"{len(unrecorded)} reads of build steps no package record holds, in "
+        f"{len(checked)} traced package builds (builder/step_trace.py; the oracle's file: "
+        f"{_step_oracle_file()})")
     terminalreporter.write_line(
         f"{len(_unexpected_skips)} unexpected skips (allowed: {'; '.join(ALLOWED_SKIPS)})")

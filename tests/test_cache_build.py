@@ -94,8 +94,11 @@ def tree(root: Path) -> dict[str, tuple[str, str, int]]:
 
 
 def env_for(xdg: Path, **extra: str) -> dict[str, str]:
-    """A fresh terminal whose local cache lives in `xdg` (WSBUILD_CACHE empty: local only)."""
-    return clean_env(**{"XDG_CACHE_HOME": str(xdg), "WSBUILD_CACHE": "", **extra})
+    """A fresh terminal whose local cache lives in `xdg` (WSBUILD_CACHE empty: local only; not
+    the suite's cache directory)."""
+    env = clean_env(**{"XDG_CACHE_HOME": str(xdg), "WSBUILD_CACHE": "", **extra})
+    env.pop("WSBUILD_CACHE_DIR", None)
+    return env
 
 
 def restored(result: subprocess.CompletedProcess[str]) -> list[str]:
@@ -138,7 +141,8 @@ def test_fresh_clone_restores_every_package_byte_for_byte(tmp_path: Path, templa
     first = run_build(ws, "--cache", nginx.url, env=env_for(tmp_path / "machine1"))
     assert finished(first) == sorted(PACKAGES) and warnings(first) == []
     built = tree(ws / "install")
-    assert len(nginx.stored("ac")) == len(PACKAGES) == len(nginx.stored("cas"))
+    # each entry: its archive and the package record it was built with
+    assert len(nginx.stored("ac")) == len(PACKAGES) == len(nginx.stored("cas")) // 2
     # what the cache cost this cold build is in its log, in the form benchmarks/cache.py reads
     log = (ws / "log" / "latest_build" / "cache.log").read_text()
     assert f"{len(PACKAGES)} missed" in log and f"{len(PACKAGES)} stored" in log, log
@@ -215,7 +219,9 @@ def test_poisoned_remote_entry_is_refused_and_rebuilt(tmp_path: Path, template: 
     built = tree(ws / "install")
     # one archive replaced by another package's (a valid archive under the wrong digest), one
     # record pointing to an archive that writes outside its prefix (under its true digest)
-    blobs = nginx.stored("cas")
+    archives = {record.digest for p in nginx.stored("ac")
+                if (record := parse_action_result(p.read_bytes())) is not None}
+    blobs = [blob for blob in nginx.stored("cas") if blob.name in archives]
     blobs[0].write_bytes(blobs[1].read_bytes())
     raw = io.BytesIO()
     with tarfile.open(fileobj=raw, mode="w") as tar:
@@ -228,7 +234,8 @@ def test_poisoned_remote_entry_is_refused_and_rebuilt(tmp_path: Path, template: 
     victim = next(p for p in nginx.stored("ac") if blobs[0].name not in p.read_text())
     record = parse_action_result(victim.read_bytes())
     assert record is not None
-    victim.write_bytes(ActionResult(record.package, evil_digest, len(evil)).encode())
+    victim.write_bytes(ActionResult(record.package, evil_digest, len(evil), record.record_digest,
+                                    record.record_size).encode())
 
     fresh_clone(ws, template)
     result = run_build(ws, "--cache", nginx.url, env=env_for(tmp_path / "m2"))
@@ -346,7 +353,8 @@ def test_cache_verb_stats_verify_prune(tmp_path: Path, template: Path) -> None:
     run_build(ws, env=env)
     stats = wsbuild("cache", "stats", cwd=tmp_path, env=env)
     assert stats.returncode == 0, output(stats)
-    assert f"{len(PACKAGES)} entries, {len(PACKAGES)} archives" in stats.stdout
+    # each entry: its archive and the package record it was built with
+    assert f"{len(PACKAGES)} entries, {2 * len(PACKAGES)} blobs" in stats.stdout
     assert str(tmp_path / "xdg" / "wsbuild") in stats.stdout
 
     blob = sorted((tmp_path / "xdg" / "wsbuild" / "cas").iterdir())[0]
@@ -358,4 +366,4 @@ def test_cache_verb_stats_verify_prune(tmp_path: Path, template: Path) -> None:
 
     prune = wsbuild("cache", "prune", "--max-size", "0", cwd=tmp_path, env=env)
     assert prune.returncode == 0, output(prune)
-    assert "0 entries, 0 archives" in wsbuild("cache", "stats", cwd=tmp_path, env=env).stdout
+    assert "0 entries, 0 blobs" in wsbuild("cache", "stats", cwd=tmp_path, env=env).stdout

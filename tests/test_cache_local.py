@@ -164,16 +164,16 @@ def test_concurrent_writers_leave_one_good_entry(tmp_path: Path) -> None:
     assert not any(local.tmp.iterdir())
 
 
-def test_cache_key_covers_prefix_build_key_and_compiler(tmp_path: Path) -> None:
+def test_cache_key_covers_prefix_inputs_key_and_compiler(tmp_path: Path) -> None:
     env = {"PATH": os.environ["PATH"]}
-    base = dict(package="pkg", build_key="k", install_prefix=tmp_path / "install" / "pkg",
+    base = dict(package="pkg", inputs_key="k", install_prefix=tmp_path / "install" / "pkg",
                 build_type="ament_cmake", environ=env, version="1")
     key = cache_key(**base)  # type: ignore[arg-type]
     assert key == cache_key(**base)  # type: ignore[arg-type]
     assert len(key.address) == 64
     others = [
         {**base, "install_prefix": tmp_path / "elsewhere" / "install" / "pkg"},
-        {**base, "build_key": "k2"},
+        {**base, "inputs_key": "k2"},
         {**base, "version": "2"},
         {**base, "environ": {**env, "CXX": "clang++-nonexistent"}},
     ]

@@ -1,9 +1,10 @@
 """Early cutoff: a package is rebuilt because of a dependency only when something it read of
 that dependency while building changed (its build system's own lists: the headers, CMake
-files and libraries of a CMake build; what a setup.py opened, its imports included). A
-comment edited in a root Python package rebuilds that package only; a header changed in a
-root C++ package rebuilds its C++ users; a dependency rebuilt to the same bytes stops the
-wave there."""
+files and libraries of a CMake build, the depfiles of its custom commands; what a setup.py
+opened, stat'ed and listed, its imports included). A comment edited in a root Python package
+rebuilds that package only; a header changed in a root C++ package rebuilds its C++ users; a
+dependency rebuilt to the same bytes stops the wave there. In wsbuild's default configuration
+(the build cache on), every build step under the build-step oracle."""
 
 from __future__ import annotations
 
@@ -11,12 +12,19 @@ import json
 import subprocess
 from pathlib import Path
 
+import pytest
+
 from test_build_helpers import clean_env, output, write, write_ament_python, write_cmake
 from test_build_helpers import wsbuild as run
 
 
+#: every build step of this module's builds runs under strace, checked against the record
+pytestmark = pytest.mark.usefixtures("traced_steps")
+
+
 def _env() -> dict[str, str]:
-    return clean_env(WSBUILD_CACHE="off")
+    """A fresh terminal, in wsbuild's default configuration (the local build cache on)."""
+    return clean_env()
 
 
 def _build(ws: Path, *args: str) -> subprocess.CompletedProcess[str]:
@@ -189,3 +197,104 @@ def test_the_report_page_says_which_packages_were_cut_off(tmp_path: Path) -> Non
                                  "package builds from changed → up to date")
     page = (ws / "log" / "latest_build" / "report.html").read_text()
     assert page.count("nothing this package builds from changed") >= 2  # app_a, app_b rows
+
+
+VALUES_LIB = """
+cmake_minimum_required(VERSION 3.16)
+project(libvals NONE)
+install(DIRECTORY include/ DESTINATION include)
+install(FILES package.xml DESTINATION share/libvals)
+"""
+
+TABLE_USER = """
+cmake_minimum_required(VERSION 3.16)
+project(tabler CXX)
+find_path(VALUES_DIR libvals/values.h REQUIRED)
+add_custom_command(
+  OUTPUT table.h
+  COMMAND ${CMAKE_COMMAND} -DOUT=table.h -DDEP=table.d -DSRC=${VALUES_DIR}/libvals/values.h
+          -P ${CMAKE_CURRENT_SOURCE_DIR}/gen.cmake
+  DEPFILE table.d)
+add_executable(tabler main.cpp table.h)
+target_include_directories(tabler PRIVATE ${CMAKE_CURRENT_BINARY_DIR})
+install(TARGETS tabler DESTINATION bin)
+install(FILES package.xml DESTINATION share/tabler)
+"""
+
+GEN_TABLE = """
+file(STRINGS "${SRC}" lines REGEX "^#define")
+string(REPLACE "#define VALUE" "#define TABLE_VALUE" table "${lines}")
+file(WRITE "${OUT}" "${table}\\n")
+file(WRITE "${DEP}" "table.h: ${SRC}\\n")
+"""
+
+
+def test_a_dependents_table_generated_from_a_dependencys_header_follows_it(
+        tmp_path: Path) -> None:
+    """A custom command reads the dependency's installed header and names it in its depfile
+    (`add_custom_command(DEPFILE …)`: Ninja's deps log lists nothing for it): after the
+    dependency is rebuilt with another value, the dependent is rebuilt, not cut off."""
+    ws = tmp_path / "ws"
+    lib = write_cmake(ws / "src", "libvals", VALUES_LIB,
+                      files={"include/libvals/values.h": "#define VALUE 7\n"})
+    write_cmake(ws / "src", "tabler", TABLE_USER, depend=["libvals"], files={
+        "gen.cmake": GEN_TABLE,
+        "main.cpp": '#include <cstdio>\n#include "table.h"\n'
+                    'int main() { std::printf("%d\\n", TABLE_VALUE); }\n'})
+    _build(ws)
+    program = ws / "install" / "tabler" / "bin" / "tabler"
+    assert subprocess.run([str(program)], capture_output=True, text=True).stdout == "7\n"
+    write(lib / "include" / "libvals" / "values.h", "#define VALUE 8\n")
+
+    result = _build(ws)
+
+    assert _rebuilt(result) == ["libvals", "tabler"], output(result)
+    assert subprocess.run([str(program)], capture_output=True, text=True).stdout == "8\n"
+
+
+TOOLBOX = """
+cmake_minimum_required(VERSION 3.16)
+project(toolbox NONE)
+install(DIRECTORY tools/ DESTINATION share/toolbox/tools)
+install(FILES package.xml DESTINATION share/toolbox)
+install(FILES resource/toolbox DESTINATION share/ament_index/resource_index/packages)
+"""
+
+TOOLKIT_SETUP = """
+import os
+from glob import glob
+
+from ament_index_python.packages import get_package_share_directory
+from setuptools import setup
+
+tools = sorted(os.path.splitext(os.path.basename(path))[0] for path in
+               glob(os.path.join(get_package_share_directory('toolbox'), 'tools', '*.tool')))
+setup(
+    name='toolkit', version='0.1.0', packages=['toolkit'],
+    data_files=[('share/ament_index/resource_index/packages', ['resource/toolkit']),
+                ('share/toolkit', ['package.xml'])],
+    entry_points={'console_scripts': [f'{tool} = toolkit.main:main' for tool in tools]},
+)
+"""
+
+
+def test_a_setup_py_glob_over_a_dependencys_share_directory_sees_a_new_file(
+        tmp_path: Path) -> None:
+    """setup.py makes a console script of each file a dependency installs into its share
+    directory: the listing is in the record (the audit hook's listings), so a new file there
+    rebuilds it (no early cutoff) and the script appears."""
+    ws = tmp_path / "ws"
+    box = write_cmake(ws / "src", "toolbox", TOOLBOX, files={"tools/hammer.tool": "",
+                                                            "resource/toolbox": ""})
+    kit = write_ament_python(ws / "src", "toolkit", modules={"main.py": "def main():\n    pass\n"},
+                             depend=["toolbox"])
+    (kit / "setup.py").write_text(TOOLKIT_SETUP)
+    _build(ws)
+    scripts = ws / "install" / "toolkit" / "lib" / "toolkit"
+    assert sorted(p.name for p in scripts.iterdir()) == ["hammer"]
+    write(box / "tools" / "saw.tool", "")
+
+    result = _build(ws)
+
+    assert _rebuilt(result) == ["toolbox", "toolkit"], output(result)
+    assert sorted(p.name for p in scripts.iterdir()) == ["hammer", "saw"]

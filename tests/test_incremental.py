@@ -14,7 +14,8 @@ pytestmark = pytest.mark.xdist_group("incremental")
 
 
 def built(output: str) -> list[str]:
-    return sorted(re.findall(r"^Starting >>> (\S+)$", output, re.MULTILINE))
+    """The packages built or restored from the build cache (both install anew)."""
+    return sorted(re.findall(r"^(?:Starting >>>|Restored <<<) (\S+)", output, re.MULTILINE))
 
 
 @pytest.fixture(scope="module")

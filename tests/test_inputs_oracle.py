@@ -6,6 +6,7 @@ declaration (wsbuild/inputs.py) covers; the suite fails when it wrote anything
 from __future__ import annotations
 
 import os
+import sys
 from pathlib import Path
 
 from wsbuild.engine.inputs_oracle import InputsOracle
@@ -46,3 +47,44 @@ def test_the_oracle_writes_nothing_when_every_access_was_declared(tmp_path: Path
         oracle.uninstall()
     oracle.report_undeclared({(str(file), True): None}, set(), ())
     assert not oracle_file.exists()
+
+
+def test_the_oracle_exempts_the_standard_library_only(tmp_path: Path) -> None:
+    """What the interpreter's standard library reads is exempt; nothing else of its prefix is
+    (for a venv made from /usr/bin/python3, `sys.base_prefix` is /usr: its headers, CMake
+    modules and .pc files are inputs a plan must declare)."""
+    import sysconfig
+
+    stdlib_file = os.path.join(sysconfig.get_paths()["stdlib"], "os.py")
+    beside = next(p for p in (Path(sys.base_prefix) / "include").rglob("*.h"))
+    oracle_file = tmp_path / "oracle.txt"
+    oracle = InputsOracle(str(oracle_file), str(tmp_path))
+    oracle.install()
+    try:
+        os.stat(stdlib_file)
+        os.stat(beside)
+    finally:
+        oracle.uninstall()
+    oracle.report_undeclared({}, set(), ())
+    flagged = [line.split("\t")[0] for line in oracle_file.read_text().splitlines()
+               if not line.startswith("#")]
+    assert flagged == [str(beside)]
+
+
+def test_the_inputs_oracle_is_on_for_the_suites_recorded_runs(tmp_path: Path) -> None:
+    """The suite sets the oracle's file (tests/conftest.py) and every recorded run it traced
+    says so beside it, with how many accesses it held to the declarations: with the oracle
+    off (the variable unset, or its wrappers not installed) this fails."""
+    from conftest import run_wsbuild, write_package
+    from wsbuild.engine.inputs_oracle import CHECKED_SUFFIX, ORACLE_VARIABLE
+
+    assert os.environ.get(ORACLE_VARIABLE), "the suite runs without the inputs oracle"
+    checked = Path(os.environ[ORACLE_VARIABLE] + CHECKED_SUFFIX)
+    ws = tmp_path / "ws"
+    write_package(ws / "src", "pa", "cmake")
+    result = run_wsbuild("list", cwd=ws)
+    assert result.returncode == 0, result.stderr
+    lines = [line.split("\t") for line in checked.read_text().splitlines()]
+    mine = [line for line in lines if line[3] == str(ws) and line[2] == "list"]
+    assert mine and int(mine[-1][0]) > 0, lines[-3:]
+    assert mine[-1][1] == "0"

@@ -73,8 +73,9 @@ def test_generator_from_cmake_args_wins_and_a_switch_reconfigures_from_scratch(
     assert "CMAKE_GENERATOR:INTERNAL=Unix Makefiles" in _cache(ws)
     assert (ws / "build" / "lib_a" / "Makefile").is_file()
     assert (ws / "install" / "lib_a" / "lib" / "liblib_a.so").is_file()
-    # and back to the default (Ninja) once the option is gone
-    back = build(ws, "--compiler-cache", "none")
+    # and back to the default (Ninja) once the option is gone (--no-cache: the build cache
+    # would restore the first build's install, and this test watches the build directory)
+    back = build(ws, "--compiler-cache", "none", "--no-cache")
     assert "configured with the 'Unix Makefiles' generator" in back.stdout
     assert "CMAKE_GENERATOR:INTERNAL=Ninja" in _cache(ws)
 

@@ -189,11 +189,43 @@ def test_any_change_runs_the_full_build(recorded: tuple[Path, Runs], change: str
     assert code == 0, out
     assert not replayed, f"{change}: replayed\n{out}"
     if rebuilt is not None:
-        assert f"Finished <<< {rebuilt}" in out, out
+        # built, or restored from the build cache where it holds what is needed
+        assert f"Finished <<< {rebuilt}" in out or f"Restored <<< {rebuilt}" in out, out
     if change == "a package ignored":
         assert "1 package up to date" in out and "pc" not in out
     if change == "a setup script removed":
         assert (ws / "install" / "setup.bash").is_file(), "the full run writes it again"
+
+
+@pytest.mark.parametrize("changed", ["a mixin file", "the file COLCON_DEFAULTS_FILE names"])
+def test_a_planning_file_changed_after_a_recorded_no_op_runs_the_full_build(
+        built: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str],
+        changed: str) -> None:
+    """Mixin files and defaults files are read through declared inputs (wsbuild/inputs.py):
+    a change after a recorded no-op runs the full build, which builds pc with the new
+    arguments."""
+    mixin = built.parent / "colcon-home" / "mixin" / "probe.mixin"
+    mixin.parent.mkdir(parents=True)
+    mixin.write_text('{"build": {"probe": {"cmake-args": ["-DWSB_MIXIN=1"]}}}\n')
+    defaults = built.parent / "defaults.yaml"
+    defaults.write_text("build:\n  cmake-args: [-DWSB_DEFAULT=1]\n")
+    monkeypatch.setenv("COLCON_DEFAULTS_FILE", str(defaults))
+    assert run_wsbuild("build", "--mixin", "probe", cwd=built).returncode == 0
+    time.sleep(SETTLE)
+    no_op = run_wsbuild("build", "--mixin", "probe", cwd=built)
+    assert no_op.returncode == 0 and "2 packages up to date" in no_op.stdout, no_op.stdout
+    runs = Runs(built, monkeypatch, capsys)
+    edited = mixin if changed == "a mixin file" else defaults
+    edited.write_text(edited.read_text().replace("=1", "=2"))
+
+    code, out, replayed = runs.build("--mixin", "probe")
+
+    assert code == 0, out
+    assert not replayed, f"{changed}: replayed\n{out}"
+    assert "Finished <<< pc" in out, out
+    cache = (built / "build" / "pc" / "CMakeCache.txt").read_text()
+    assert ("WSB_MIXIN:UNINITIALIZED=2" if changed == "a mixin file"
+            else "WSB_DEFAULT:UNINITIALIZED=2") in cache
 
 
 def test_a_changed_environment_runs_the_full_build(
@@ -259,6 +291,10 @@ def test_a_replayed_no_op_imports_no_command_line_and_starts_no_process(built: P
     """The real command, three times: the full no-op records, the next one is replayed by
     a process that imports neither the argument parser nor the planner (-X importtime)."""
     env = {**os.environ, "PYTHONPROFILEIMPORTTIME": "1"}
+    # every variable but the terminal's and CI's reaches a package's record: the first build
+    # in this environment builds again
+    assert run_wsbuild("build", cwd=built, env=env).returncode == 0
+    time.sleep(SETTLE)
     recording = run_wsbuild("build", cwd=built, env=env)
     assert recording.returncode == 0 and "wsbuild.cli" in recording.stderr
     replayed = run_wsbuild("build", cwd=built, env=env)

@@ -17,8 +17,10 @@ Run = subprocess.CompletedProcess[str]
 
 
 def _env(xdg: Path) -> dict[str, str]:
-    """A local build cache in `xdg` (the suite turns the cache off by default)."""
-    return {**os.environ, "XDG_CACHE_HOME": str(xdg), "WSBUILD_CACHE": ""}
+    """A local build cache of the test's own in `xdg`."""
+    env = {**os.environ, "XDG_CACHE_HOME": str(xdg), "WSBUILD_CACHE": ""}
+    env.pop("WSBUILD_CACHE_DIR", None)
+    return env
 
 
 def _planned(ws: Path, env: dict[str, str]) -> dict[str, str]:

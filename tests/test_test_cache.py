@@ -236,20 +236,22 @@ def test_no_test_cache_and_its_defaults_key_run_everything(ws: Path) -> None:
 
 
 def test_a_variable_that_matters_reruns_one_that_does_not_is_ignored(ws: Path) -> None:
+    """Every variable a test could read reruns it (TURTLEBOT3_MODEL as much as ROS_DOMAIN_ID);
+    the terminal's and a CI run's own identifiers do not (record/environment.py)."""
     assert _test(ws).returncode == 0
     before = runs(ws)
-    assert _test(ws, UNRELATED_TO_TESTS="1").returncode == 0
+    assert _test(ws, TERM="dumb", COLUMNS="77", GITHUB_RUN_ID="4242").returncode == 0
     assert ran_since(ws, before) == []
     for changed in ({"ROS_DOMAIN_ID": "72"}, {"PYTEST_ADDOPTS": "-q"},
-                    {"RMW_IMPLEMENTATION": "rmw_fastrtps_cpp"}):
+                    {"RMW_IMPLEMENTATION": "rmw_fastrtps_cpp"}, {"TURTLEBOT3_MODEL": "waffle"}):
         before = runs(ws)
         again = _test(ws, **changed)
         assert again.returncode == 0, again.stdout + again.stderr
         assert ran_since(ws, before) == ["cm", "leaf", "mid", "other", "root"], changed
     log = sorted((ws / "log").glob("test_*"))[-1] / "root" / "command.log"
-    # the run before had PYTEST_ADDOPTS, this one has not
-    assert "test result not reused: environment variables changed: PYTEST_ADDOPTS " \
-           "RMW_IMPLEMENTATION" \
+    # the run before had RMW_IMPLEMENTATION, this one has TURTLEBOT3_MODEL instead
+    assert "test result not reused: environment variables changed: RMW_IMPLEMENTATION " \
+           "TURTLEBOT3_MODEL" \
         in log.read_text()
 
 
@@ -290,17 +292,24 @@ def test_cache_selection_on_test_means_the_cached_result_applies(ws: Path) -> No
 # ------------------------------------------------------------------ the key's pure logic
 
 
-def test_the_environment_is_kept_as_digests_of_the_variables_that_matter() -> None:
-    from wsbuild.testing.cached_result import observed_environment
+def test_the_environment_is_kept_as_digests_of_every_variable_but_the_terminals() -> None:
+    from wsbuild.record.environment import environment_digests
 
     env = {"ROS_DOMAIN_ID": "5", "PYTEST_ADDOPTS": "-x", "HOME": "/root", "AWS_SECRET": "s3cr3t",
-           "LD_LIBRARY_PATH": "/a:/b", "PATH": "/bin:/usr/bin"}
-    kept = observed_environment(env)
-    assert sorted(kept) == ["LD_LIBRARY_PATH", "PATH", "PYTEST_ADDOPTS", "ROS_DOMAIN_ID"]
+           "LD_LIBRARY_PATH": "/a:/b", "PATH": "/bin:/usr/bin", "TERM": "xterm",
+           "GITHUB_RUN_ID": "77", "PWD": "/somewhere", "WSBUILD_INPUTS_ORACLE": "/x"}
+    kept = environment_digests(env)
+    assert sorted(kept) == ["AWS_SECRET", "HOME", "LD_LIBRARY_PATH", "PATH", "PYTEST_ADDOPTS",
+                            "ROS_DOMAIN_ID"]
     assert not set(env.values()) & set(kept.values())
     # the wheels' bootstrapper orders LD_LIBRARY_PATH anew in every process; PATH's order counts
-    assert observed_environment({**env, "LD_LIBRARY_PATH": "/b:/a"}) == kept
-    assert observed_environment({**env, "PATH": "/usr/bin:/bin"}) != kept
+    assert environment_digests({**env, "LD_LIBRARY_PATH": "/b:/a"}) == kept
+    assert environment_digests({**env, "PATH": "/usr/bin:/bin"}) != kept
+    # the workspace's own install, which `source install/setup.bash` adds, is no input
+    sourced = {**env, "PATH": "/ws/install/pkg/bin:/bin:/usr/bin", "COLCON_PREFIX_PATH": "/ws/install"}
+    assert environment_digests(sourced, own_install="/ws/install") == kept
+    # the user's own list of variables that reach no build (the defaults file's not-inputs)
+    assert "AWS_SECRET" not in environment_digests(env, not_inputs=("AWS_*",))
 
 
 def test_a_changed_key_says_what_changed_first() -> None:
@@ -348,3 +357,49 @@ def test_tests_skipped_for_a_missing_linter_run_again(ws: Path) -> None:
     assert again.returncode == 0, again.stdout + again.stderr
     assert ran_since(ws, before) == ["other"]
     assert sorted(cached(again)) == ["cm", "leaf", "mid", "root"]
+
+
+def test_a_test_fixture_in_a_directory_named_log_reruns_its_test(tmp_path: Path) -> None:
+    """test/log/sample.log is the package's own file (no directory is skipped for its name):
+    edited so that the test fails, the cached "passed" is not reused."""
+    ws = tmp_path / "ws"
+    pkg = write_package(ws / "src", "reader")
+    (pkg / "test" / "log").mkdir(parents=True)
+    (pkg / "test" / "log" / "sample.log").write_text("all ok\n")
+    (pkg / "test" / "test_sample.py").write_text(
+        "from pathlib import Path\n\n\ndef test_the_sample_says_ok():\n"
+        "    assert 'ok' in (Path(__file__).parent / 'log' / 'sample.log').read_text()\n")
+    _build(ws)
+    assert _test(ws).returncode == 0
+    assert "cached: passed" in _test(ws).stdout
+    (pkg / "test" / "log" / "sample.log").write_text("all bad\n")
+    failed = _test(ws)
+    assert failed.returncode != 0 and "cached" not in failed.stdout, failed.stdout
+
+
+def test_an_underlay_package_rebuilt_under_a_passing_test_reruns_it(tmp_path: Path) -> None:
+    """An overlay's test imports a package of a chained underlay workspace: after the underlay
+    is rebuilt so that the test fails, the cached "passed" is not reused."""
+    under = tmp_path / "under"
+    lib = write_package(under / "src", "under_lib")
+    (lib / "under_lib" / "core.py").write_text("VALUE = 1\n")
+    done = run_wsbuild("build", cwd=under, env=_env())
+    assert done.returncode == 0, done.stdout + done.stderr
+    ws = tmp_path / "ws"
+    user = write_package(ws / "src", "over", kinds={"test_depend": ["under_lib"]})
+    (user / "test").mkdir()
+    (user / "test" / "test_under.py").write_text(
+        "from under_lib.core import VALUE\n\n\ndef test_small():\n    assert VALUE < 3\n")
+    sourced = subprocess.run(["bash", "-c", "source install/setup.bash && env -0"], cwd=under,
+                             env=_env(), capture_output=True, text=True, check=True)
+    env = dict(item.split("=", 1) for item in sourced.stdout.split("\0") if "=" in item)
+    assert run_wsbuild("build", cwd=ws, env=env).returncode == 0
+    assert run_wsbuild("test", cwd=ws, env=env).returncode == 0
+    assert "cached: passed" in run_wsbuild("test", cwd=ws, env=env).stdout
+
+    (lib / "under_lib" / "core.py").write_text("VALUE = 5\n")
+    assert run_wsbuild("build", cwd=under, env=_env()).returncode == 0
+    again = run_wsbuild("test", cwd=ws, env=env)
+    assert again.returncode != 0 and "cached" not in again.stdout, again.stdout
+    log = sorted((ws / "log").glob("test_*"))[-1] / "over" / "command.log"
+    assert "an underlay workspace's package it runs against changed" in log.read_text()

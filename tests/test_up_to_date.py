@@ -1,9 +1,15 @@
-""""Up to date" is never wrong: after a recorded no-op, one change at a time — to a file outside
-the package that its build system read, to a file reached through a symlink, to what a
+""""Up to date" and "restored" are never wrong, in wsbuild's default configuration (the local
+build cache on, the no-op replay on): after a recorded no-op, one change at a time — to a file
+outside the package that its build system read (a header, a CMake include, a depfile's input, a
+glob's directory, an installed directory, a data_files file), to a file reached through a
+symlink, to a file in a directory named build, install or log or in a vendored subdirectory
+marked COLCON_IGNORE, to an environment variable a CMakeLists.txt or setup.py reads, to what a
 subprocess searched (pkg-config), to a file whose time was set back — and the next build
-rebuilds what it must, its install equal to a build from scratch. Secrets in the environment
-never reach a file; a symlink loop, a read-only workspace and a lock deleted under a waiting
-build are handled as the full run handles them."""
+rebuilds what it must (never restoring an entry built from the old input), its install equal to
+a build from scratch. Secrets in the environment never reach a file; a symlink loop, a
+read-only workspace and a lock deleted under a waiting build are handled as the full run
+handles them. Every build here runs its steps under the build-step oracle
+(builder/step_trace.py): what they read must be in the package's record."""
 
 from __future__ import annotations
 
@@ -19,17 +25,19 @@ from pathlib import Path
 
 import pytest
 
-from test_build_helpers import clean_env, output, sh_quote, write, write_cmake
+from test_build_helpers import clean_env, output, sh_quote, write, write_ament_python, write_cmake
 from test_build_helpers import wsbuild as run
 
 #: a recording run must start this long after the last change it could read (the racy rule)
 SETTLE = 1.1
+#: every build step of this module's builds runs under strace, checked against the record
+pytestmark = pytest.mark.usefixtures("traced_steps")
 RECORD = Path("build") / ".wsbuild" / "noop" / "build.json"
 
 
 def _env(**extra: str) -> dict[str, str]:
-    # the build cache would restore instead of build: these tests are about building
-    return clean_env(WSBUILD_CACHE="off", **extra)
+    """A fresh terminal, in wsbuild's default configuration (the local build cache on)."""
+    return clean_env(**extra)
 
 
 def _build(ws: Path, *args: str, env: dict[str, str] | None = None
@@ -66,11 +74,12 @@ def _tree(root: Path) -> dict[str, str]:
 
 
 def _assert_install_as_from_scratch(ws: Path) -> None:
-    """install/ equals what a build from scratch of the same sources makes."""
+    """install/ equals what a build from scratch of the same sources makes (--no-cache: the
+    build cache would restore what the incremental build stored)."""
     incremental = _tree(ws / "install")
     for base in ("build", "install", "log"):
         shutil.rmtree(ws / base)
-    _build(ws)
+    _build(ws, "--no-cache")
     assert _tree(ws / "install") == incremental
 
 
@@ -381,4 +390,227 @@ def test_a_compiler_flag_in_the_environment_rebuilds_from_a_fresh_configure(
     for path in (ws / "build" / "tagged" / ".wsbuild").rglob("*.json"):
         assert "flagged-by-env" not in path.read_text(), path
     dry = run("build", "--dry-run", cwd=ws, env=_env())
-    assert "CXXFLAGS: set:" in dry.stdout and "→ (none)" in dry.stdout, output(dry)
+    assert "environment variable changed: CXXFLAGS" in dry.stdout, output(dry)
+
+
+# ------------------------------------------------------- one record per package (issue 36)
+
+
+def _restored(result: subprocess.CompletedProcess[str]) -> list[str]:
+    return sorted(line.split()[2] for line in result.stdout.splitlines()
+                  if line.startswith("Restored <<<"))
+
+
+def test_an_outside_header_changed_is_built_not_restored_and_watched_after_a_restore(
+        tmp_path: Path) -> None:
+    """The build cache holds an entry built from the old header: it is not restored (the
+    entry's record names the header, whose content differs here). After `rm -rf build
+    install` the entry of the current header is restored, and its record watches the header
+    as a build's does, with the cache on or off."""
+    ws = tmp_path / "ws"
+    header = write(ws / "third_party" / "include" / "answer.h", "#define ANSWER 41\n")
+    _cmake_program(ws / "src", "asker", f'include_directories("{header.parent}")',
+                   '#include <cstdio>\n#include "answer.h"\n'
+                   'int main() { std::printf("%d\\n", ANSWER); return 0; }\n')
+    _recorded_noop(ws)
+    _same_size_edit(header, "41", "42")
+    changed = _build(ws)
+    assert _rebuilt(changed) == ["asker"] and _restored(changed) == [], output(changed)
+    assert _program(ws, "asker") == "42"
+
+    for base in ("build", "install"):
+        shutil.rmtree(ws / base)
+    restored = _build(ws)
+    assert _restored(restored) == ["asker"], output(restored)
+    assert _program(ws, "asker") == "42"
+    _same_size_edit(header, "42", "43")
+    dry = run("build", "--dry-run", cwd=ws, env=_env())
+    assert f"file outside the package changed: {header}" in dry.stdout, output(dry)
+    assert _rebuilt(_build(ws, "--no-cache")) == ["asker"]
+    assert _program(ws, "asker") == "43"
+    _assert_install_as_from_scratch(ws)
+
+
+def test_a_data_files_file_outside_the_python_package_is_built_not_restored(
+        tmp_path: Path) -> None:
+    ws = tmp_path / "ws"
+    shared = write(ws / "shared" / "params.yaml", "rate: 10\n")
+    pkg = write_ament_python(ws / "src", "talker", modules={"main.py": "def main():\n    pass\n"})
+    setup = (pkg / "setup.py").read_text()
+    (pkg / "setup.py").write_text(setup.replace(
+        "data_files=[", "data_files=[\n        ('share/talker/config', ['../../shared/params.yaml']),"))
+    _recorded_noop(ws)
+    installed = ws / "install" / "talker" / "share" / "talker" / "config" / "params.yaml"
+    assert installed.read_text() == "rate: 10\n"
+
+    _same_size_edit(shared, "10", "20")
+    result = _build(ws)
+
+    assert _rebuilt(result) == ["talker"] and _restored(result) == [], output(result)
+    assert installed.read_text() == "rate: 20\n"
+    _assert_install_as_from_scratch(ws)
+
+
+@pytest.mark.parametrize("where", ["talker/log/levels.py", "talker/build/parts.py",
+                                   "talker/install/steps.py"])
+def test_a_python_subpackage_named_log_build_or_install_is_part_of_the_package(
+        tmp_path: Path, where: str) -> None:
+    """A directory named log, build or install inside a package is the package's (only the
+    workspace's own bases are not)."""
+    ws = tmp_path / "ws"
+    pkg = write_ament_python(ws / "src", "talker", modules={"main.py": "def main():\n    pass\n"})
+    sub = pkg / Path(where).parent
+    write(sub / "__init__.py", "")
+    write(pkg / where, "LEVEL = 1\n")  # setup.py's find_packages() finds the subpackage
+    _recorded_noop(ws)
+    installed = next((ws / "install" / "talker").rglob(where))
+
+    _same_size_edit(pkg / where, "1", "2")
+    result = _build(ws)
+
+    assert _rebuilt(result) == ["talker"], output(result)
+    assert installed.read_text() == "LEVEL = 2\n"
+
+
+def test_a_vendored_subdirectory_marked_colcon_ignore_is_part_of_the_package(
+        tmp_path: Path) -> None:
+    """COLCON_IGNORE keeps the crawl out of a vendored copy, not the package's CMakeLists.txt,
+    which builds it with add_subdirectory."""
+    ws = tmp_path / "ws"
+    pkg = _cmake_program(ws / "src", "bundled", "add_subdirectory(vendor)",
+                         '#include <cstdio>\nint vendored();\n'
+                         'int main() { std::printf("%d\\n", vendored()); return 0; }\n',
+                         files={"vendor/COLCON_IGNORE": "",
+                                "vendor/CMakeLists.txt": "add_library(vendored STATIC v.cpp)\n",
+                                "vendor/v.cpp": "int vendored() { return 1; }\n"})
+    (pkg / "CMakeLists.txt").write_text((pkg / "CMakeLists.txt").read_text().replace(
+        "install(TARGETS", "target_link_libraries(bundled vendored)\ninstall(TARGETS"))
+    _recorded_noop(ws)
+    assert _program(ws, "bundled") == "1"
+
+    _same_size_edit(pkg / "vendor" / "v.cpp", "1", "2")
+    result = _build(ws)
+
+    assert _rebuilt(result) == ["bundled"], output(result)
+    assert _program(ws, "bundled") == "2"
+
+
+def test_a_file_added_to_an_outside_glob_directory_is_installed(tmp_path: Path) -> None:
+    """`file(GLOB … CONFIGURE_DEPENDS)` over a directory outside the package: Ninja globs again
+    before each build; a new file there rebuilds and installs it."""
+    ws = tmp_path / "ws"
+    write(ws / "maps" / "a.yaml", "a\n")
+    _cmake_program(ws / "src", "mapper",
+                   'file(GLOB MAPS CONFIGURE_DEPENDS "${CMAKE_CURRENT_SOURCE_DIR}/../../maps/*.yaml")\n'
+                   "install(FILES ${MAPS} DESTINATION share/mapper/maps)",
+                   '#include <cstdio>\nint main() { std::puts("map"); return 0; }\n')
+    _recorded_noop(ws)
+
+    write(ws / "maps" / "b.yaml", "b\n")
+    result = _build(ws)
+
+    assert _rebuilt(result) == ["mapper"], output(result)
+    assert sorted(p.name for p in (ws / "install" / "mapper" / "share" / "mapper" / "maps")
+                  .iterdir()) == ["a.yaml", "b.yaml"]
+    _assert_install_as_from_scratch(ws)
+
+
+def test_an_outside_directory_installed_with_install_directory_is_installed_anew(
+        tmp_path: Path) -> None:
+    """`install(DIRECTORY …)` and `install(FILES …)` from outside the package: the install
+    script names the sources, which colcon's install step reads every time."""
+    ws = tmp_path / "ws"
+    write(ws / "assets" / "meshes" / "arm.stl", "solid arm\n")
+    write(ws / "assets" / "robot.urdf", "<robot name='one'/>\n")
+    _cmake_program(ws / "src", "describe",
+                   'install(DIRECTORY "${CMAKE_CURRENT_SOURCE_DIR}/../../assets/meshes/" '
+                   "DESTINATION share/describe/meshes)\n"
+                   'install(FILES "${CMAKE_CURRENT_SOURCE_DIR}/../../assets/robot.urdf" '
+                   "DESTINATION share/describe)",
+                   '#include <cstdio>\nint main() { std::puts("robot"); return 0; }\n')
+    _recorded_noop(ws)
+    share = ws / "install" / "describe" / "share" / "describe"
+
+    write(ws / "assets" / "meshes" / "hand.stl", "solid hand\n")
+    assert _rebuilt(_build(ws)) == ["describe"]
+    assert (share / "meshes" / "hand.stl").is_file()
+    _same_size_edit(ws / "assets" / "robot.urdf", "one", "two")
+    assert _rebuilt(_build(ws)) == ["describe"]
+    assert "two" in (share / "robot.urdf").read_text()
+    _assert_install_as_from_scratch(ws)
+
+
+@pytest.mark.parametrize("reader", ["cmake", "setup.py"])
+def test_an_environment_variable_the_build_reads_rebuilds_with_its_new_value(
+        tmp_path: Path, reader: str) -> None:
+    """TURTLEBOT3_MODEL, read by a CMakeLists.txt at configure or by a setup.py: the record
+    holds every variable (by digest), the build configures again, the install has the new
+    value, and `--dry-run` names the variable."""
+    ws = tmp_path / "ws"
+    if reader == "cmake":
+        _cmake_program(ws / "src", "bot",
+                       'add_compile_definitions(MODEL="$ENV{TURTLEBOT3_MODEL}")',
+                       '#include <cstdio>\nint main() { std::puts(MODEL); return 0; }\n')
+    else:
+        pkg = write_ament_python(ws / "src", "bot", modules={"main.py": "def main():\n    pass\n"})
+        setup = (pkg / "setup.py").read_text()
+        (pkg / "setup.py").write_text(setup.replace(
+            "version='0.1.0'", "version='0.1.0' if os.environ.get('TURTLEBOT3_MODEL') == "
+            "'burger' else '0.2.0'"))
+    burger, waffle = _env(TURTLEBOT3_MODEL="burger"), _env(TURTLEBOT3_MODEL="waffle")
+    _recorded_noop(ws, burger)
+    dry = run("build", "--dry-run", cwd=ws, env=waffle)
+    assert "environment variable changed: TURTLEBOT3_MODEL" in dry.stdout, output(dry)
+
+    result = _build(ws, env=waffle)
+
+    assert _rebuilt(result) == ["bot"], output(result)
+    if reader == "cmake":
+        assert _program(ws, "bot") == "waffle"
+    else:
+        assert list((ws / "install" / "bot").rglob("bot-0.2.0-*.egg-info")), output(result)
+    back = _build(ws, env=burger)  # the first build's entry, proved again
+    assert _restored(back) == ["bot"], output(back)
+    if reader == "cmake":
+        assert _program(ws, "bot") == "burger"
+
+
+def test_a_build_of_a_package_from_another_user_is_restored_naming_what_differed(
+        tmp_path: Path) -> None:
+    """HOME and USER differ between machines and users: they stay out of the key a cache entry
+    is found by, and a restore says they differed."""
+    ws = tmp_path / "ws"
+    _cmake_program(ws / "src", "shared_pkg", "",
+                   '#include <cstdio>\nint main() { std::puts("shared"); return 0; }\n')
+    _build(ws, env=_env(HOME=str(tmp_path / "alice"), USER="alice"))
+    for base in ("build", "install"):
+        shutil.rmtree(ws / base)
+    result = _build(ws, env=_env(HOME=str(tmp_path / "bob"), USER="bob"))
+    assert _restored(result) == ["shared_pkg"], output(result)
+    log = (ws / "log" / "latest_build" / "shared_pkg" / "command.log").read_text()
+    assert "built where HOME, USER differed" in log, log
+    # the restored record is this user's: the next build has nothing to do
+    assert "0 packages finished" in _build(ws, env=_env(HOME=str(tmp_path / "bob"),
+                                                        USER="bob")).stdout
+
+
+def test_sourcing_the_workspace_rebuilds_nothing_and_a_test_run_changes_no_source(
+        tmp_path: Path) -> None:
+    """What `source install/setup.bash` adds to the environment is the workspace's own
+    install, no input; `wsbuild test` writes __pycache__ and .pytest_cache beside the sources,
+    which the record leaves out by its one rule."""
+    ws = tmp_path / "ws"
+    pkg = write_ament_python(ws / "src", "checked", modules={"main.py": "def main():\n    pass\n"})
+    write(pkg / "test" / "test_main.py", "import checked.main\n\n\ndef test_it():\n"
+          "    assert checked.main.main() is None\n")
+    _build(ws)
+    sourced = subprocess.run(["bash", "-c", "source install/setup.bash && env -0"], cwd=ws,
+                             env=_env(), capture_output=True, text=True, check=True)
+    env = dict(item.split("=", 1) for item in sourced.stdout.split("\0") if "=" in item)
+    assert str(ws / "install") in env.get("AMENT_PREFIX_PATH", "")
+    tested = run("test", cwd=ws, env=env, timeout=600)
+    assert tested.returncode == 0, output(tested)
+    write(pkg / "__pycache__" / "stale.cpython-311.pyc", "bytecode")
+    write(pkg / ".pytest_cache" / "v" / "cache" / "lastfailed", "{}")
+    again = _build(ws, env=env)
+    assert "0 packages finished" in again.stdout, output(again)

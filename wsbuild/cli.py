@@ -148,8 +148,10 @@ def build_parser(*, pkg_arguments: bool = True,
     the verb it runs, and those its defaults files set options for; the other verbs'
     modules are not even imported). `pkg_arguments=False` leaves out `pkg create`'s
     options, whose defaults need the (slow to import) template machinery."""
+    from wsbuild import inputs
     from wsbuild.verbs import colcon
 
+    inputs.declare_translations("messages")  # argparse's, through gettext
     parser = _Parser(
         prog="wsbuild",
         description="Build ROS 2 workspaces: fast, strict, and install-compatible with colcon.",

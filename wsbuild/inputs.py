@@ -225,3 +225,26 @@ def realpath(path: str | os.PathLike[str]) -> str:
             except OSError:
                 break
     return real
+
+
+def declare_translations(domain: str) -> None:
+    """gettext looks for a translation of `domain`'s messages in the interpreter's locale
+    directory for each language of the environment (argparse's help and errors come through
+    it): each place it looks is an input of what a command prints, declared here."""
+    import gettext
+    import sys
+
+    expand = getattr(gettext, "_expand_lang", None)
+    if expand is None:
+        return
+    languages: list[str] = []
+    for variable in ("LANGUAGE", "LC_ALL", "LC_MESSAGES", "LANG"):
+        value = os.environ.get(variable)
+        if value:
+            languages = value.split(":")
+            break
+    localedir = os.path.join(sys.base_prefix, "share", "locale")
+    for language in [*languages, "C"]:
+        for name in expand(language):
+            if name != "C":
+                exists(os.path.join(localedir, name, "LC_MESSAGES", f"{domain}.mo"))

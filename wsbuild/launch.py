@@ -36,6 +36,10 @@ def main() -> int:
         return replayed
     from wsbuild.engine.recording import recording
 
+    # the standard library's sysconfig probes the interpreter's own installation when first
+    # imported (Modules/Setup): the interpreter's start, whose path and version key the record
+    import sysconfig  # noqa: F401
+
     with recording(argv) as finish:
         from wsbuild.cli import main as run_command_line
 

@@ -15,6 +15,7 @@ from wsbuild.cache.run import RunCache
 from wsbuild.cache.settings import CacheSettings
 from wsbuild.engine.jobserver import Jobserver
 from wsbuild.events import Emit, Notice
+from wsbuild.record.outside import Digests
 from wsbuild.underlay.environment import PreparedUnderlay, prepare_underlay
 from wsbuild.workspace.root import BUILD_MARKER, Workspace
 
@@ -38,6 +39,9 @@ class SessionOptions:
     symlink_install: bool = False
     #: the CPU budget the jobserver shares among every package's build
     jobs: int = 1
+    #: environment variables the user names as no input of any build (the defaults file's
+    #: `not-inputs`), besides record/environment.py's own list
+    not_inputs: tuple[str, ...] = ()
 
 
 @dataclass(slots=True)
@@ -52,11 +56,26 @@ class Session:
     #: what a dry run's underlay check found the build would first do
     notices: tuple[str, ...] = ()
     _jobserver: Jobserver | None = field(default=None)
+    #: the outside files' and listings' digests taken in this run (record/outside.py)
+    digests: Digests = field(default_factory=Digests)
+    _environment: dict[str, str] | None = field(default=None)
 
     @property
     def environ(self) -> Mapping[str, str]:
         """The environment every package's build or test starts from (the underlay applied)."""
         return self.underlay.environ
+
+    @property
+    def environment(self) -> Mapping[str, str]:
+        """The digests of `environ`'s variables as a package's record holds them
+        (record/environment.py), worked out once per run."""
+        if self._environment is None:
+            from wsbuild.record.environment import environment_digests
+
+            self._environment = environment_digests(
+                self.environ, own_install=str(self.workspace.install_base),
+                not_inputs=self.options.not_inputs)
+        return self._environment
 
     @property
     def underlay_prefixes(self) -> list[Path]:

@@ -93,6 +93,17 @@ class Runner(Protocol):
                  env: Mapping[str, str] | None = None, problems: Problems | None = None) -> None: ...
 
 
+@dataclass(frozen=True, slots=True)
+class ReadOutside:
+    """What a build read outside its package, as its build system lists it (absolute paths;
+    what lies inside the package, its build directory or its stage is left out by the
+    builder): files, whose content counts, and directories whose entries it listed (a glob),
+    whose entries count."""
+
+    files: tuple[str, ...] = ()
+    listings: tuple[str, ...] = ()
+
+
 @dataclass(slots=True)
 class BuildOutputs:
     """What a package's steps report back to the build (typed; nothing else is passed back)."""
@@ -100,8 +111,8 @@ class BuildOutputs:
     #: files (relative to the prefix) an install wrote into the prefix directly instead of the
     #: stage (ament's symlink install into a merged prefix); the merged record keeps them
     installed_in_place: tuple[str, ...] = ()
-    #: files outside the package the build read (absolute); None: the build cannot tell
-    read_outside: tuple[str, ...] | None = None
+    #: what the build read outside the package; None: the build cannot tell
+    read_outside: ReadOutside | None = None
 
 
 @dataclass(slots=True)
@@ -195,16 +206,11 @@ class BuildType(Protocol):
         """The options that shape what this build type installs (they enter the build key)."""
         ...
 
-    #: the environment variables its build system reads that change what it installs (they
-    #: enter the build key by digest; a value is never written). Optional for a third-party
-    #: type (BuildTypeBase: SOURCE_DATE_EPOCH)
-    key_environment: tuple[str, ...]
-
-    def external_inputs(self, ctx: BuildContext) -> list[str] | None:
-        """After a build: the absolute paths outside the package that its build system read
-        (from the build system's own dependency lists), recorded with the package's state so
-        that a change to one rebuilds it; None when the build cannot tell (a dependency's
-        rebuild then always rebuilds the package). Optional for a third-party type
+    def external_inputs(self, ctx: BuildContext) -> ReadOutside | list[str] | None:
+        """After a build: what its build system read outside the package (from the build
+        system's own dependency lists), recorded in the package's record so that a change to
+        one rebuilds it; None when the build cannot tell (a dependency's rebuild then always
+        rebuilds the package). A plain list names files. Optional for a third-party type
         (BuildTypeBase: what its steps put in `ctx.outputs.read_outside`, else None)."""
         ...
 
@@ -238,7 +244,6 @@ class BuildTypeBase:
     name: str = ""
     hooks: EnvironmentHooks = EnvironmentHooks()
     estimate_base: float = 0.3
-    key_environment: tuple[str, ...] = ("SOURCE_DATE_EPOCH",)
 
     @property
     def test_runner(self) -> TestRunner | None:
@@ -253,26 +258,10 @@ class BuildTypeBase:
         return {k: v for k, v in asdict(options).items()
                 if k not in _RUN_ONLY_OPTIONS and k not in _CMAKE_OPTIONS}
 
-    def external_inputs(self, ctx: BuildContext) -> list[str] | None:
+    def external_inputs(self, ctx: BuildContext) -> ReadOutside | list[str] | None:
         """What the steps reported reading outside the package (`ctx.outputs.read_outside`:
         the Python builds' setup.py, by an audit hook), else None."""
-        read = ctx.outputs.read_outside
-        return sorted(read) if read is not None else None
-
-
-#: what a C/C++ toolchain reads from the environment (CMake at its first configure)
-COMPILER_ENVIRONMENT = ("CC", "CXX", "CFLAGS", "CXXFLAGS", "CPPFLAGS", "LDFLAGS")
-
-
-def environment_digests(environ: Mapping[str, str], names: Iterable[str]) -> dict[str, str | None]:
-    """Each variable by a short digest of its value (None: unset): what changed can be told
-    apart without any value being written down."""
-    import hashlib
-
-    return {name: None if name not in environ else
-            "set:" + hashlib.blake2b(environ[name].encode("utf-8", "surrogateescape"),
-                                     digest_size=8).hexdigest()
-            for name in names}
+        return ctx.outputs.read_outside
 
 
 def cmake_key_options(options: BuildOptions) -> dict[str, object]:

@@ -27,14 +27,13 @@ from pathlib import Path
 from typing import Any
 
 from wsbuild.build_types import (
-    COMPILER_ENVIRONMENT,
     BuildContext,
     BuildOptions,
     Command,
+    ReadOutside,
     RunnerNamed,
     Step,
     cmake_key_options,
-    environment_digests,
 )
 from wsbuild.prefix.hooks import EnvironmentHooks
 from wsbuild.prefix.stage import direct_install
@@ -50,6 +49,12 @@ NINJA_JOBSERVER = (1, 13)
 LAUNCHED_LANGUAGES = ("C", "CXX")
 #: the local gate's CMake file of a distributed build (builder/distribute.py)
 LOCAL_GATE_VAR = "WSBUILD_LOCAL_GATE_CMAKE"
+#: what a C/C++ toolchain reads from the environment at the first configure only: a change
+#: configures from scratch
+COMPILER_ENVIRONMENT = ("CC", "CXX", "CFLAGS", "CXXFLAGS", "CPPFLAGS", "LDFLAGS")
+#: what wsbuild sets in a build's environment for one run only (the jobserver, the compiler
+#: cache's and distcc's private files): not what a configure depends on
+_RUN_ONLY_ENVIRONMENT = ("MAKEFLAGS", "CCACHE_*", "SCCACHE_*", "DISTCC_*")
 
 
 @dataclass(frozen=True, slots=True)
@@ -115,6 +120,14 @@ def cached_generator(build_dir: Path) -> str | None:
     return match.group(1).strip() if match else None
 
 
+def _compiler_digests(environ: Mapping[str, str]) -> dict[str, str | None]:
+    """Each compiler variable by a digest of its value (None: unset)."""
+    from wsbuild.record.environment import environment_digests
+
+    digests = environment_digests({k: environ[k] for k in COMPILER_ENVIRONMENT if k in environ})
+    return {name: digests.get(name) for name in COMPILER_ENVIRONMENT}
+
+
 def _defines(cmake_args: Sequence[str], name: str) -> bool:
     return any(a.startswith((f"-D{name}=", f"-D{name}:")) for a in cmake_args)
 
@@ -136,13 +149,6 @@ class CMakeBuildType:
     #: colcon-ros gives a plain CMake package with a package.xml its pkg-config paths
     hooks: EnvironmentHooks = EnvironmentHooks(cmake_prefix_path=True, pkg_config_path=True)
     estimate_base: float = 1.5
-    #: the compilers and their flags (CMake reads them at the first configure only, so a change
-    #: configures from scratch), its own defaults, pkg-config's path and reproducible dates
-    key_environment: tuple[str, ...] = (
-        *COMPILER_ENVIRONMENT, "CMAKE_BUILD_TYPE", "CMAKE_TOOLCHAIN_FILE",
-        "CMAKE_C_COMPILER_LAUNCHER", "CMAKE_CXX_COMPILER_LAUNCHER", "PKG_CONFIG_PATH",
-        "PKG_CONFIG_LIBDIR", "SOURCE_DATE_EPOCH")
-
     test_runner = RunnerNamed("wsbuild.build_types.ctest:CTEST")
 
     def key_options(self, options: BuildOptions) -> dict[str, object]:
@@ -244,9 +250,10 @@ class CMakeBuildType:
             return []
         return ["--parallel", str(max(1, ctx.options.jobs))]
 
-    def external_inputs(self, ctx: BuildContext) -> list[str]:
-        """What CMake's regeneration list, the build rules and the compiler's dependency
-        lists name outside the package (build_types/cmake_inputs.py)."""
+    def external_inputs(self, ctx: BuildContext) -> ReadOutside:
+        """What CMake's regeneration list, the build rules, the depfiles, the compiler's
+        dependency lists, the verified globs and the install script name outside the package,
+        and the programs the build ran (build_types/cmake_inputs.py)."""
         from wsbuild.build_types.cmake_inputs import external_inputs
 
         ninja = find_ninja(ctx.environ)
@@ -261,8 +268,15 @@ class CMakeBuildType:
         return self._record(ctx) != self._read_record(ctx)
 
     def _record(self, ctx: BuildContext) -> dict[str, Any]:
+        """What decides whether to configure again: the source, the arguments, the compilers'
+        variables (a change configures from scratch) and every other variable a
+        CMakeLists.txt may read with $ENV{} (a change configures again: CMake does not
+        notice one by itself)."""
+        from wsbuild.record.environment import environment_digests
+
         return {"source": str(ctx.source_dir), "args": self.configure_args(ctx),
-                "environment": environment_digests(ctx.environ, COMPILER_ENVIRONMENT)}
+                "environment": _compiler_digests(ctx.environ),
+                "variables": environment_digests(ctx.environ, not_inputs=_RUN_ONLY_ENVIRONMENT)}
 
     def _read_record(self, ctx: BuildContext) -> object:
         try:
@@ -295,7 +309,7 @@ class CMakeBuildType:
             ctx.warn(f"{ctx.build_dir} was configured with the '{previous}' generator, this "
                      f"build uses '{wanted}': configuring it from scratch")
         before = self._read_record(ctx)
-        toolchain = environment_digests(ctx.environ, COMPILER_ENVIRONMENT)
+        toolchain = _compiler_digests(ctx.environ)
         changed = [name for name, digest in toolchain.items() if isinstance(before, dict)
                    and isinstance(before.get("environment"), dict)
                    and before["environment"].get(name) != digest]

@@ -48,7 +48,17 @@ class CTestRunner(TestRunnerBase):
     name: str = "ctest"
 
     def built(self, build_dir: Path) -> bool:
-        return (build_dir / "CMakeCache.txt").is_file()
+        """A configured build tree; or a restore from the build cache of a package whose tests
+        are not in its build tree (no CTestTestfile.cmake: it enables no testing)."""
+        if (build_dir / "CMakeCache.txt").is_file():
+            return True
+        from wsbuild.record.model import read_record
+
+        record = read_record(build_dir)
+        return record is not None and not record.test_tree
+
+    def tests_in_build_tree(self, build_dir: Path) -> bool:
+        return (build_dir / "CTestTestfile.cmake").is_file()
 
     def key_inputs(self, ctx: TestContext) -> KeyInputs:
         ctest = inputs.which("ctest", path=ctx.environ.get("PATH"))

@@ -97,6 +97,13 @@ class TestRunner(Protocol):
         """Whether the package's build left what its tests need (CTest: a configured tree)."""
         ...
 
+    def tests_in_build_tree(self, build_dir: Path) -> bool:
+        """Whether, after a build, the package's tests run from what the build left in its
+        build directory (CTest's test programs). The build cache brings back a package's
+        install only, so such a package is built, never restored: its tests then test what
+        was built."""
+        ...
+
     def key_inputs(self, ctx: TestContext) -> KeyInputs:
         """What its tests observe beyond what every test run does (for the cached result)."""
         ...
@@ -122,6 +129,9 @@ class TestRunnerBase:
 
     def built(self, build_dir: Path) -> bool:
         return True
+
+    def tests_in_build_tree(self, build_dir: Path) -> bool:
+        return False
 
     def key_inputs(self, ctx: TestContext) -> KeyInputs:
         return KeyInputs()

@@ -53,7 +53,7 @@ def underlay_packages(environ: Mapping[str, str], own_install_base: Path) -> dic
                               if (base / name / _COLCON_INDEX / name).is_file()]
     provided: dict[str, Path] = {}
     for prefix in prefixes:
-        real = os.path.realpath(prefix)
+        real = inputs.realpath(prefix)
         if real == own or real.startswith(own + os.sep):
             continue
         for name in (*_listdir(prefix / _AMENT_INDEX), *_listdir(prefix / _COLCON_INDEX)):

@@ -1,6 +1,6 @@
 """One package's build as the plan decided it, one method per phase: restore from the build
-cache, or stage → run the build type's steps → register → commit into install/ → record its
-state → store into the build cache. Each package build runs in its own worker thread and
+cache, or stage → run the build type's steps → register → commit into install/ → write its
+record → store into the build cache. Each package build runs in its own worker thread and
 shares only read-only run resources with the others."""
 
 from __future__ import annotations
@@ -23,6 +23,7 @@ from wsbuild.build_types import (
     get_build_type,
 )
 from wsbuild.builder.compiler_cache import CompilerCache
+from wsbuild.builder.step_trace import StepTraces
 from wsbuild.builder.distribute import Distribution
 from wsbuild.builder.plan import BUILDING_MARKER, Decision, PackagePlan
 from wsbuild.engine.jobs import JobResult, Outcome, StepStarted
@@ -30,6 +31,7 @@ from wsbuild.engine.jobserver import Jobserver
 from wsbuild.engine.process import env_delta, format_command, run_command
 from wsbuild.errors import WsbuildError
 from wsbuild.events import CacheRestored, Emit
+from wsbuild.record.model import PackageRecord
 from wsbuild.session import Session
 from wsbuild.workspace.model import DepCategory
 from wsbuild.workspace.selection import Selection
@@ -65,6 +67,9 @@ class PackageBuild:
     stage_prefix: Path | None = None
     context: BuildContext | None = None
     warnings: list[str] = field(default_factory=list)
+    #: the step running now, and the suite's build-step oracle (off: traces nothing)
+    step: str = ""
+    traces: StepTraces = field(default_factory=StepTraces)
 
     @property
     def name(self) -> str:
@@ -114,6 +119,7 @@ class PackageBuild:
         reason = self.planned.reason.text if self.planned.reason else ""
         self._log(f"Rebuilding: {reason}")
         if self.planned.decision is Decision.RESTORE:
+            self._mark_unfinished()
             restored = self.restore()
             if restored is not None:
                 return restored
@@ -128,37 +134,52 @@ class PackageBuild:
         except BaseException:
             self.discard()
             raise
-        self.write_state(installed)
-        self.store()
+        record = self.write_record(installed)
+        self.traces.check(self.name, record, self.planned.source_dir,
+                          outputs=(self.build_dir, self.prefix, self._ctx().stage_prefix))
+        self.store(record)
         return JobResult(self.name, Outcome.FINISHED, self._seconds(), log_dir=self.log_dir,
                          message=reason, warnings=tuple(_interesting(self.warnings)))
 
     # ------------------------------------------------------------------------------ phases
 
     def restore(self) -> JobResult | None:
-        """Install the build cache's entry the plan found; None when it is refused (the package
-        is then built)."""
+        """Install the build cache's entry the plan found, once this machine proves it again
+        with its dependencies as this run left them; None when it is refused (the package is
+        then built). The package's record becomes the entry's (builder/records.py)."""
+        from wsbuild.builder.records import restored_record
+        from wsbuild.record.environment import changed_names
+        from wsbuild.record.model import write_record
+
         planned = self.planned
         assert planned.cache_key is not None and planned.cache_entry is not None
-        restored = self.run.session.cache.restore(planned.cache_key, planned.cache_entry,
-                                                  self.prefix, self.merged_record)
-        if restored is None:
+        session = self.run.session
+        restored = session.cache.restore(
+            planned.cache_key, planned.cache_entry.found, self.prefix, self.merged_record,
+            inputs_key=planned.inputs_key, dependencies=self._dependency_keys(),
+            digests=session.digests)
+        if isinstance(restored, str):
+            self._log(f"Not restored from the build cache: {restored}")
             return None
-        entry, installed = restored
-        self.write_state(installed)
-        self._log(f"Restored from the build cache ({entry.source}, archive {entry.digest})")
+        entry, entry_record, installed = restored
+        write_record(self.build_dir, restored_record(
+            planned, entry_record, installed,
+            install_base=self.run.selection.workspace.install_base, digests=session.digests))
+        (self.build_dir / BUILDING_MARKER).unlink(missing_ok=True)
+        differed = changed_names(entry_record.environment, planned.now.environment)
+        where = f"; built where {', '.join(differed)} differed" if differed else ""
+        self._log(f"Restored from the build cache ({entry.source}, archive {entry.digest})"
+                  f"{where}")
         self.run.emit(CacheRestored(self.name, entry.source))
         return JobResult(self.name, Outcome.FINISHED, self._seconds(), log_dir=self.log_dir,
-                         message="restored from cache")
+                         message=f"restored from cache{where}")
 
     def stage(self) -> None:
         """Mark the build unfinished, make a fresh stage and the package's build context."""
         from wsbuild.prefix import environment_for
         from wsbuild.prefix import stage as staging
 
-        marker = self.build_dir / BUILDING_MARKER
-        marker.parent.mkdir(parents=True, exist_ok=True)
-        marker.touch()
+        self._mark_unfinished()
         workspace = self.run.selection.workspace
         self.stage_prefix = staging.new_stage(workspace.install_base, self.name)
         closure = self.run.selection.graph.build_closure(self.name)
@@ -197,6 +218,7 @@ class PackageBuild:
                 raise StepFailed(f"{exc}") from None
         self._advance_changed_files()
         for step in get_build_type(ctx.package.build_type).steps(ctx):
+            self.step = step.label
             self.run.emit(StepStarted(self.name, step.label))
             if step.before is not None:
                 step.before(ctx)
@@ -235,14 +257,17 @@ class PackageBuild:
         source's time cut to the second, so a header edited in the second this package last
         compiled looks older than its objects; only files of the workspace's install base,
         wsbuild's own, are touched)."""
-        from wsbuild.builder.fingerprint import content_digest, stat_signature
-
         planned, previous = self.planned, self.planned.previous
-        changed = [planned.snapshot_root / rel for rel in planned.backdated]
+        changed = [planned.source_dir / rel for rel in planned.backdated]
         if previous is not None:
-            changed += [Path(path) for path, recorded in previous.external_digests.items()
-                        if stat_signature(path) != previous.external.get(path)
-                        and content_digest(path) != recorded]
+            digests = self.run.session.digests
+            install_base = str(self.run.selection.workspace.install_base) + os.sep
+            for path, seen in previous.outside.files.items():
+                if not path.startswith(install_base):
+                    continue
+                signature = digests.signature(path)
+                if signature != seen.signature and digests.file(path, signature) != seen.digest:
+                    changed.append(Path(path))
         for path in changed:
             try:
                 os.utime(path)
@@ -281,65 +306,62 @@ class PackageBuild:
         staging.commit_isolated(self.stage_prefix, self.prefix)
         return staging.installed_files(install_base, self.prefix)
 
-    def write_state(self, installed: list[tuple[str, int]]) -> None:
-        """What this build depended on, for the next run's plan; the build is finished."""
-        from wsbuild.builder.fingerprint import BuildState, write_state
+    def write_record(self, installed: list[tuple[str, int]]) -> PackageRecord:
+        """What this build depended on, for the next run's plan (builder/records.py); the
+        build is finished."""
+        from wsbuild.builder.records import built_record
+        from wsbuild.record.model import write_record
 
-        planned = self.planned
-        external, digests, depinfo = self._external()
-        write_state(self.build_dir, BuildState(
-            key=planned.key, source=planned.snapshot.digest, settings=planned.settings,
-            dependencies=dict(planned.dependency_keys), files=planned.snapshot.files,
-            installed=installed, inputs=dict(planned.inputs), external=external,
-            external_digests=digests, depinfo=depinfo))
+        # the package's own files, its build directory and what it installs (in a merged
+        # install the prefix is every package's: only the stage is its own)
+        ctx = self._ctx()
+        inside = [self.planned.source_dir.absolute(), self.build_dir.absolute(),
+                  ctx.stage_prefix, *([] if self.run.session.merged else [self.prefix])]
+        build_type = get_build_type(self.planned.build_type)
+        runner = build_type.test_runner
+        record = built_record(
+            self.planned, read=build_type.external_inputs(ctx),
+            dependencies=self._dependency_keys(), installed=installed, inside=inside,
+            install_base=self.run.selection.workspace.install_base,
+            digests=self.run.session.digests, started_ns=self.started_ns,
+            test_tree=runner is not None and getattr(runner, "tests_in_build_tree",
+                                                     lambda _: False)(self.build_dir))
+        write_record(self.build_dir, record)
         (self.build_dir / BUILDING_MARKER).unlink(missing_ok=True)
+        return record
 
-    def _external(self) -> tuple[dict[str, tuple[int, ...]], dict[str, str], bool]:
-        """The outside files the build system read, with their signatures (one changed while
-        the package built is recorded as changed, so the next plan builds it again), the
-        content digests of those in the workspace's install base, and whether the build system
-        said what it read. A restore read nothing here: what its cache key trusted stands in
-        (the system's package database and the interpreter's installed distributions)."""
-        from wsbuild.builder.fingerprint import (
-            ABSENT,
-            content_digest,
-            external_signatures,
-            system_state_paths,
-        )
+    def _dependency_keys(self) -> dict[str, str]:
+        from wsbuild.builder.records import dependency_keys
 
-        if self.context is None:
-            return external_signatures(system_state_paths()), {}, False
-        paths = get_build_type(self.planned.build_type).external_inputs(self.context)
-        if paths is None:
-            return {}, {}, False
-        own = str(self.prefix) + os.sep
-        signatures = external_signatures(p for p in paths if not p.startswith(own))
-        install_base = str(self.run.selection.workspace.install_base) + os.sep
-        digests = {path: content_digest(path) for path in signatures
-                   if path.startswith(install_base)}
-        return ({path: ABSENT if max(sig[3:]) >= self.started_ns else sig
-                 for path, sig in signatures.items()}, digests, True)
+        return dependency_keys(self.planned, self.run.selection.workspace.build_base)
 
     def _cut_off(self) -> JobResult | None:
         """A package planned to build only if what it read of its dependencies (built before
-        it in this run) changed: up to date when nothing did, its state refreshed."""
-        from wsbuild.builder.fingerprint import changed_external, cutoff_note, write_state
+        it in this run) changed: up to date when nothing did, its record refreshed."""
+        from wsbuild.builder.records import cut_off_record
+        from wsbuild.record.dirty import cutoff_note
+        from wsbuild.record.model import write_record
 
-        planned, previous = self.planned, self.planned.previous
-        if planned.reason is None or not planned.reason.cutoff or previous is None:
+        planned = self.planned
+        if planned.reason is None or not planned.reason.cutoff or planned.previous is None:
             return None
-        if changed_external(previous.external, previous.external_digests) is not None:
+        dependencies = self._dependency_keys()
+        record = cut_off_record(planned, dependencies,
+                                install_base=self.run.selection.workspace.install_base,
+                                digests=self.run.session.digests)
+        if record is None:
             return None
-        write_state(self.build_dir, planned.cut_off_state())
+        write_record(self.build_dir, record)
         return JobResult(self.name, Outcome.UP_TO_DATE, self._seconds(),
-                         message=cutoff_note(previous, planned.dependency_keys))
+                         message=cutoff_note(planned.previous, dependencies))
 
-    def store(self) -> None:
-        """Into the build cache (when on), for the next machine or branch that needs it."""
+    def store(self, record: PackageRecord) -> None:
+        """Into the build cache (when on) with its record, for the next machine or branch that
+        needs it."""
         if self.planned.cache_key is None:
             return
         not_stored = self.run.session.cache.store(self.planned.cache_key, self.prefix,
-                                                  self.merged_record)
+                                                  self.merged_record, record)
         if not_stored:
             self._log(f"Build cache: {not_stored}")
 
@@ -350,6 +372,14 @@ class PackageBuild:
             staging.discard_stage(self.stage_prefix)
 
     # ----------------------------------------------------------------------------- helpers
+
+    def _mark_unfinished(self) -> None:
+        """Until the package's new record is written, its last build counts as unfinished."""
+        from wsbuild.files import private_directory
+
+        marker = self.build_dir / BUILDING_MARKER
+        private_directory(marker.parent)
+        marker.touch(mode=0o600)
 
     def _ctx(self) -> BuildContext:
         assert self.context is not None, "stage() makes the build context"
@@ -369,7 +399,8 @@ class PackageBuild:
         if run_only:
             self._log("  and, for this run only: " + " ".join(
                 f"{k}={shlex.quote(v)}" for k, v in run_only.items()))
-        completed = run_command(command, cwd=cwd, env=use_env, log_dir=self.log_dir,
+        traced = self.traces.command(command, self.step, self.build_dir)
+        completed = run_command(traced, cwd=cwd, env=use_env, log_dir=self.log_dir,
                                 pass_fds=self.run.jobserver.fds)
         stderr = list(completed.stderr)
         if problems is not None:

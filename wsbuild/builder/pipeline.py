@@ -17,7 +17,7 @@
 5. builder/finish.py      install/setup.* and local_setup.*, compile_commands.json
 6. runreport/            log/<run>/timings.json, report.json and report.html: timeline, CPU use,
                           packages (runreport/package_run.py, as for `wsbuild test`)
-7. report.py              events (events.py) become console lines and the summary
+7. reporter.py            events (events.py) become console lines and the summary
 """
 
 from __future__ import annotations
@@ -183,11 +183,10 @@ def _settle_up_to_date(plan: BuildPlan, session: Session, emit: Emit) -> dict[st
         if planned.decision is Decision.UP_TO_DATE:
             emit(JobStarted(planned.name))
             result = JobResult(planned.name, Outcome.UP_TO_DATE, message=planned.note)
-            if planned.note:  # cut off: the state of its dependencies' new keys
-                from wsbuild.builder.fingerprint import write_state
+            if planned.cut_off is not None:  # its record with its dependencies' new keys
+                from wsbuild.record.model import write_record
 
-                write_state(session.workspace.build_base / planned.name,
-                            planned.cut_off_state())
+                write_record(session.workspace.build_base / planned.name, planned.cut_off)
             emit(JobFinished(result))
             results[planned.name] = result
             lines.append(f"{planned.name}: up to date, "

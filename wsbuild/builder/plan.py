@@ -9,30 +9,36 @@ time when it looks one up."""
 
 from __future__ import annotations
 
+import json
 import os
 import sys
-from collections.abc import Collection, Mapping, Sequence
-from dataclasses import dataclass, replace
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field, replace
 from enum import Enum
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from wsbuild.build_types import BuildOptions, environment_digests, get_build_type
-from wsbuild.builder.fingerprint import BuildState, Reason, SourceSnapshot
+from wsbuild.build_types import BuildOptions, get_build_type
 from wsbuild.builder.overrides import Override
 from wsbuild.builder.request import BuildRequest, PackageOptions
 from wsbuild.engine.ready_queue import JobGraph, start_order
 from wsbuild.errors import DependencyError
+from wsbuild.record.dirty import PackageNow, Reason, cutoff_note, dirty_reason
+from wsbuild.record.model import PackageRecord, inputs_key, read_record
+from wsbuild.record.outside import OutsideReads, own_entries, refreshed
+from wsbuild.record.own_files import OwnFiles, own_files
 from wsbuild.session import Session
 from wsbuild.workspace.selection import Selection
 from wsbuild import inputs as declared
 
 if TYPE_CHECKING:
-    from wsbuild.cache.client import Found
     from wsbuild.cache.key import CacheKey
+    from wsbuild.cache.run import Proven
 
 #: created when a package build starts, removed when it finished: an interrupted build is redone
 BUILDING_MARKER = Path(".wsbuild") / "building"
+#: what a package's key is in the plan until its build (or restore) in this run says it
+PENDING = "pending:"
 
 
 class Decision(Enum):
@@ -48,40 +54,54 @@ class PackagePlan:
     decision: Decision
     #: why it is restored or built; None: up to date
     reason: Reason | None
-    #: the package's build key once this run is done (what its dependents build against)
+    #: the package's key once this run is done, where the plan knows it (up to date, or a
+    #: restore whose dependencies are known); else PENDING + its inputs key
     key: str
+    #: what decides its output that is known before its build reads anything (its own files,
+    #: settings, environment, its dependencies' inputs keys): the build cache finds it by this
+    inputs_key: str
     #: where it is installed: install/<pkg>, or install/ when merged
     prefix: Path
-    #: what `settings` digests: the options, interpreter and underlay that shape the build
-    inputs: Mapping[str, object]
-    settings: str
-    dependency_keys: Mapping[str, str]
-    snapshot: SourceSnapshot
+    #: the package as it is now (own files, settings, environment, dependencies' keys), which
+    #: its record is compared with and which its new record holds
+    now: PackageNow
+    #: its workspace dependencies' inputs keys (what `inputs_key` holds of them)
+    dependency_inputs: Mapping[str, str]
     #: under which the build cache keeps it (None: cache off)
     cache_key: CacheKey | None = None
-    #: the entry to restore (decision RESTORE)
-    cache_entry: Found | None = None
-    #: the package's source directory, which the snapshot's paths are relative to
-    snapshot_root: Path = Path()
+    #: the entry to restore, proved while planning (decision RESTORE)
+    cache_entry: Proven | None = None
+    #: the package's source directory, which the own files' paths are relative to
+    source_dir: Path = Path()
     #: source files whose content changed but whose modification time did not advance
     backdated: tuple[str, ...] = ()
     #: why an up-to-date package whose dependencies were rebuilt is still up to date (its
-    #: state then becomes `cut_off_state()`)
+    #: record then becomes `cut_off`)
     note: str = ""
     #: what the last build recorded (a package to build or restore, or one cut off)
-    previous: BuildState | None = None
+    previous: PackageRecord | None = None
+    #: the record an up-to-date package whose dependencies were rebuilt keeps (early cutoff)
+    cut_off: PackageRecord | None = None
     #: what its build gets beyond the run's options (colcon.meta's); only these of all
     #: packages' own options enter its key
     options: PackageOptions = PackageOptions()
 
-    def cut_off_state(self) -> BuildState:
-        """The state of a package early cutoff keeps: what it last recorded, with the key and
-        dependency keys of this run and its outside files' signatures as they are now."""
-        from wsbuild.builder.fingerprint import external_signatures
+    @property
+    def own(self) -> OwnFiles:
+        return self.now.own
 
-        assert self.previous is not None
-        return replace(self.previous, key=self.key, dependencies=dict(self.dependency_keys),
-                       external=external_signatures(self.previous.external))
+    def record(self, *, dependencies: Mapping[str, str], outside: OutsideReads | None = None,
+               complete: bool = False, installed: Sequence[tuple[str, int]] = (),
+               test_tree: bool = False) -> PackageRecord:
+        """The record of this package built now: what the plan saw, its dependencies' keys as
+        their builds left them, and what its build read outside (record/outside.py)."""
+        return PackageRecord(
+            package=self.name, build_type=self.build_type, own=self.now.own.files,
+            settings=self.now.settings, environment=self.now.environment,
+            dependencies=dict(sorted(dependencies.items())),
+            dependency_inputs=dict(sorted(self.dependency_inputs.items())),
+            outside=outside if outside is not None else OutsideReads(),
+            complete=complete, installed=tuple(installed), test_tree=test_tree).sealed()
 
 
 @dataclass(frozen=True, slots=True)
@@ -123,6 +143,25 @@ class BuildPlan:
         return self.jobs.subset({p.name for p in self.to_do()})
 
 
+@dataclass(slots=True)
+class _Planning:
+    """What planning one package needs of the run and of the packages planned before it."""
+
+    selection: Selection
+    request: BuildRequest
+    options: BuildOptions
+    session: Session
+    underlay: Mapping[str, list[str]]
+    #: the workspace's output bases: nothing inside them is a package's own file
+    outputs: tuple[str, ...]
+    #: each workspace package's key after this run as far as known (PENDING + inputs key
+    #: until built), and its inputs key; dependencies outside the selection are added as read
+    keys: dict[str, str] = field(default_factory=dict)
+    inputs_keys: dict[str, str] = field(default_factory=dict)
+    #: the packages this run builds or restores
+    pending: set[str] = field(default_factory=set)
+
+
 def make_plan(selection: Selection, request: BuildRequest, session: Session) -> BuildPlan:
     """What `wsbuild build` will do with `selection`, package by package, and why."""
     from wsbuild.builder.overrides import overrides_to_warn
@@ -139,19 +178,18 @@ def make_plan(selection: Selection, request: BuildRequest, session: Session) -> 
                        {n: selection.graph.direct(n) & selected for n in selection.selected})
     weights = package_weights(selection.packages, selection.selected, ws.build_base)
     path = jobs.critical_path(weights)
-    underlay = underlay_paths(str(ws.install_base), session.environ)
+    planning = _Planning(selection, request, options, session,
+                         underlay_paths(str(ws.install_base), session.environ),
+                         tuple(str(base) for base in (ws.build_base, ws.install_base,
+                                                      ws.log_base)))
     # in topological order, so a dependent sees the key its dependency will have after this run
-    keys: dict[str, str] = {}
     packages: list[PackagePlan] = []
-    pending: set[str] = set()
-    #: the outside files' signatures, each taken once (packages share most of them)
-    seen: dict[str, tuple[int, ...]] = {}
     for name in selection.selected:
-        planned = plan_package(selection, request, options, session, name, keys, underlay,
-                               pending, seen)
-        keys[name] = planned.key
+        planned = plan_package(planning, name)
+        planning.keys[name] = planned.key
+        planning.inputs_keys[name] = planned.inputs_key
         if planned.decision is not Decision.UP_TO_DATE:
-            pending.add(name)
+            planning.pending.add(name)
         packages.append(planned)
     return BuildPlan(
         options=options,
@@ -168,58 +206,82 @@ def make_plan(selection: Selection, request: BuildRequest, session: Session) -> 
     )
 
 
-def plan_package(selection: Selection, request: BuildRequest, options: BuildOptions,
-                 session: Session, name: str, keys: dict[str, str],
-                 underlay: Mapping[str, list[str]], pending: Collection[str] = (),
-                 seen: dict[str, tuple[int, ...]] | None = None) -> PackagePlan:
-    """One package's decision, from its recorded state, its sources and its dependencies'
-    keys (`keys`: what each workspace package's key is after this run, as far as known;
-    dependencies outside the selection are added as they are read; `pending`: the packages
-    this run builds or restores)."""
-    from wsbuild.builder.fingerprint import cutoff_note, digest_of, read_state, snapshot_sources
-
+def plan_package(planning: _Planning, name: str) -> PackagePlan:
+    """One package's decision: its record compared with the package as it is now (the one
+    dirty check, record/dirty.py), then, when it must be built, whether the build cache holds
+    an entry this machine can prove (cache/run.py)."""
+    selection, session = planning.selection, planning.session
     package = selection.packages[name]
-    own = request.packages.get(name, PackageOptions())
-    old = read_state(selection.workspace.build_base / name)
-    snapshot = snapshot_sources(package.path, old.files if old else {})
+    own_options = planning.request.packages.get(name, PackageOptions())
+    build_dir = selection.workspace.build_base / name
+    old = read_record(build_dir)
+    own = own_files(package.path, old.own if old else {}, planning.outputs)
     prefix = _prefix(selection, session, name)
-    inputs = package_inputs(selection, own.applied_to(options), name, prefix, underlay,
-                            session.environ)
-    settings = digest_of(inputs)
-    dep_keys = dependency_keys(selection, selection.graph.build_closure(name), keys)
-    reason = rebuild_reason(selection, request, name, old, snapshot, settings, dep_keys, inputs,
-                            pending, seen)
-    common = dict(name=name, build_type=package.build_type, prefix=prefix, inputs=inputs,
-                  settings=settings, dependency_keys=dep_keys, snapshot=snapshot,
-                  snapshot_root=package.path, options=own)
+    settings = package_settings(selection, own_options.applied_to(planning.options), name,
+                                prefix, planning.underlay)
+    closure = selection.graph.build_closure(name)
+    _read_dependencies(planning, closure)
+    now = PackageNow(own, settings, session.environment,
+                     {dep: planning.keys[dep] for dep in sorted(closure)})
+    dependency_inputs = {dep: planning.inputs_keys[dep] for dep in sorted(closure)}
+    request = planning.request
+    forced = request.force or request.build.cmake_force_configure \
+        or request.build.cmake_clean_cache or request.build.cmake_clean_first
+    reason = dirty_reason(old, now, install_base=selection.workspace.install_base,
+                          digests=session.digests,
+                          unfinished=declared.exists(build_dir / BUILDING_MARKER),
+                          forced=forced, pending=planning.pending)
+    before = inputs_key(name, package.build_type, own.digest, settings, now.environment,
+                        dependency_inputs)
+    common = dict(name=name, build_type=package.build_type, prefix=prefix, now=now,
+                  dependency_inputs=dependency_inputs, inputs_key=before,
+                  source_dir=package.path, options=own_options)
     if reason is None and old is not None:
-        note = cutoff_note(old, dep_keys)
+        note = cutoff_note(old, now.dependencies)
         if not note:
             return PackagePlan(decision=Decision.UP_TO_DATE, reason=None, key=old.key, **common)
-    key = BuildState.make_key(snapshot.digest, settings, dep_keys)
-    if reason is None and old is not None:
         # early cutoff: its dependencies were rebuilt, nothing it read of them changed; it
-        # takes the key its inputs now give (its dependents then decide for themselves)
-        return PackagePlan(decision=Decision.UP_TO_DATE, reason=None, key=key, note=note,
-                           previous=old, **common)
-    common["backdated"] = _backdated(old, snapshot)
+        # takes the key its record now gives (its dependents then decide for themselves)
+        kept = replace(old, dependencies=dict(now.dependencies),
+                       dependency_inputs=dependency_inputs,
+                       outside=refreshed(old.outside, session.digests,
+                                         own=own_entries(str(selection.workspace.install_base),
+                                                         old.installed))).sealed()
+        return PackagePlan(decision=Decision.UP_TO_DATE, reason=None, key=kept.key, note=note,
+                           previous=old, cut_off=kept, **common)
+    assert reason is not None
+    common["backdated"] = _backdated(old, own)
     common["previous"] = old
-    cache_key = session.cache.key(name, package.build_type, key, prefix, session.environ)
+    cache_key = session.cache.key(name, package.build_type, before, prefix, session.environ)
     found = None
-    if cache_key is not None and reason is not None and reason.kind != "forced":
-        found = session.cache.lookup(cache_key)
-    decision = Decision.RESTORE if found is not None else Decision.BUILD
-    return PackagePlan(decision=decision, reason=reason, key=key, cache_key=cache_key,
-                       cache_entry=found, **common)
+    if cache_key is not None and reason.kind != "forced":
+        found = session.cache.lookup(cache_key, before, now.dependencies, session.digests,
+                                     waiting=bool(closure & planning.pending))
+    if found is not None:
+        known = all(not key.startswith(PENDING) for key in now.dependencies.values())
+        key = found.record.key if known else PENDING + before
+        return PackagePlan(decision=Decision.RESTORE, reason=reason, key=key,
+                           cache_key=cache_key, cache_entry=found, **common)
+    return PackagePlan(decision=Decision.BUILD, reason=reason, key=PENDING + before,
+                       cache_key=cache_key, **common)
 
 
-def _backdated(old: BuildState | None, snapshot: SourceSnapshot) -> tuple[str, ...]:
+def _read_dependencies(planning: _Planning, closure: set[str]) -> None:
+    """The keys of the workspace packages in `closure` that this run does not plan: as their
+    records say (read once)."""
+    for dep in closure - planning.keys.keys():
+        record = read_record(planning.selection.workspace.build_base / dep)
+        planning.keys[dep] = record.key if record is not None else "unknown"
+        planning.inputs_keys[dep] = record.inputs_key if record is not None else "unknown"
+
+
+def _backdated(old: PackageRecord | None, own: OwnFiles) -> tuple[str, ...]:
     """The changed files whose modification time is not after the one last built from."""
     if old is None:
         return ()
-    return tuple(rel for rel in snapshot.changed
-                 if rel in old.files and rel in snapshot.files
-                 and snapshot.files[rel].mtime_ns <= old.files[rel].mtime_ns)
+    return tuple(rel for rel in own.changed
+                 if rel in old.own and rel in own.files
+                 and own.files[rel].mtime_ns <= old.own[rel].mtime_ns)
 
 
 def _prefix(selection: Selection, session: Session, name: str) -> Path:
@@ -228,28 +290,26 @@ def _prefix(selection: Selection, session: Session, name: str) -> Path:
     return package_prefix(selection.workspace.install_base, name, merged=session.merged)
 
 
-def package_inputs(selection: Selection, options: BuildOptions, name: str, prefix: Path,
-                   underlay: Mapping[str, list[str]],
-                   environ: Mapping[str, str]) -> dict[str, object]:
-    """Everything besides sources and dependencies that shapes a package's build (recorded
-    with the build, to name what changed). The build type says which options and environment
-    variables count; `underlay` is `underlay_paths()` of the run."""
+def package_settings(selection: Selection, options: BuildOptions, name: str, prefix: Path,
+                     underlay: Mapping[str, list[str]]) -> dict[str, object]:
+    """Everything besides files, the environment and dependencies that shapes a package's
+    build, as its record holds it (JSON values). The build type says which options count;
+    `underlay` is `underlay_paths()` of the run."""
     from wsbuild import __version__
 
     build_type = selection.packages[name].build_type
     kind = get_build_type(build_type)
-    return {
+    settings = {
         "wsbuild": __version__,
         "build_type": build_type,
         "options": kind.key_options(options),
-        # by digest: a value is never written (state.json keeps these inputs)
-        "environment": environment_digests(environ, getattr(kind, "key_environment", ())),
         # the interpreter by its environment and version, not by how its path is spelled
         "python": [sys.prefix, sys.version],
         "ament_prefix_path": underlay["AMENT_PREFIX_PATH"],
         "cmake_prefix_path": underlay["CMAKE_PREFIX_PATH"],
         "install_prefix": str(prefix),
     }
+    return json.loads(json.dumps(settings))
 
 
 def underlay_paths(own: str, environ: Mapping[str, str]) -> dict[str, list[str]]:
@@ -259,36 +319,6 @@ def underlay_paths(own: str, environ: Mapping[str, str]) -> dict[str, list[str]]
     return {var: [p for p in environ.get(var, "").split(os.pathsep)
                   if p and not p.startswith(own)]
             for var in ("AMENT_PREFIX_PATH", "CMAKE_PREFIX_PATH")}
-
-
-def dependency_keys(selection: Selection, closure: set[str],
-                    keys: dict[str, str]) -> dict[str, str]:
-    """The build keys of the workspace packages a package builds against (its `closure`):
-    planned in this run, else as last built (read once, then kept in `keys`)."""
-    from wsbuild.builder.fingerprint import read_state
-
-    for dep in closure - keys.keys():
-        state = read_state(selection.workspace.build_base / dep)
-        keys[dep] = state.key if state is not None else "unknown"
-    return {dep: keys[dep] for dep in sorted(closure)}
-
-
-def rebuild_reason(selection: Selection, request: BuildRequest, name: str,
-                   old: BuildState | None, snapshot: SourceSnapshot, settings: str,
-                   dep_keys: Mapping[str, str], inputs: Mapping[str, object],
-                   pending: Collection[str] = (),
-                   seen: dict[str, tuple[int, ...]] | None = None) -> Reason | None:
-    """Why `name` must be built (None: up to date)."""
-    from wsbuild.builder.fingerprint import rebuild_reason as compare
-
-    options = request.build
-    if declared.exists(selection.workspace.build_base / name / BUILDING_MARKER):
-        return Reason("unfinished", "the previous build did not finish")
-    if request.force or options.cmake_force_configure or options.cmake_clean_cache \
-            or options.cmake_clean_first:
-        return Reason("forced", "forced")
-    return compare(old, snapshot, settings, dep_keys, selection.workspace.install_base, inputs,
-                   pending, seen)
 
 
 def unbuilt_dependencies(selection: Selection, merged: bool) -> dict[str, list[str]]:

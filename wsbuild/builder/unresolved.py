@@ -13,7 +13,7 @@ import json
 from collections.abc import Iterable, Mapping
 from pathlib import Path
 
-from wsbuild.builder.fingerprint import digest_of
+from wsbuild.record.model import digest_of
 from wsbuild.workspace.model import Package
 from wsbuild.workspace.resolve import Resolver, unresolved_build_dependencies
 from wsbuild import inputs

@@ -10,7 +10,6 @@ from __future__ import annotations
 
 import os
 import queue
-import shutil
 import threading
 import time
 from collections.abc import Callable, Iterable, Mapping
@@ -30,10 +29,18 @@ if TYPE_CHECKING:
 Warn = Callable[[str], None]
 
 
+#: the largest package record an entry may carry (a C++ package's: tens of KiB)
+MAX_RECORD_BYTES = 64 * 1024 * 1024
+
+
 @dataclass(frozen=True, slots=True)
 class Found:
     record: ActionResult
     from_local: bool
+    #: the package record the entry was built with (record/model.py's JSON, its digest
+    #: checked): None when the entry carries none or it could not be fetched (such an entry is
+    #: never restored)
+    package_record: bytes | None = None
 
 
 @dataclass(frozen=True, slots=True)
@@ -120,7 +127,43 @@ class BuildCache:
             self._refuse(key, "not a wsbuild record for this package", local=from_local,
                          digest=None)
             return None
-        return Found(record, from_local)
+        return Found(record, from_local, self._package_record(key, record))
+
+    def _package_record(self, key: CacheKey, record: ActionResult) -> bytes | None:
+        """The entry's package record (its blob, locally or from the server, checked against
+        its digest); None when it has none or it cannot be had."""
+        if not record.record_digest or record.record_size > MAX_RECORD_BYTES:
+            return None
+        import io
+
+        data: bytes | None = None
+        blob = self.local.blob_path(record.record_digest)
+        if blob is not None:
+            try:
+                data = blob.read_bytes()
+            except OSError:
+                data = None
+        remote = self.remote
+        if data is None and remote is not None:
+            from wsbuild.cache.http import CacheUnavailable, TruncatedDownload
+
+            buffer = io.BytesIO()
+            try:
+                if remote.fetch_blob(record.record_digest, buffer):
+                    data = buffer.getvalue()
+            except CacheUnavailable as error:
+                self._remote_off(str(error))
+            except TruncatedDownload:
+                data = None
+        if data is None:
+            return None
+        import hashlib
+
+        if hashlib.sha256(data).hexdigest() != record.record_digest:
+            self._refuse(key, "its package record does not match its digest", local=False,
+                         digest=None)
+            return None
+        return data
 
     def restore(self, key: CacheKey, dest: Path, found: Found | None = None) -> Restored | None:
         """Unpack `key`'s entry (`found` by find(), else looked up now) into the empty
@@ -161,9 +204,18 @@ class BuildCache:
             else:
                 # keep it: the next clean build on this machine needs no network
                 self.local.put_blob(record.digest, blob)
+                self._keep_package_record(record, found.package_record)
                 self.local.put_action(address, record.encode())
                 self._stored = True
         return Restored(source, record.digest, members)
+
+    def _keep_package_record(self, record: ActionResult, package_record: bytes | None) -> None:
+        """A downloaded entry's package record, into the local tier beside its archive."""
+        if package_record is None or self.local.blob_path(record.record_digest) is not None:
+            return
+        temp = self.local.temp_file()
+        temp.write_bytes(package_record)
+        self.local.put_blob(record.record_digest, temp)
 
     def _download(self, key: CacheKey, record: ActionResult, remote: HttpCache) -> Path | None:
         from wsbuild.cache.http import CacheUnavailable, TruncatedDownload
@@ -187,23 +239,29 @@ class BuildCache:
 
     # -- storing -------------------------------------------------------------------------
     def store(self, key: CacheKey, root: Path, files: Iterable[str] | None = None, *,
-              background: bool = False) -> str | None:
-        """Pack `root` (or `files` below it) as `key`'s entry; None when stored (or queued:
-        `background` packs on the cache's own thread, while the build goes on), else why not.
-        Problems of background stores end up in `notes`."""
+              package_record: bytes = b"", background: bool = False) -> str | None:
+        """Pack `root` (or `files` below it) as `key`'s entry, with the package record it was
+        built with (`package_record`, JSON); None when stored (or queued: `background` packs
+        on the cache's own thread, while the build goes on), else why not. Problems of
+        background stores end up in `notes`."""
         if self.read_only:
             return "the cache is read-only for this run"
         if background:
-            self._submit(("store", key, root, None if files is None else list(files)))
+            self._submit(("store", key, root, None if files is None else list(files),
+                          package_record))
             return None
-        why_not, upload = self._store_now(key, root, files)
+        why_not, upload = self._store_now(key, root, files, package_record)
         if upload is not None:
             self._submit(("upload", *upload))
         return why_not
 
-    def _store_now(self, key: CacheKey, root: Path, files: Iterable[str] | None
-                   ) -> tuple[str | None, tuple[str, Path, str, bytes] | None]:
-        """Pack and store locally; (why not stored, what to upload)."""
+    def _store_now(self, key: CacheKey, root: Path, files: Iterable[str] | None,
+                   package_record: bytes = b""
+                   ) -> tuple[str | None, tuple[list[tuple[str, Path]], str, bytes] | None]:
+        """Pack and store locally; (why not stored, what to upload: the blobs, the address
+        and the action record)."""
+        import hashlib
+
         temp = self.local.temp_file()
         try:
             with open(temp, "wb") as out:
@@ -211,13 +269,20 @@ class BuildCache:
         except (RefusedEntry, OSError) as error:
             temp.unlink(missing_ok=True)
             return f"not cached: {error}", None
-        blob = self.local.put_blob(digest, temp)
-        record = ActionResult(key.package, digest, size).encode()
+        blobs = [(digest, self.local.put_blob(digest, temp))]
+        record_digest = ""
+        if package_record:
+            record_digest = hashlib.sha256(package_record).hexdigest()
+            record_temp = self.local.temp_file()
+            record_temp.write_bytes(package_record)
+            blobs.append((record_digest, self.local.put_blob(record_digest, record_temp)))
+        record = ActionResult(key.package, digest, size, record_digest,
+                              len(package_record)).encode()
         self.local.put_action(key.address, record)
         with self._lock:
             self._stored = True
             upload = self._uploads_on
-        return None, (digest, blob, key.address, record) if upload else None
+        return None, (blobs, key.address, record) if upload else None
 
     def _submit(self, item: tuple[object, ...]) -> None:
         with self._lock:
@@ -237,25 +302,27 @@ class BuildCache:
 
     def _work_on(self, item: tuple[object, ...]) -> None:
         if item[0] == "store":
-            _, key, root, files = item
-            why_not, upload = self._store_now(key, root, files)  # type: ignore[arg-type]
+            _, key, root, files, package_record = item
+            why_not, upload = self._store_now(key, root, files,  # type: ignore[arg-type]
+                                              package_record)  # type: ignore[arg-type]
             if why_not:
                 self.notes.append(f"{key.package}: {why_not}")  # type: ignore[attr-defined]
             if upload is not None:
                 self._upload(*upload)
         else:
-            _, digest, blob, address, record = item
-            self._upload(digest, blob, address, record)  # type: ignore[arg-type]
+            _, blobs, address, record = item
+            self._upload(blobs, address, record)  # type: ignore[arg-type]
 
-    def _upload(self, digest: str, blob: Path, address: str, record: bytes) -> None:
+    def _upload(self, blobs: list[tuple[str, Path]], address: str, record: bytes) -> None:
         from wsbuild.cache.http import CacheRejected, CacheUnavailable
 
         remote = self.remote
         if remote is None or not self._uploads_on:
             return
         try:
-            if not remote.has_blob(digest):
-                remote.put_blob(digest, blob)
+            for digest, blob in blobs:
+                if not remote.has_blob(digest):
+                    remote.put_blob(digest, blob)
             remote.put_action(address, record)
         except CacheRejected as error:
             self._uploads_off(str(error))
@@ -279,9 +346,3 @@ class BuildCache:
 def unpack_file(path: Path, dest: Path) -> int:
     with open(path, "rb") as handle:
         return unpack(handle, dest)
-
-
-def clear_directory(path: Path) -> None:
-    """Empty `path` (a stage a refused entry was unpacked into)."""
-    shutil.rmtree(path, ignore_errors=True)
-    path.mkdir(parents=True, exist_ok=True)

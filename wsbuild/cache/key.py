@@ -1,16 +1,18 @@
-"""The cache key: a package's build key plus everything else that changes its installed bytes.
+"""The cache key: a package's inputs key plus everything else that changes its installed bytes.
 
-The build key (builder/fingerprint.py) already covers the sources, the options, the interpreter,
-the underlay's paths, the dependencies' keys and the absolute install prefix. Across machines
-that is not enough, so the cache key adds the platform (OS release, machine, C library), the
+The inputs key (record/model.py) already covers the sources, the options, the interpreter,
+the underlay's paths, the environment (but the variables that differ between machines and
+users), the dependencies' inputs keys and the absolute install prefix; what the build read
+outside the package is not known before it runs, so an entry carries its package record and
+is restored only when this machine proves it (cache/run.py). Across machines that is not
+enough, so the cache key adds the platform (OS release, machine, C library), the
 toolchain (compilers and CMake, by version), the underlay's contents (installed Python
 distributions and ROS package versions) and the system's packages (every installed Debian
 package with its version: the headers, libraries and CMake modules a build reads from /usr
 come from them, so a machine with another `libfoo-dev` point release never restores this
 machine's build), each identified once per run. Files outside any package manager's
-control (a hand-made /usr/local or /opt tree) are not in the key: a package whose build read
-them is only ever built, never restored, when it is built here first (its recorded outside
-inputs then decide), and restoring it elsewhere trusts that tree to be the same.
+control (a hand-made /usr/local or /opt tree) are not in the key: what a build read of them is
+in its record, which a restore proves file by file.
 
 A second checkout at another path misses: installed files embed the absolute prefix (CMake
 config files, setup scripts, shebangs), so relocating them would mean rewriting binaries.
@@ -36,7 +38,7 @@ from pathlib import Path
 from wsbuild.files import atomic_write
 
 #: bumped whenever the entry layout changes; old entries then simply miss
-ENTRY_FORMAT = 1
+ENTRY_FORMAT = 2
 _HEX64 = re.compile(r"[0-9a-f]{64}")
 _FIRST_CALL = threading.Lock()
 
@@ -58,7 +60,7 @@ class CacheKey:
         return hashlib.sha256(self.text.encode()).hexdigest()
 
 
-def cache_key(*, package: str, build_key: str, install_prefix: Path, build_type: str,
+def cache_key(*, package: str, inputs_key: str, install_prefix: Path, build_type: str,
               environ: Mapping[str, str], version: str,
               workspace_install: Path | None = None, memo: Path | None = None) -> CacheKey:
     """The key under which `package`'s install is stored. `environ` is the build environment
@@ -75,7 +77,7 @@ def cache_key(*, package: str, build_key: str, install_prefix: Path, build_type:
         "format": ENTRY_FORMAT,
         "package": package,
         "build_type": build_type,
-        "build_key": build_key,
+        "inputs_key": inputs_key,
         "install_prefix": str(install_prefix),
         "wsbuild": version,
         "platform": platform,

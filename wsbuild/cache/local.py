@@ -145,7 +145,8 @@ class LocalCache:
         dropped = 0
         for path, _, _ in _files(self.ac):
             record = parse_action_result(_read(path))
-            if record is None or not (self.cas / record.digest).is_file():
+            if record is None or not (self.cas / record.digest).is_file() or (
+                    record.record_digest and not (self.cas / record.record_digest).is_file()):
                 try:
                     path.unlink()
                     dropped += 1
@@ -178,6 +179,10 @@ class LocalCache:
                 path.unlink(missing_ok=True)
             elif (self.cas / record.digest).stat().st_size != record.size:
                 problems.append(f"ac/{path.name}: archive size differs from the record (removed)")
+                path.unlink(missing_ok=True)
+            elif record.record_digest and not (self.cas / record.record_digest).is_file():
+                problems.append(f"ac/{path.name}: its package record cas/{record.record_digest} "
+                                "is missing (removed)")
                 path.unlink(missing_ok=True)
         return problems
 

@@ -1,12 +1,21 @@
 """The build cache as one run uses it: opened when the first package needs building (a no-op
-build never pays for it), a package's cache key from its build key, lookups while the run is
-planned, and restores committed into install/ exactly as a build commits its stage."""
+build never pays for it), a package's cache key from its inputs key, lookups while the run is
+planned, and restores committed into install/ exactly as a build commits its stage.
+
+An entry carries the package record it was built with (record/model.py), and is restored only
+when this machine proves it (ccache's direct mode): the record's inputs key is the one looked
+up, each dependency's key here is the one it was built against (those built in this run once
+they are), and every file and directory listing it read outside the package has the same
+content here. After a restore the package's record is the entry's, with this machine's
+signatures and environment, so later edits are seen."""
 
 from __future__ import annotations
 
+import os
 import threading
 import time
 from collections.abc import Mapping
+from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -17,6 +26,58 @@ from wsbuild.workspace.root import Workspace
 if TYPE_CHECKING:
     from wsbuild.cache.client import BuildCache, Found, Restored
     from wsbuild.cache.key import CacheKey
+    from wsbuild.record.model import PackageRecord
+    from wsbuild.record.outside import Digests
+
+#: a dependency's key before its build in this run says it (builder/plan.py's PENDING)
+PENDING = "pending:"
+
+
+@dataclass(frozen=True, slots=True)
+class Proven:
+    """An entry this machine proved while the run was planned, and its package record."""
+
+    found: Found
+    record: PackageRecord
+
+
+def disproof(found: Found, inputs_key: str, dependencies: Mapping[str, str], digests: Digests,
+             *, install_base: Path, planning: bool, waiting: bool = False
+             ) -> tuple[PackageRecord | None, str]:
+    """The entry's package record and "" when this machine proves it, else (None, why not).
+    `dependencies`: the keys the package's dependencies have here (a PENDING one is not
+    compared: its build in this run decides, and the restore asks again); `waiting`: some
+    dependency is yet to be built or restored in this run, so what the entry read in the
+    install base is compared at the restore only."""
+    from wsbuild.record.model import decode
+    from wsbuild.record.outside import first_change, own_entries
+
+    if found.package_record is None:
+        return None, "the entry carries no package record"
+    try:
+        import json
+
+        record = decode(json.loads(found.package_record))
+    except ValueError:
+        record = None
+    if record is None:
+        return None, "the entry's package record cannot be read"
+    if record.inputs_key != inputs_key:
+        return None, "the entry's package record is not of these inputs"
+    if record.test_tree:
+        return None, ("its tests run from its build directory, which a restore does not bring "
+                      "back: it is built")
+    for dep, key in sorted(dependencies.items()):
+        if not key.startswith(PENDING) and record.dependencies.get(dep) != key:
+            return None, f"built against another build of {dep}"
+    if set(record.dependencies) != set(dependencies):
+        return None, "built against other dependencies"
+    changed = first_change(record.outside, digests, planning=planning,
+                           own=own_entries(str(install_base), record.installed),
+                           skip=str(install_base) + os.sep if waiting else "")
+    if changed is not None:
+        return None, f"read {changed}, which differs here"
+    return record, ""
 
 
 class RunCache:
@@ -58,7 +119,7 @@ class RunCache:
     def _warn(self, text: str) -> None:
         self._emit(Notice(text, warning=True))
 
-    def key(self, name: str, build_type: str, build_key: str, prefix: Path,
+    def key(self, name: str, build_type: str, inputs_key: str, prefix: Path,
             environ: Mapping[str, str]) -> CacheKey | None:
         if self.settings is None:
             return None
@@ -67,7 +128,7 @@ class RunCache:
         from wsbuild.cache.key import cache_key
 
         directory = self.settings.directory
-        key = cache_key(package=name, build_key=build_key, install_prefix=prefix,
+        key = cache_key(package=name, inputs_key=inputs_key, install_prefix=prefix,
                         build_type=build_type, environ=environ, version=__version__,
                         workspace_install=self.workspace.install_base,
                         memo=directory / "toolchain.json" if directory else None)
@@ -75,28 +136,48 @@ class RunCache:
             self._seconds["lookup"] += time.perf_counter() - started
         return key
 
-    def lookup(self, key: CacheKey) -> Found | None:
-        """The cache's entry for `key` (locally or on the server), None on a miss; reads only."""
+    def lookup(self, key: CacheKey, inputs_key: str, dependencies: Mapping[str, str],
+               digests: Digests, *, waiting: bool = False) -> Proven | None:
+        """The cache's entry for `key` (locally or on the server) when this machine proves it
+        (`disproof`; `waiting`: a dependency is yet to be built or restored in this run),
+        None otherwise; reads only."""
         started = time.perf_counter()
         found = self._open().find(key)
+        record = None
         if found is None:
-            self._account("lookup", started)
-            with self._lock:  # for "why was this not restored?": the key's parts, in the log
-                self._misses.append(f"{key.package}: not in the cache under {key.address} "
-                                    f"= sha256 of {key.text}")
+            why_not = f"not in the cache under {key.address} = sha256 of {key.text}"
         else:
-            with self._lock:  # counted with the restore that follows
-                self._seconds["restore"] += time.perf_counter() - started
-        return found
+            record, why_not = disproof(found, inputs_key, dependencies, digests,
+                                       install_base=self.workspace.install_base, planning=True,
+                                       waiting=waiting)
+        if found is None or record is None:
+            self._account("lookup", started)
+            with self._lock:  # for "why was this not restored?": in the log
+                self._misses.append(f"{key.package}: {why_not}")
+            return None
+        with self._lock:  # counted with the restore that follows
+            self._seconds["restore"] += time.perf_counter() - started
+        return Proven(found, record)
 
-    def restore(self, key: CacheKey, found: Found, prefix: Path, merged_record: Path | None
-                ) -> tuple[Restored, list[tuple[str, int]]] | None:
+    def restore(self, key: CacheKey, found: Found, prefix: Path, merged_record: Path | None, *,
+                inputs_key: str, dependencies: Mapping[str, str], digests: Digests
+                ) -> tuple[Restored, PackageRecord, list[tuple[str, int]]] | str:
         """Unpack the entry `lookup` found into a fresh stage and commit it to `prefix` as a
-        build would (`merged_record`: the package's file list in a merged install). None when
-        the entry is refused (the package is then built)."""
+        build would (`merged_record`: the package's file list in a merged install), once this
+        machine proves it again with its dependencies' keys as this run left them; the entry's
+        package record and the installed files. Else why it was refused (the package is then
+        built)."""
         from wsbuild.prefix import stage as staging
 
         started = time.perf_counter()
+        entry_record, why_not = disproof(found, inputs_key, dependencies, digests,
+                                         install_base=self.workspace.install_base,
+                                         planning=False)
+        if entry_record is None:
+            self._account("lookup", started)
+            with self._lock:
+                self._misses.append(f"{key.package}: {why_not}")
+            return why_not
         cache = self._open()
         install_base = self.workspace.install_base
         stage = staging.new_stage(install_base, key.package)
@@ -105,28 +186,37 @@ class RunCache:
             if restored is None:
                 staging.discard_stage(stage)
                 self._account("lookup", started)
-                return None
+                return "the entry's archive could not be had"
             if merged_record is not None:
                 staging.commit_merged(stage, prefix, merged_record)
                 files = merged_record.read_text().splitlines()
-                result = restored, staging.installed_files(install_base, prefix, files)
+                result = (restored, entry_record,
+                          staging.installed_files(install_base, prefix, files))
             else:
                 staging.commit_isolated(stage, prefix)
-                result = restored, staging.installed_files(install_base, prefix)
+                result = restored, entry_record, staging.installed_files(install_base, prefix)
         except BaseException:
             staging.discard_stage(stage)
             raise
         self._account("restore", started)
         return result
 
-    def store(self, key: CacheKey, prefix: Path, merged_record: Path | None) -> str | None:
-        """Store the package just installed at `prefix`; None when stored (or queued), else why
-        not. An isolated prefix is packed on the cache's thread while the build goes on: only
-        a rebuild of the same package would change it, and that cannot happen in this run. A
-        merged prefix is shared, so it is packed at once."""
+    def store(self, key: CacheKey, prefix: Path, merged_record: Path | None,
+              package_record: PackageRecord) -> str | None:
+        """Store the package just installed at `prefix` with the record it was built with;
+        None when stored (or queued), else why not. An isolated prefix is packed on the cache's
+        thread while the build goes on: only a rebuild of the same package would change it,
+        and that cannot happen in this run. A merged prefix is shared, so it is packed at
+        once."""
+        import json
+
+        from wsbuild.record.model import encode
+
         started = time.perf_counter()
         files = merged_record.read_text().splitlines() if merged_record is not None else None
-        why_not = self._open().store(key, prefix, files, background=merged_record is None)
+        data = json.dumps(encode(package_record), separators=(",", ":")).encode()
+        why_not = self._open().store(key, prefix, files, package_record=data,
+                                     background=merged_record is None)
         self._account("store", started)
         return why_not
 

@@ -15,6 +15,8 @@ from typing import Any
 
 #: the environment variable naming the oracle's file
 ORACLE_VARIABLE = "WSBUILD_INPUTS_ORACLE"
+#: beside the oracle's file, one line per run it checked: accesses traced, undeclared, argv, cwd
+CHECKED_SUFFIX = ".checked"
 
 
 class InputsOracle:
@@ -132,12 +134,13 @@ class InputsOracle:
         lines = []
         for (path, follow), caller in sorted(self.traced.items()):
             if path in declared or path in listed or path.rpartition("/")[0] in listed \
-                    or path.startswith(allowed) or (path + os.sep).startswith(prefixes) \
+                    or (path + os.sep).startswith(allowed) \
+                    or (path + os.sep).startswith(prefixes) \
                     or (not follow and path + os.sep in interpreter_ancestors):
                 continue
             lines.append(f"{path}\t{'stat' if follow else 'lstat'}\t{caller}\n")
         for path, caller in sorted(self.traced_listed.items()):
-            if path in listed or path in declared or path.startswith(allowed) \
+            if path in listed or path in declared or (path + os.sep).startswith(allowed) \
                     or (path + os.sep).startswith(prefixes):
                 continue
             lines.append(f"{path}\tlisting\t{caller}\n")
@@ -145,6 +148,11 @@ class InputsOracle:
             with open(self.file, "a", encoding="utf-8") as handle:
                 handle.write(f"# wsbuild {' '.join(sys.argv[1:])} in {self.cwd}\n")
                 handle.writelines(lines)
+        # what it checked, so that an oracle switched off is seen: a run it traced writes
+        # how many accesses it held to the declarations (tests/test_inputs_oracle.py)
+        with open(self.file + CHECKED_SUFFIX, "a", encoding="utf-8") as handle:
+            handle.write(f"{len(self.traced) + len(self.traced_listed)}\t{len(lines)}\t"
+                         f"{' '.join(sys.argv[1:])}\t{self.cwd}\n")
 
 
 def _caller() -> str:
@@ -169,15 +177,12 @@ def _links_of(path: str) -> set[str]:
 
 
 def _interpreter_paths() -> tuple[str, ...]:
-    """What the interpreter reads for itself (its standard library, its messages, the venv's
-    configuration) and wsbuild's own files: the record's key names the interpreter and
-    wsbuild's version instead."""
+    """The one exemption: the interpreter's own standard library (the record's key names the
+    interpreter by its path and version). Nothing else: for a venv made from /usr/bin/python3
+    `sys.base_prefix` is /usr, whose headers, CMake modules and .pc files a plan must
+    declare."""
     import sysconfig
 
     paths = sysconfig.get_paths()
-    own = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-    found = {paths["stdlib"], paths["platstdlib"], os.path.join(sys.prefix, "pyvenv.cfg"),
-             own + os.sep}
-    if sys.base_prefix != sys.prefix:  # a venv's interpreter is installed apart from it
-        found.add(sys.base_prefix + os.sep)
-    return tuple(sorted(found))
+    return tuple(sorted({paths["stdlib"].rstrip(os.sep) + os.sep,
+                         paths["platstdlib"].rstrip(os.sep) + os.sep}))

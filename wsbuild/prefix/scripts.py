@@ -7,6 +7,7 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, replace
 from pathlib import Path
 
+from wsbuild import inputs
 from wsbuild.files import write_if_changed
 from wsbuild.prefix.dsv import Action, Operation, PackageEnvironment, resolve_package
 from wsbuild.prefix.layout import (
@@ -51,13 +52,13 @@ def underlays_from_environment(environ: Mapping[str, str], install_base: Path) -
     """
     paths: list[str] = []
     for path in environ.get("COLCON_PREFIX_PATH", "").split(os.pathsep):
-        if path and os.path.exists(path):
+        if path and inputs.exists(path):
             paths.append(path)
     for path in environ.get("AMENT_PREFIX_PATH", "").split(os.pathsep):
-        if not path or not os.path.exists(path):
+        if not path or not inputs.exists(path):
             continue
         try:
-            names = os.listdir(path)
+            names = inputs.listdir(path)
         except OSError:
             continue
         if any(name.startswith("local_setup.") for name in names):
@@ -65,7 +66,7 @@ def underlays_from_environment(environ: Mapping[str, str], install_base: Path) -
             continue
         parent = os.path.dirname(path.rstrip("/"))
         try:
-            layout = Path(parent, INSTALL_LAYOUT_MARKER).read_text().rstrip()
+            layout = inputs.read_text(Path(parent, INSTALL_LAYOUT_MARKER)).rstrip()
         except OSError:
             continue
         if layout == ISOLATED:

@@ -2,22 +2,24 @@
 what enters the key (`TestKey`), and the record kept of it in build/<pkg>/.wsbuild/test_result.json
 (digests only, never an environment value; the directory is private to the user).
 
-The key's parts, each compared as written here:
-- `build`: the package's own build key (the `key` of build/<pkg>/.wsbuild/state.json, which the
-  builder writes: read here by its field name, since builder/ ranks beside testing/);
-- `closure`: the build key of every workspace package of its test closure (its direct
+The key's parts derive from the packages' records (record/model.py), each compared as written:
+- `build`: the key of the package's own record (what decided its build's output);
+- `closure`: the record key of every workspace package of its test closure (its direct
   dependencies and, recursively, their run dependencies), standing in for their installed
-  output, and for one built with --symlink-install also its sources' signature (its install
-  links to them); a package built by another tool (no state.json) is never reused;
-- `sources`: the stat signature (size, mtime, ctime, inode, mode) of every file of the package's
-  source directory, as the builder walks it, and the files its test runner names
-  (`KeyInputs.files`; CTest's: CTestTestfile.cmake and ninja's log): a test edited without a
-  rebuild runs again;
+  output, and for one built with --symlink-install also its own files' signatures (its install
+  links to them); a package without a record (built by another tool) is never reused;
+- `underlays`: the stat signatures of the installed files of every package of the test closure
+  that a chained workspace underlay provides (found through the test environment's
+  AMENT_PREFIX_PATH, followed through their installed package.xml's run dependencies): an
+  underlay rebuilt under the overlay's tests runs them again;
+- `sources`: the stat signatures of the package's own files, by the record's rule
+  (record/own_files.py), and of the files its test runner names (`KeyInputs.files`; CTest's:
+  CTestTestfile.cmake and ninja's log): a test edited without a rebuild runs again;
 - `options`: what `wsbuild test` hands the tool (its own arguments only: --pytest-args or
   --ctest-args, then the package's own; the retest counts, --strict-linters, where results
   go, the install layout, the interpreter) and wsbuild's version;
-- `environment`: one digest per variable a test can observe (`OBSERVED_NAMES`, and names starting
-  with `OBSERVED_PREFIXES`), taken from the environment the tool starts with;
+- `environment`: one digest per variable of the environment the tool starts with, all but
+  those that cannot reach a test (record/environment.py's list, as for a build);
 - `tools`: the interpreter, the versions of the distributions it and the ROS tests' pytest hold
   (their dist-info names), dpkg's status file, and the tools its test runner names
   (`KeyInputs.tools`; CTest's: the ctest binary).
@@ -27,38 +29,19 @@ from __future__ import annotations
 
 import hashlib
 import json
-import os
 import sys
 import sysconfig
-from collections.abc import Iterable, Mapping
+from collections.abc import Iterable
 from dataclasses import dataclass, field
 from pathlib import Path
 
 from wsbuild import inputs
 from wsbuild.files import atomic_write, private_directory
 from wsbuild.build_types.junit import Counts
-from wsbuild.workspace.package_files import package_files
 
-#: builder/fingerprint.py's record of a package's last build (its `key` field is read here)
-STATE_FILE = Path(".wsbuild") / "state.json"
 #: the record of the package's last passing test result
 TEST_RECORD = Path(".wsbuild") / "test_result.json"
-RECORD_FORMAT = 1
-
-#: environment variables whose value a test can observe, by exact name ...
-OBSERVED_NAMES = frozenset({
-    "PATH", "LD_PRELOAD", "CMAKE_PREFIX_PATH", "PKG_CONFIG_PATH",
-    "LANG", "LANGUAGE", "TZ", "DISPLAY",
-})
-#: ... compared as a set of directories (see observed_environment) ...
-UNORDERED_NAMES = frozenset({"LD_LIBRARY_PATH"})
-#: ... and by prefix: ROS and its middlewares, Python and pytest (PYTEST_ADDOPTS,
-#: PYTEST_PLUGINS, ...), CTest and GoogleTest, the locale
-OBSERVED_PREFIXES = (
-    "ROS_", "RMW_", "RCUTILS_", "RCL_", "AMENT_", "COLCON_", "PYTHON", "PYTEST_", "CTEST_",
-    "GTEST_", "LC_", "FASTRTPS_", "FASTDDS_", "CYCLONEDDS_", "ZENOH_", "LAUNCH_",
-)
-
+RECORD_FORMAT = 2
 
 
 def _digest(value: object) -> str:
@@ -68,53 +51,6 @@ def _digest(value: object) -> str:
 
 #: type and mode, inode, size, modification and change times of a path (through links)
 stat_signature = inputs.signature
-
-
-@dataclass(frozen=True, slots=True)
-class BuildRecord:
-    """What the key takes of a package's last build (builder/fingerprint.py's state.json)."""
-
-    key: str
-    #: built with --symlink-install: its install points into its sources, so an edit there
-    #: reaches the tests of everything that uses it without a rebuild
-    symlink_install: bool
-
-
-def read_build_record(build_dir: Path) -> BuildRecord | None:
-    """The package's last build, None when wsbuild did not build it."""
-    try:
-        data = json.loads(inputs.read_text(build_dir / STATE_FILE))
-        key = data["key"]
-        options = (data.get("inputs") or {}).get("options") or {}
-        symlinked = bool(options.get("symlink_install", False))
-    except (OSError, ValueError, KeyError, TypeError, AttributeError):
-        return None
-    return BuildRecord(key, symlinked) if isinstance(key, str) and key else None
-
-
-def observed_environment(env: Mapping[str, str]) -> dict[str, str]:
-    """A digest of each variable a test can observe (the values are never kept).
-
-    `LD_LIBRARY_PATH` counts as the set of its directories: the ROS wheels' bootstrapper,
-    which re-executes the interpreter with its library directories added, adds them in set
-    order, a different one in every process."""
-    digests = {}
-    for name, value in sorted(env.items()):
-        if name in UNORDERED_NAMES:
-            digests[name] = _digest(sorted(set(value.split(os.pathsep))))
-        elif name in OBSERVED_NAMES or name.startswith(OBSERVED_PREFIXES):
-            digests[name] = _digest(value)
-    return digests
-
-
-def source_signature(root: Path, extra: Iterable[Path] = ()) -> str:
-    """The stat signatures of the package's files (hidden files, caches and build/, install/,
-    log/ left out, as the builder walks sources), and of `extra` files."""
-    found: list[tuple[str, tuple[int, ...]]] = [
-        (rel, stat_signature(entry.path) if entry is not None else ())
-        for rel, entry in package_files(root)]
-    found += [(str(path), stat_signature(path)) for path in extra]
-    return _digest(sorted(found))
 
 
 def distributions(directory: Path) -> list[str]:
@@ -152,11 +88,12 @@ class TestKey:
     options: str
     environment: dict[str, str]
     tools: str
+    underlays: str = ""
 
     @property
     def digest(self) -> str:
-        return _digest([self.build, sorted(self.closure.items()), self.sources, self.options,
-                        sorted(self.environment.items()), self.tools])
+        return _digest([self.build, sorted(self.closure.items()), self.underlays, self.sources,
+                        self.options, sorted(self.environment.items()), self.tools])
 
     def changed_since(self, old: TestKey) -> str:
         """What changed from `old`, in words (the first of the parts, in the key's order)."""
@@ -166,6 +103,8 @@ class TestKey:
             names = sorted(n for n in set(self.closure) | set(old.closure)
                            if self.closure.get(n) != old.closure.get(n))
             return f"rebuilt on its test environment: {' '.join(names)}"
+        if self.underlays != old.underlays:
+            return "an underlay workspace's package it runs against changed"
         if self.sources != old.sources:
             return "a file of the package changed"
         if self.options != old.options:
@@ -220,7 +159,8 @@ def read_cached_result(build_dir: Path) -> CachedResult | None:
         return CachedResult(
             key=TestKey(build=key["build"], closure=dict(key["closure"]),
                         sources=key["sources"], options=key["options"],
-                        environment=dict(key["environment"]), tools=key["tools"]),
+                        environment=dict(key["environment"]), tools=key["tools"],
+                        underlays=key["underlays"]),
             counts=Counts(**data["counts"]),
             result_files={p: (int(s), int(m)) for p, (s, m) in data["result_files"].items()},
             log_dir=Path(data["log_dir"]) if data.get("log_dir") else None,
@@ -237,7 +177,8 @@ def write_cached_result(build_dir: Path, result: CachedResult) -> None:
         "digest": key.digest,
         "key": {"build": key.build, "closure": dict(sorted(key.closure.items())),
                 "sources": key.sources, "options": key.options,
-                "environment": dict(sorted(key.environment.items())), "tools": key.tools},
+                "environment": dict(sorted(key.environment.items())), "tools": key.tools,
+                "underlays": key.underlays},
         "counts": {"tests": result.counts.tests, "errors": result.counts.errors,
                    "failures": result.counts.failures, "skipped": result.counts.skipped},
         "result_files": {p: list(s) for p, s in sorted(result.result_files.items())},

@@ -61,7 +61,7 @@ def find_venv_underlay(environ: Mapping[str, str], executable: str) -> Path | No
         candidates.append(Path(environ["VIRTUAL_ENV"]))
     if executable:
         venv = Path(os.path.abspath(executable)).parent.parent
-        if (venv / "pyvenv.cfg").is_file():
+        if inputs.is_file(venv / "pyvenv.cfg"):
             candidates.append(venv)
     if sys.prefix != sys.base_prefix:
         candidates.append(Path(sys.prefix))
@@ -98,6 +98,15 @@ _KNOWN_DISTROS = frozenset({"humble", "iron", "jazzy", "kilted", "rolling"})
 
 
 # ------------------------------------------------------------------------------ python
+
+
+def _declare_python_library(facts: dict[str, str | None]) -> None:
+    """What `_python_facts` looked at (it runs with the standard library only, maybe in
+    another process): the interpreter's library directory and the library found there."""
+    library = facts.get("library")
+    if library:
+        inputs.realpath(os.path.dirname(library))
+        inputs.exists(library)
 
 
 def _python_facts() -> dict[str, str | None]:
@@ -171,6 +180,7 @@ def venv_python(prefix: Path) -> VenvPython:
                 f"the underlay's Python failed: {done.stderr.strip()[-500:]}", path=executable
             )
         facts = json.loads(done.stdout)
+    _declare_python_library(facts)
     result = VenvPython(
         version=str(facts["version"]),
         executable=executable,

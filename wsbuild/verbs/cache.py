@@ -49,7 +49,8 @@ def run_stats(args: argparse.Namespace) -> int:
     local, url = _local()
     stats = local.stats()
     print(f"local cache: {stats.directory}")
-    print(f"  {stats.entries} entries, {stats.blobs} archives, {_size(stats.bytes)} "
+    print(f"  {stats.entries} entries, {stats.blobs} blobs (archives and package records), "
+          f"{_size(stats.bytes)} "
           f"of {_size(stats.max_bytes)} (WSBUILD_CACHE_MAX_SIZE)")
     if url:
         from wsbuild.cache.settings import redact
@@ -65,19 +66,19 @@ def run_prune(args: argparse.Namespace) -> int:
 
     limit = parse_size(args.max_size) if args.max_size is not None else local.max_bytes
     pruned = local.prune(limit)
-    print(f"removed {pruned.blobs} archives and {pruned.entries} entries, "
+    print(f"removed {pruned.blobs} blobs and {pruned.entries} entries, "
           f"freed {_size(pruned.bytes)}; {_size(local.stats().bytes)} left in {local.root}")
     return 0
 
 
 def run_verify(args: argparse.Namespace) -> int:
-    """Check every archive against its digest and every entry against its archive; remove
-    what is bad. Exit 1 when anything was bad."""
+    """Check every blob against its digest and every entry against its archive and package
+    record; remove what is bad. Exit 1 when anything was bad."""
     local, _ = _local()
     problems = local.verify()
     for problem in problems:
         print(f"{local.root}/{problem}")
     stats = local.stats()
-    print(f"{stats.entries} entries, {stats.blobs} archives checked in {local.root}: "
+    print(f"{stats.entries} entries, {stats.blobs} blobs checked in {local.root}: "
           f"{len(problems)} problem(s)")
     return 1 if problems else 0

@@ -91,7 +91,7 @@ def defaults_files(environ: Mapping[str, str], workspace_root: Path | None) -> l
     named = environ.get(DEFAULTS_FILE_VAR, "")
     if named:
         path = Path(named).expanduser()
-        if not path.is_file():
+        if not inputs.is_file(path):
             raise DefaultsError(
                 f"{DEFAULTS_FILE_VAR} names a file that does not exist", path=path,
                 hint=f"create it, or unset {DEFAULTS_FILE_VAR} to use "
@@ -113,7 +113,7 @@ def read_entries(path: Path) -> list[FileEntry]:
     import yaml
 
     try:
-        text = path.read_text(encoding="utf-8")
+        text = inputs.read_text(path)
     except (OSError, UnicodeDecodeError) as exc:
         raise DefaultsError(f"cannot read the defaults file: {exc}", path=path) from None
     loader = yaml.SafeLoader(text)

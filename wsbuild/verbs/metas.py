@@ -120,7 +120,7 @@ def read_metadata(files: list[Path]) -> Metadata:
 
     for path in files:
         try:
-            data = yaml.safe_load(path.read_text(encoding="utf-8"))
+            data = yaml.safe_load(inputs.read_text(path))
         except (OSError, UnicodeDecodeError) as exc:
             raise MetadataError(f"cannot read the metadata file: {exc}", path=path) from None
         except yaml.MarkedYAMLError as exc:
@@ -142,7 +142,7 @@ def read_metadata(files: list[Path]) -> Metadata:
                 if section == "names":
                     target = result.by_name.setdefault(str(key), {})
                 else:
-                    real = os.path.realpath(path.parent / str(key))
+                    real = inputs.realpath(path.parent / str(key))
                     target = result.by_path.setdefault(real, {})
                 for option, value in values.items():
                     _merge(target, str(option), value)

@@ -12,6 +12,7 @@ from pathlib import Path
 
 from wsbuild.errors import WsbuildError
 from wsbuild.files import atomic_write
+from wsbuild import inputs
 
 MIXIN_DOC = """Manage colcon-mixin's named option sets (`--mixin NAME` of build, test, …).
 
@@ -61,18 +62,16 @@ def config_home(environ: Mapping[str, str]) -> Path:
 
 
 def mixin_files(directory: Path) -> list[Path]:
-    """Every *.mixin file under `directory`, directories starting with a dot skipped, sorted."""
-    found: list[Path] = []
-    for dirpath, dirnames, filenames in os.walk(directory, followlinks=True):
-        dirnames[:] = sorted(d for d in dirnames if not d.startswith("."))
-        found += [Path(dirpath) / f for f in sorted(filenames) if f.endswith(".mixin")]
-    return found
+    """Every *.mixin file under `directory`, directories starting with a dot skipped, sorted;
+    each listing declared (wsbuild/inputs.py: a mixin file added, changed or removed after a
+    recorded no-op runs the full build)."""
+    return [Path(path) for path in inputs.walk_files(directory) if path.endswith(".mixin")]
 
 
 def read_mixin_file(path: Path) -> list[Mixin]:
     """The mixins of one file: `{verb: {name: {option: value}}}` (JSON or YAML)."""
     try:
-        text = path.read_text(encoding="utf-8")
+        text = inputs.read_text(path)
     except (OSError, UnicodeDecodeError) as exc:
         raise MixinError(f"cannot read the mixin file: {exc}", path=path) from None
     return parse_mixins(text, path)
@@ -128,7 +127,7 @@ def known_mixins(environ: Mapping[str, str], extra_files: Sequence[str] = (),
     files = [f for location in mixin_locations(environ) for f in mixin_files(location)]
     for name in extra_files:
         path = (cwd or Path.cwd()) / name
-        if not path.is_file():
+        if not inputs.is_file(path):
             raise MixinError("--mixin-files: no such file", path=path)
         files.append(path)
     result: dict[str, dict[str, Mixin]] = {}
@@ -232,10 +231,10 @@ def read_repositories(environ: Mapping[str, str]) -> dict[str, str]:
     import yaml
 
     path = repositories_file(environ)
-    if not path.is_file():
+    if not inputs.is_file(path):
         return {}
     try:
-        data = yaml.safe_load(path.read_text(encoding="utf-8"))
+        data = yaml.safe_load(inputs.read_text(path))
     except (OSError, UnicodeDecodeError, yaml.YAMLError) as exc:
         raise MixinError(f"cannot read the mixin repositories: {exc}", path=path) from None
     if data is None:

@@ -3,7 +3,7 @@
 and --packages-skip-test-passed.
 
 Read from what wsbuild records (build/<pkg>/.wsbuild/: `building` while a build runs and after
-it failed or was cut short, `state.json` after it finished; the JUnit files of the last test
+it failed or was cut short, `record.json` after it finished; the JUnit files of the last test
 run), else from colcon's own records (build/<pkg>/colcon_build.rc, colcon_test.rc), so a
 workspace last built by colcon works too.
 """
@@ -38,12 +38,12 @@ RESULT_OPTIONS = {
 
 def previous_build(build_dir: Path) -> Previous | None:
     """The last build's result of the package whose build directory is `build_dir`."""
-    from wsbuild.builder.fingerprint import STATE_FILE
+    from wsbuild.record.model import RECORD_FILE
     from wsbuild.builder.plan import BUILDING_MARKER
 
     if inputs.exists(build_dir / BUILDING_MARKER):
         return Previous.FAILED
-    if inputs.exists(build_dir / STATE_FILE):
+    if inputs.exists(build_dir / RECORD_FILE):
         return Previous.FINISHED
     return _colcon_result(build_dir, "build")
 

@@ -17,7 +17,7 @@ import sys
 from dataclasses import dataclass
 from pathlib import Path
 
-from wsbuild.build_types import BuildContext, StepFailed
+from wsbuild.build_types import BuildContext, ReadOutside, StepFailed
 from wsbuild.build_types.pybuild.install import (
     InstallTarget,
     install_plan,
@@ -109,20 +109,24 @@ def install(ctx: BuildContext, plan: PythonBuildPlan | None) -> None:
             ctx.warn(f"byte-compiling failed: {error}")
 
 
-def _read_outside(ctx: BuildContext, setup: SetupPlan) -> tuple[str, ...]:
+def _read_outside(ctx: BuildContext, setup: SetupPlan) -> ReadOutside:
     """What the fast path read outside the package: what setup.py opened (its imports of a
-    dependency included) and the files it installs from outside the package directory."""
+    dependency included) and stat'ed, the directories it listed (a glob over a dependency's
+    share directory), and the files it installs from outside the package directory."""
     inside = tuple({f"{spelling(directory)}{os.sep}"
                     for directory in (ctx.source_dir, ctx.build_dir)
                     for spelling in (os.path.abspath, os.path.realpath)})
-    read = set(setup.opened)
+
+    def outside(paths: set[str]) -> tuple[str, ...]:
+        # the package's own files (a symlink into it, too) are its record's own files
+        return tuple(sorted({os.path.abspath(path) for path in paths
+                             if not (os.path.abspath(path) + os.sep).startswith(inside)
+                             and not (os.path.realpath(path) + os.sep).startswith(inside)}))
+
+    read = set(setup.opened) | set(setup.stated)
     read.update(str(ctx.source_dir / f.source) for f in setup.files)
     read.update(str(ctx.source_dir / name) for entry in setup.data_files for name in entry.sources)
-    # the package's own files (a symlink into it, too) are its snapshot's
-    outside = {os.path.abspath(path) for path in read
-               if not os.path.abspath(path).startswith(inside)
-               and not os.path.realpath(path).startswith(inside)}
-    return tuple(sorted(outside))
+    return ReadOutside(files=outside(read), listings=outside(set(setup.listed)))
 
 
 def record(ctx: BuildContext) -> None:

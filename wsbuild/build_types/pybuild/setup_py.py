@@ -93,6 +93,10 @@ class SetupPlan:
     fallback_reasons: tuple[str, ...] = ()
     #: every file setup.py read (its imports included), absolute
     opened: tuple[str, ...] = ()
+    #: every path setup.py stat'ed (os.path.exists, isfile, ...), absolute
+    stated: tuple[str, ...] = ()
+    #: every directory setup.py listed (os.listdir, os.scandir, glob, os.walk), absolute
+    listed: tuple[str, ...] = ()
 
     @property
     def fast(self) -> bool:
@@ -204,6 +208,8 @@ def _plan_from_json(data: dict) -> SetupPlan:
         egg_info_basename=data.get("egg_info_basename"),
         fallback_reasons=tuple(data.get("fallback", ())),
         opened=tuple(str(p) for p in data.get("opened", ())),
+        stated=tuple(str(p) for p in data.get("stated", ())),
+        listed=tuple(str(p) for p in data.get("listed", ())),
     )
 
 

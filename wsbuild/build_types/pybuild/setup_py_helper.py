@@ -290,15 +290,17 @@ def _child(req: dict, channel_fd: int) -> int:
     os.environ.clear()
     os.environ.update(req["env"])
     sys.path[:] = _child_sys_path(req["source_dir"], req["env"])
-    opened = _watch_opened()
+    opened, stated, listed = _watch_reads()
     try:
         result = _run_setup(req)
     except BaseException as exc:  # a broken setup.py must not take the helper down
         traceback.print_exc()
         result = {"error": f"{type(exc).__name__}: {exc}"}
-    # what setup.py read (its imports included): the build's dependency list, as a
-    # compiler's depfile is a C++ build's
+    # what setup.py read (its imports included), looked at and listed: the build's
+    # dependency list, as a compiler's depfile is a C++ build's
     result["opened"] = sorted(opened)
+    result["stated"] = sorted(stated - opened)
+    result["listed"] = sorted(listed)
     sys.stdout.flush()
     sys.stderr.flush()
     tmp = req["result"] + ".tmp"
@@ -308,26 +310,68 @@ def _child(req: dict, channel_fd: int) -> int:
     return 0
 
 
-def _watch_opened() -> set:
-    """The absolute paths of every file this process opens for reading from now on (an
-    audit hook: Python-level opens and imports alike; a forked child's own)."""
+def _import_system() -> bool:
+    """Whether the import system or distribution discovery (importlib.metadata) is listing a
+    directory: which modules and distributions exist there is what they look up, and what is
+    imported or read of them is recorded as opened. (Their listings of sys.path would tie a
+    package to every file a merged install holds, whoever installed it.)"""
+    frame = sys._getframe(2)
+    while frame is not None:
+        name = frame.f_code.co_filename
+        if "importlib" in name and ("_bootstrap" in name or "metadata" in name):
+            return True
+        frame = frame.f_back
+    return False
+
+
+def _watch_reads() -> tuple:
+    """The absolute paths of every file this process opens for reading, every path it stats
+    and every directory it lists from now on (an audit hook for opens, imports and listings:
+    os.listdir, os.scandir, hence glob and os.walk, but the import system's own; os.stat and
+    os.lstat wrapped, hence os.path.exists, isfile, isdir and pathlib's; a forked child's
+    own)."""
     opened: set = set()
+    stated: set = set()
+    listed: set = set()
     cwd = os.getcwd()
 
-    def hook(event: str, args: tuple) -> None:
-        if event != "open" or not args or not isinstance(args[0], (str, bytes)):
-            return
-        mode = args[1] if len(args) > 1 else "r"
-        flags = args[2] if len(args) > 2 else 0
-        if isinstance(mode, str) and any(c in mode for c in "wax+"):
-            return  # written: an output
-        if isinstance(flags, int) and flags & (os.O_WRONLY | os.O_RDWR | os.O_CREAT):
-            return
-        path = os.fsdecode(args[0])
-        opened.add(path if os.path.isabs(path) else os.path.join(cwd, path))
+    def absolute(path: object) -> str | None:
+        if not isinstance(path, (str, bytes, os.PathLike)):
+            return None  # a file descriptor
+        name = os.fsdecode(path)
+        return name if os.path.isabs(name) else os.path.join(cwd, name)
 
+    def hook(event: str, args: tuple) -> None:
+        if event == "open" and args and isinstance(args[0], (str, bytes)):
+            mode = args[1] if len(args) > 1 else "r"
+            flags = args[2] if len(args) > 2 else 0
+            if isinstance(mode, str) and any(c in mode for c in "wax+"):
+                return  # written: an output
+            if isinstance(flags, int) and flags & (os.O_WRONLY | os.O_RDWR | os.O_CREAT):
+                return
+            opened.add(absolute(args[0]))
+        elif event in ("os.listdir", "os.scandir") and args and not _import_system():
+            name = absolute(args[0] if args[0] is not None else ".")
+            if name is not None:
+                listed.add(name)
+
+    real_stat, real_lstat = os.stat, os.lstat
+
+    def watched_stat(path, *args, **kwargs):  # type: ignore[no-untyped-def]
+        name = absolute(path) if kwargs.get("dir_fd") is None else None
+        if name is not None:
+            stated.add(name)
+        return real_stat(path, *args, **kwargs)
+
+    def watched_lstat(path, *args, **kwargs):  # type: ignore[no-untyped-def]
+        name = absolute(path) if kwargs.get("dir_fd") is None else None
+        if name is not None:
+            stated.add(name)
+        return real_lstat(path, *args, **kwargs)
+
+    os.stat, os.lstat = watched_stat, watched_lstat
     sys.addaudithook(hook)
-    return opened
+    return opened, stated, listed
 
 
 def _read(req: dict, channel) -> dict:

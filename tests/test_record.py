@@ -1,0 +1,171 @@
+"""A package's record (wsbuild/record/): its own files by one rule, what it read outside by
+content, the environment by digest, the two keys, and the one dirty check. Pure logic on real
+files in tmp_path; the builds that write and read records are tests/test_up_to_date.py's."""
+
+from __future__ import annotations
+
+import json
+import os
+from pathlib import Path
+
+from wsbuild.record.dirty import PackageNow, dirty_reason
+from wsbuild.record.environment import changed_names, environment_digests, keyed
+from wsbuild.record.model import PackageRecord, read_record, write_record
+from wsbuild.record.outside import Digests, first_change, own_entries, take
+from wsbuild.record.own_files import LEFT_OUT, own_files
+
+
+def _write(path: Path, text: str = "x") -> Path:
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text(text)
+    return path
+
+
+def test_no_directory_is_skipped_for_its_name_but_vcs_and_the_test_caches(tmp_path: Path) -> None:
+    pkg = tmp_path / "pkg"
+    for rel in ("setup.py", "pkg/log/__init__.py", "test/log/sample.log", "build/notes.txt",
+                "install/model.yaml", "vendor/COLCON_IGNORE", "vendor/v.cpp", ".clang-format",
+                ".git/HEAD", "pkg/__pycache__/m.cpython-311.pyc", ".pytest_cache/v/x",
+                "notes.txt~", "pkg/egg.egg-info/PKG-INFO"):
+        _write(pkg / rel)
+    ws_build = tmp_path / "pkg" / "ws_build_base"  # a workspace base inside the package
+    _write(ws_build / "pkg" / "CMakeCache.txt")
+    files = own_files(pkg, {}, outputs=[str(ws_build)]).files
+    assert sorted(files) == [".clang-format", "build/notes.txt", "install/model.yaml",
+                             "notes.txt~", "pkg/egg.egg-info/PKG-INFO", "pkg/log/__init__.py",
+                             "setup.py", "test/log/sample.log", "vendor/COLCON_IGNORE",
+                             "vendor/v.cpp"]
+    assert LEFT_OUT == {".git", ".hg", ".svn", ".bzr", "CVS", "__pycache__", ".pytest_cache"}
+
+
+def test_a_file_is_hashed_only_when_its_signature_changed(tmp_path: Path) -> None:
+    pkg = tmp_path / "pkg"
+    main = _write(pkg / "main.py", "A = 1\n")
+    first = own_files(pkg, {})
+    os.utime(main)  # touched: a new signature, the same content
+    touched = own_files(pkg, first.files)
+    assert touched.digest == first.digest and touched.changed == []
+    _write(main, "A = 2\n")
+    edited = own_files(pkg, touched.files)
+    assert edited.digest != first.digest and edited.changed == ["main.py"]
+    # a stale digest under an unchanged signature is trusted: no read when nothing changed
+    stale = {"main.py": edited.files["main.py"].__class__(
+        *[*edited.files["main.py"].as_list()[:2], "stale", *edited.files["main.py"].as_list()[3:]])}
+    assert own_files(pkg, stale).files["main.py"].digest == "stale"
+
+
+def test_a_symlink_counts_by_its_target_and_where_it_points(tmp_path: Path) -> None:
+    pkg = tmp_path / "pkg"
+    a, b = _write(tmp_path / "a.txt", "same\n"), _write(tmp_path / "b.txt", "same\n")
+    pkg.mkdir()
+    (pkg / "link.txt").symlink_to(a)
+    first = own_files(pkg, {})
+    (pkg / "link.txt").unlink()
+    (pkg / "link.txt").symlink_to(b)
+    assert own_files(pkg, first.files).digest != first.digest  # same content, other target
+
+
+def test_outside_reads_are_compared_by_content_and_listings_by_entries(tmp_path: Path) -> None:
+    header = _write(tmp_path / "inc" / "ext.h", "#define A 1\n")
+    globbed = tmp_path / "globbed"
+    _write(globbed / "a.txt")
+    digests = Digests()
+    reads = take([str(header)], [str(globbed)], digests)
+    assert first_change(reads, Digests()) is None
+    os.utime(header)  # another signature, the same content: unchanged
+    assert first_change(reads, Digests()) is None
+    _write(globbed / "a.txt", "edited")  # an entry's content is no listing's
+    assert first_change(reads, Digests()) is None
+    _write(globbed / "b.txt")
+    assert first_change(reads, Digests()) == str(globbed)
+    (globbed / "b.txt").unlink()
+    _write(header, "#define A 2\n")
+    assert first_change(reads, Digests()) == str(header)
+
+
+def test_a_file_that_changed_while_the_build_ran_is_held_as_racy(tmp_path: Path) -> None:
+    header = _write(tmp_path / "ext.h")
+    reads = take([str(header)], [], Digests(), started_ns=0)
+    assert first_change(reads, Digests()) is None
+    racy = take([str(header)], [], Digests(), started_ns=header.stat().st_mtime_ns)
+    assert first_change(racy, Digests()) == str(header)
+
+
+def test_a_listing_leaves_out_the_entries_the_package_installs_itself(tmp_path: Path) -> None:
+    """In a merged install, install/'s directories hold every package's files: a package's
+    own entries are no input of its own build."""
+    install = tmp_path / "install"
+    site = install / "lib" / "site-packages"
+    _write(site / "dep" / "__init__.py")
+    own = own_entries(str(install), [("lib/site-packages/me/__init__.py", 1)])
+    reads = take([], [str(site)], Digests(), own=own)
+    _write(site / "me" / "__init__.py")
+    assert first_change(reads, Digests(), own=own) is None
+    _write(site / "other" / "__init__.py")
+    assert first_change(reads, Digests(), own=own) == str(site)
+
+
+def test_the_environment_is_every_variable_but_a_short_list_by_digest() -> None:
+    env = {"PATH": "/bin", "TURTLEBOT3_MODEL": "burger", "TERM": "xterm", "SHLVL": "2",
+           "GITHUB_RUN_ID": "9", "CI_JOB_ID": "3", "HOME": "/home/a", "TOKEN": "s3cr3t"}
+    digests = environment_digests(env)
+    assert sorted(digests) == ["HOME", "PATH", "TOKEN", "TURTLEBOT3_MODEL"]
+    assert "s3cr3t" not in json.dumps(digests)
+    assert "HOME" not in keyed(digests)  # differs between users: compared, not in the key
+    other = environment_digests({**env, "HOME": "/home/b", "TURTLEBOT3_MODEL": "waffle"})
+    assert changed_names(digests, other) == ["HOME", "TURTLEBOT3_MODEL"]
+
+
+def _record(own: Path, **fields: object) -> PackageRecord:
+    values: dict[str, object] = dict(package="p", build_type="cmake",
+                                     own=own_files(own, {}).files, settings={"options": {}},
+                                     environment={"PATH": "x"}, dependencies={"d": "k1"},
+                                     dependency_inputs={"d": "i1"}, complete=True)
+    values.update(fields)
+    return PackageRecord(**values).sealed()  # type: ignore[arg-type]
+
+
+def test_the_keys_derive_from_the_record_and_a_record_round_trips(tmp_path: Path) -> None:
+    pkg = tmp_path / "pkg"
+    _write(pkg / "CMakeLists.txt")
+    record = _record(pkg)
+    assert _record(pkg, environment={"PATH": "x", "HOME": "h2"}).inputs_key == record.inputs_key
+    assert _record(pkg, environment={"PATH": "y"}).inputs_key != record.inputs_key
+    assert _record(pkg, dependencies={"d": "k2"}).inputs_key == record.inputs_key
+    assert _record(pkg, dependencies={"d": "k2"}).key != record.key
+    header = _write(tmp_path / "ext.h")
+    read = _record(pkg, outside=take([str(header)], [], Digests()))
+    assert read.inputs_key == record.inputs_key and read.key != record.key
+    write_record(tmp_path / "build", read)
+    assert read_record(tmp_path / "build") == read
+    directory = tmp_path / "build" / ".wsbuild"
+    assert directory.stat().st_mode & 0o777 == 0o700
+    assert (directory / "record.json").stat().st_mode & 0o777 == 0o600
+
+
+def test_the_one_dirty_check_names_what_changed_first(tmp_path: Path) -> None:
+    pkg = tmp_path / "pkg"
+    _write(pkg / "CMakeLists.txt")
+    header = _write(tmp_path / "ext.h", "1")
+    old = _record(pkg, outside=take([str(header)], [], Digests()))
+
+    def reason(**now: object) -> str | None:
+        values: dict[str, object] = dict(own=own_files(pkg, old.own), settings=old.settings,
+                                         environment=old.environment,
+                                         dependencies=old.dependencies)
+        values.update(now)
+        found = dirty_reason(old, PackageNow(**values),  # type: ignore[arg-type]
+                             install_base=tmp_path / "install", digests=Digests(),
+                             pending=("d",))
+        return None if found is None else found.kind + ": " + found.text
+
+    assert reason() is None
+    assert reason(environment={"PATH": "y"}) == "environment: environment variable changed: PATH"
+    assert reason(settings={"options": {"cmake_args": ["-DX=1"]}}).startswith("options:")
+    assert reason(dependencies={"d": "pending:x"}).startswith("dependency: dependency d is built first")
+    _write(header, "2")
+    assert reason() == f"external: file outside the package changed: {header}"
+    _write(pkg / "CMakeLists.txt", "edited")
+    assert reason() == "source: source changed: CMakeLists.txt"
+    assert dirty_reason(None, PackageNow(own_files(pkg, {}), {}, {}, {}),
+                        install_base=tmp_path, digests=Digests()).kind == "new"

@@ -1,0 +1,144 @@
+"""The one dirty check: whether a package's record still holds for the package as it is now,
+and if not, why (cargo's `DirtyReason`). The plan, early cutoff, the build cache and
+`--dry-run` all ask it; a cached test result's key derives from the same record."""
+
+from __future__ import annotations
+
+import json
+import os
+from collections.abc import Collection, Mapping
+from dataclasses import dataclass
+from pathlib import Path
+
+from wsbuild import inputs
+from wsbuild.record.environment import changed_names
+from wsbuild.record.model import PackageRecord
+from wsbuild.record.outside import Digests, first_change, own_entries
+from wsbuild.record.own_files import OwnFiles
+
+
+@dataclass(frozen=True, slots=True)
+class Reason:
+    """Why a package is built: `kind` for tools, `text` for people, `details` the files,
+    options, variables or dependencies that changed."""
+
+    #: "new", "unfinished", "forced", "options", "environment", "source", "dependency",
+    #: "external", "install"
+    kind: str
+    text: str
+    details: tuple[str, ...] = ()
+    #: decided once the dependencies in `details` are built in this run: built only if what
+    #: it read of them changed (early cutoff), else up to date
+    cutoff: bool = False
+
+
+@dataclass(frozen=True, slots=True)
+class PackageNow:
+    """A package as it is now: what its record is compared with."""
+
+    own: OwnFiles
+    settings: Mapping[str, object]
+    environment: Mapping[str, str]
+    #: the keys its workspace dependencies have (after this run, where known)
+    dependencies: Mapping[str, str]
+
+
+def dirty_reason(old: PackageRecord | None, now: PackageNow, *, install_base: Path,
+                 digests: Digests, unfinished: bool = False, forced: bool = False,
+                 pending: Collection[str] = ()) -> Reason | None:
+    """None when the record `old` holds for the package `now`, else why not. `pending`: the
+    dependencies this run builds or restores before the package; `unfinished`: its last
+    build was cut short; `forced`: the command line asks for a build."""
+    if unfinished:
+        return Reason("unfinished", "the previous build did not finish")
+    if forced:
+        return Reason("forced", "forced")
+    if old is None:
+        return Reason("new", "no previous build")
+    if old.settings != now.settings:
+        changed = tuple(settings_changes(old.settings, now.settings))
+        return Reason("options", "build options changed: " + "; ".join(changed), changed)
+    if old.environment != now.environment:
+        names = tuple(changed_names(old.environment, now.environment))
+        shown = ", ".join(names[:5]) + (" …" if len(names) > 5 else "")
+        return Reason("environment", f"environment variable changed: {shown}", names)
+    if old.own != now.own.files:
+        changed = now.own.changed or sorted(set(old.own) ^ set(now.own.files))
+        shown = ", ".join(changed[:3]) + (" …" if len(changed) > 3 else "")
+        return Reason("source", f"source changed: {shown}" if shown else "source changed",
+                      tuple(changed))
+    changed_deps = sorted(n for n in set(old.dependencies) | set(now.dependencies)
+                          if old.dependencies.get(n) != now.dependencies.get(n))
+    # early cutoff: a rebuilt dependency matters only through what this build read of it, when
+    # the build system said all it read
+    cutoff = old.complete and set(old.dependencies) == set(now.dependencies)
+    if changed_deps and not cutoff:
+        return Reason("dependency", "dependency rebuilt: " + ", ".join(changed_deps),
+                      tuple(changed_deps))
+    waiting = [n for n in changed_deps if n in pending]
+    if waiting:
+        return Reason("dependency", f"dependency {', '.join(waiting)} is built first; this "
+                      "package only if what it read of it changes", tuple(waiting), cutoff=True)
+    outside = first_change(old.outside, digests, planning=True,
+                           own=own_entries(str(install_base), old.installed))
+    if outside is not None and changed_deps:
+        return Reason("dependency", "dependency rebuilt: " + ", ".join(changed_deps)
+                      + f" (read while building: {outside})", tuple(changed_deps))
+    if outside is not None:
+        return Reason("external", f"file outside the package changed: {outside}", (outside,))
+    damaged = damaged_install(install_base, old.installed)
+    if damaged is not None:
+        return Reason("install", f"install damaged: {damaged} missing or changed", (damaged,))
+    return None
+
+
+def cutoff_note(old: PackageRecord | None, dependencies: Mapping[str, str]) -> str:
+    """Why a package whose dependencies were rebuilt is still up to date ("" when none was)."""
+    if old is None:
+        return ""
+    changed = sorted(n for n in dependencies if old.dependencies.get(n) != dependencies[n])
+    if not changed:
+        return ""
+    return (f"dependency {', '.join(changed)} rebuilt; nothing this package builds from "
+            "changed → up to date")
+
+
+def damaged_install(install_base: Path, installed: Collection[tuple[str, int]]) -> str | None:
+    """The first installed file that is missing or changed size, if any."""
+    for rel, size in installed:
+        path = os.path.join(install_base, rel)
+        try:
+            if size == -1:
+                inputs.lstat(path)
+            elif inputs.stat(path).st_size != size:
+                return rel
+        except OSError:
+            return rel
+    return None
+
+
+def settings_changes(old: Mapping[str, object], new: Mapping[str, object]) -> list[str]:
+    """`name: old → new` for each setting that differs (options by their own name)."""
+    def flat(values: Mapping[str, object]) -> dict[str, object]:
+        result: dict[str, object] = {}
+        for key, value in values.items():
+            if isinstance(value, Mapping):
+                result.update({str(k): v for k, v in value.items()})
+            else:
+                result[key] = value
+        return result
+
+    # as the record keeps them (tuples become lists), so only real differences show
+    before, after = flat(json.loads(json.dumps(old))), flat(json.loads(json.dumps(new)))
+    return [f"{name}: {_shown(before.get(name))} → {_shown(after.get(name))}"
+            for name in sorted(set(before) | set(after)) if before.get(name) != after.get(name)]
+
+
+def _shown(value: object) -> str:
+    if value is None:
+        return "(none)"
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, (list, tuple)):
+        return "[" + ", ".join(str(v) for v in value) + "]"
+    return str(value)

@@ -1,0 +1,215 @@
+"""What a package's build read outside the package: files by content digest, directory listings
+by their entries (the build system's own lists: CMake's and Ninja's, the depfiles, the globs,
+the installed directories; a Python build's opens, stats and listings).
+
+Each is held with the stat signature it had when its digest was taken: a check stats it and
+takes the digest again only when the signature differs (a dependency reinstalled to the same
+bytes, a file copied onto another machine), so an unchanged input costs one stat. Digests are
+kept for the process (`Digests`): packages share most of what they read outside (the
+compiler's headers, CMake's modules, setuptools), and each is read once per run."""
+
+from __future__ import annotations
+
+import hashlib
+import os
+import stat as modes
+import threading
+from collections.abc import Callable, Collection, Iterable, Mapping
+from dataclasses import dataclass, field
+
+from wsbuild import inputs
+from wsbuild.record.own_files import content_digest
+
+#: the digest of a path that does not exist, of a directory read as a file, of a file that
+#: changed while the build ran (never equal to a digest taken later: the next check builds)
+ABSENT_DIGEST, DIRECTORY_DIGEST, RACY_DIGEST = "", "directory", "racy"
+
+#: the entries of a listed directory that the package itself installs there (no input of its
+#: own build: in a merged install, install/'s directories hold every package's files)
+OwnEntries = Callable[[str], frozenset[str]]
+
+
+def no_own_entries(_path: str) -> frozenset[str]:
+    return frozenset()
+
+
+def own_entries(install_base: str, installed: Collection[tuple[str, int]]) -> OwnEntries:
+    """The names a package's installed files (relative to `install_base`) put into each
+    directory: what a listing of that directory leaves out."""
+    base = install_base.rstrip(os.sep) + os.sep
+    files = [rel for rel, _ in installed]
+
+    def entries(path: str) -> frozenset[str]:
+        if not (path + os.sep).startswith(base):
+            return frozenset()
+        rel = path[len(base):].strip(os.sep)
+        prefix = rel + os.sep if rel else ""
+        return frozenset(f[len(prefix):].split(os.sep, 1)[0] for f in files
+                         if f.startswith(prefix) and len(f) > len(prefix))
+
+    return entries
+
+
+@dataclass(frozen=True, slots=True)
+class Seen:
+    """A path as the record holds it: its stat signature, and its content's digest (a file) or
+    its entries' (a listing)."""
+
+    signature: tuple[int, ...]
+    digest: str
+
+
+@dataclass(frozen=True, slots=True)
+class OutsideReads:
+    """Files and directory listings outside the package that its build read (absolute paths)."""
+
+    files: Mapping[str, Seen] = field(default_factory=dict)
+    listings: Mapping[str, Seen] = field(default_factory=dict)
+
+    def digest(self) -> str:
+        """One digest of every path with its content's (or entries') digest."""
+        total = hashlib.blake2b(digest_size=16)
+        for kind, seen in (("f", self.files), ("l", self.listings)):
+            for path in sorted(seen):
+                total.update(f"{kind}\0{path}\0{seen[path].digest}\n"
+                             .encode("utf-8", "surrogateescape"))
+        return total.hexdigest()
+
+    def __len__(self) -> int:
+        return len(self.files) + len(self.listings)
+
+
+class Digests:
+    """Content and listing digests taken in this process, by path and signature (thread-safe:
+    packages build in worker threads)."""
+
+    def __init__(self) -> None:
+        self._lock = threading.Lock()
+        self._files: dict[tuple[str, tuple[int, ...]], str] = {}
+        self._listings: dict[tuple[str, tuple[int, ...], frozenset[str]], str] = {}
+        #: the signatures taken while planning
+        self._signatures: dict[str, tuple[int, ...]] = {}
+
+    def signature(self, path: str, *, planning: bool = False) -> tuple[int, ...]:
+        """The path's stat signature: while planning taken once per process (packages share
+        most of what they read outside), else afresh (a build may have changed it)."""
+        if planning:
+            with self._lock:
+                known = self._signatures.get(path)
+            if known is not None:
+                return known
+        signature = inputs.signature(path)
+        if planning:
+            with self._lock:
+                self._signatures[path] = signature
+        return signature
+
+    def file(self, path: str, signature: tuple[int, ...]) -> str:
+        """The content digest of the file at `path` whose signature is `signature`."""
+        if signature == inputs.ABSENT:
+            return ABSENT_DIGEST
+        if modes.S_ISDIR(signature[0]):
+            return DIRECTORY_DIGEST
+        with self._lock:
+            known = self._files.get((path, signature))
+        if known is None:
+            try:
+                known = content_digest(path)
+            except OSError as exc:
+                known = f"unreadable:{exc.errno}"
+            with self._lock:
+                self._files[(path, signature)] = known
+        return known
+
+    def listing(self, path: str, signature: tuple[int, ...],
+                own: frozenset[str] = frozenset()) -> str:
+        """The digest of the entries (name and type) of the directory at `path`, but `own`."""
+        if signature == inputs.ABSENT:
+            return ABSENT_DIGEST
+        with self._lock:
+            known = self._listings.get((path, signature, own))
+        if known is None:
+            known = listing_digest(path, own)
+            with self._lock:
+                self._listings[(path, signature, own)] = known
+        return known
+
+
+def listing_digest(path: str, own: Collection[str] = ()) -> str:
+    """The digest of a directory's entries but `own`: each name with its type (file,
+    directory, link, other); declared as a listing."""
+    try:
+        entries = inputs.scandir(path)
+    except NotADirectoryError:
+        return "not a directory"
+    except OSError as exc:
+        return f"unlistable:{exc.errno}"
+    total = hashlib.blake2b(digest_size=16)
+    for entry in sorted(entries, key=lambda e: e.name):
+        if entry.name in own:
+            continue
+        try:
+            kind = "l" if entry.is_symlink() else "d" if entry.is_dir() else "f"
+        except OSError:
+            kind = "?"
+        total.update(f"{entry.name}\0{kind}\n".encode("utf-8", "surrogateescape"))
+    return total.hexdigest()
+
+
+def take(files: Iterable[str], listings: Iterable[str], digests: Digests, *,
+         started_ns: int = 0, own: OwnEntries = no_own_entries) -> OutsideReads:
+    """What a finished build read, as the record holds it (`own`: the package's own entries of
+    each listed directory, left out). A path changed since `started_ns` (the build's start)
+    may have changed after the build read it: it is held as racy, so the next check builds
+    again."""
+    files, listings = sorted(set(files)), sorted(set(listings))
+
+    def seen(path: str, listing: bool) -> Seen:
+        signature = digests.signature(path)
+        # a file's content may have changed after the build read it; a directory read as a
+        # file counts by its type only, which its entries' changes leave alone
+        if started_ns and signature != inputs.ABSENT and max(signature[3:]) >= started_ns \
+                and (listing or not modes.S_ISDIR(signature[0])):
+            return Seen(signature, RACY_DIGEST)
+        digest = digests.listing(path, signature, own(path)) if listing \
+            else digests.file(path, signature)
+        return Seen(signature, digest)
+
+    return OutsideReads({path: seen(path, False) for path in files},
+                        {path: seen(path, True) for path in listings})
+
+
+def first_change(reads: OutsideReads, digests: Digests, *, planning: bool = False,
+                 own: OwnEntries = no_own_entries, skip: str = "") -> str | None:
+    """The first path whose content (or entries, but `own`) differs from `reads`, None when
+    none does. A path whose signature is unchanged is not read. `planning`: each path stat'ed
+    once for the whole plan; `skip`: a directory whose paths are not compared (what this run
+    has yet to build)."""
+    for kind, seen_paths in (("file", reads.files), ("listing", reads.listings)):
+        for path, seen in seen_paths.items():
+            if skip and (path + os.sep).startswith(skip):
+                continue
+            signature = digests.signature(path, planning=planning)
+            if signature == seen.signature and seen.digest != RACY_DIGEST:
+                continue
+            now = digests.listing(path, signature, own(path)) if kind == "listing" \
+                else digests.file(path, signature)
+            if now != seen.digest:
+                return path
+    return None
+
+
+def refreshed(reads: OutsideReads, digests: Digests, *, own: OwnEntries = no_own_entries
+              ) -> OutsideReads:
+    """`reads` with this machine's signatures, where the content is the same (a restored
+    entry's record, verified here, or a cut-off package's): the next check then stats only."""
+    def again(path: str, seen: Seen, listing: bool) -> Seen:
+        signature = digests.signature(path)
+        if signature == seen.signature:
+            return seen
+        now = digests.listing(path, signature, own(path)) if listing \
+            else digests.file(path, signature)
+        return Seen(signature, now) if now == seen.digest else seen
+
+    return OutsideReads({p: again(p, s, False) for p, s in reads.files.items()},
+                        {p: again(p, s, True) for p, s in reads.listings.items()})
