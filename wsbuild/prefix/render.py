@@ -6,6 +6,7 @@ import re
 from functools import cache
 from pathlib import Path
 
+from wsbuild import inputs
 from wsbuild.substitution import TokenError, find_tokens, substitute
 
 TEMPLATE_DIR = Path(__file__).parent / "templates"
@@ -14,7 +15,9 @@ _TOKEN = re.compile(r"@([A-Z][A-Z0-9_]*)@")
 
 @cache
 def load_template(name: str) -> str:
-    return (TEMPLATE_DIR / name).read_text()
+    """One of wsbuild's templates, read as a declared input (a run that writes setup scripts
+    depends on them)."""
+    return inputs.read_text(TEMPLATE_DIR / name)
 
 
 def render(name: str, **values: str) -> str:
