@@ -3,7 +3,7 @@ errors and picks exit codes. Each verb's options, and their conversion into a re
 to its module under verbs/.
 
 Exit codes: 0 success, 1 a package failed (build or test), 2 usage or workspace error,
-130 interrupted (Ctrl-C), 3 an unexpected internal error (a bug in wsbuild).
+130 interrupted (Ctrl-C; 143 SIGTERM, 129 SIGHUP), 3 an unexpected internal error (a bug in wsbuild).
 """
 
 from __future__ import annotations
@@ -16,7 +16,7 @@ from collections.abc import Callable, Collection, Mapping, Sequence
 from pathlib import Path
 
 from wsbuild import __version__
-from wsbuild.errors import WsbuildError
+from wsbuild.errors import Interrupted, WsbuildError
 from wsbuild.verbs.arguments import PASSTHROUGH, add_workspace_arguments
 
 
@@ -444,14 +444,20 @@ def main(argv: Sequence[str] | None = None) -> int:
     from wsbuild.verbs.colcon import ignored_notes
 
     print_notes(ignored_notes(args, args.verb))
+    from wsbuild.engine.process import interrupted_exit_code, stop_signals_interrupt
+
     try:
-        return int(_resolve_func(args.func)(args) or 0)
+        with stop_signals_interrupt():
+            return int(_resolve_func(args.func)(args) or 0)
+    except Interrupted as exc:
+        print(f"wsbuild: error: {exc}", file=sys.stderr)
+        return interrupted_exit_code()
     except WsbuildError as exc:
         print(f"wsbuild: error: {exc}", file=sys.stderr)
         return exc.exit_code
     except KeyboardInterrupt:
         print("wsbuild: interrupted", file=sys.stderr)
-        return 130
+        return interrupted_exit_code()
     except BrokenPipeError:
         # `wsbuild list | head`: the reader went away; not an error
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
