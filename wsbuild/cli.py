@@ -440,21 +440,17 @@ def main(argv: Sequence[str] | None = None) -> int:
     if not hasattr(args, "func"):  # a bare `wsbuild` or `wsbuild cache`: what each one does
         _print_choices(args.verb)
         return 2
+    from wsbuild.engine.process import interrupted_exit_code, stop_signals_interrupt
     from wsbuild.reporter import print_notes
     from wsbuild.verbs.colcon import ignored_notes
 
     print_notes(ignored_notes(args, args.verb))
-    from wsbuild.engine.process import interrupted_exit_code, stop_signals_interrupt
-
     try:
         with stop_signals_interrupt():
             return int(_resolve_func(args.func)(args) or 0)
-    except Interrupted as exc:
-        print(f"wsbuild: error: {exc}", file=sys.stderr)
-        return interrupted_exit_code()
     except WsbuildError as exc:
         print(f"wsbuild: error: {exc}", file=sys.stderr)
-        return exc.exit_code
+        return interrupted_exit_code() if isinstance(exc, Interrupted) else exc.exit_code
     except KeyboardInterrupt:
         print("wsbuild: interrupted", file=sys.stderr)
         return interrupted_exit_code()

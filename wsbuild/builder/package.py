@@ -33,6 +33,7 @@ from wsbuild.events import CacheRestored, Emit
 from wsbuild.session import Session
 from wsbuild.workspace.model import DepCategory
 from wsbuild.workspace.selection import Selection
+from wsbuild.redaction import redact
 
 
 @dataclass(frozen=True, slots=True)
@@ -414,7 +415,7 @@ class PackageBuild:
 
     def _log(self, line: str) -> None:
         with open(self.log_dir / "command.log", "a") as handle:
-            handle.write(line + "\n")
+            handle.write(redact(line) + "\n")
 
     def _seconds(self) -> float:
         return time.monotonic() - self.started

@@ -19,6 +19,8 @@ from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
 
+from wsbuild.redaction import redact_bytes
+
 #: how long the processes of a cancelled run get to stop after SIGTERM before SIGKILL
 GRACE_SECONDS = 3.0
 #: how long SIGKILL is repeated on what is left (a process forking while it is swept)
@@ -294,6 +296,7 @@ def run_command(
                     *lines, partial[is_err] = data.split(b"\n")
                     lines = [line + b"\n" for line in lines]
                 for raw in lines:
+                    raw = redact_bytes(raw)
                     for name in ("stderr" if is_err else "stdout", "stdout_stderr"):
                         if name in logs:
                             logs[name].write(raw)  # type: ignore[attr-defined]

@@ -11,6 +11,7 @@ from wsbuild.engine.timeline import Timeline, render_cpu_svg, render_svg
 from wsbuild.engine.timing_files import bound_text
 from wsbuild.runreport.model import PackageRow, RunReport, compiler_cache_text, load_run
 from wsbuild.runreport.report_json import REPORT_HTML
+from wsbuild.redaction import redact
 
 _CSS = """
 body{font-family:sans-serif;font-size:14px;margin:16px 24px;color:#222;max-width:1100px}
@@ -226,5 +227,5 @@ def write_report(run_dir: Path) -> Path:
     path = run_dir / REPORT_HTML
     # written in place: each run has its own directory, and nothing reads it while it is
     # written (a rename would cost the no-op path a metadata write on a busy disk)
-    path.write_text(page, encoding="utf-8")
+    path.write_text(redact(page), encoding="utf-8")
     return path

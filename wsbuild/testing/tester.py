@@ -31,6 +31,7 @@ from wsbuild.testing.pytest_env import with_ros_pytest
 from wsbuild.testing.results import PackageStatus, PackageTests, results_dir
 from wsbuild.testing.test_key import TestKeys
 from wsbuild.testing.tooling import tooling_failures
+from wsbuild.redaction import redact
 
 if TYPE_CHECKING:
     from wsbuild.testing.runners import TestRequest
@@ -208,4 +209,4 @@ def _reusable_later(report: PackageTests) -> bool:
 
 def _log(log_dir: Path, line: str) -> None:
     with open(log_dir / "command.log", "a") as handle:
-        handle.write(line + "\n")
+        handle.write(redact(line) + "\n")
