@@ -13,6 +13,7 @@ from test_build_helpers import (
     build,
     clean_env,
     output,
+    requires_ros,
     snapshot,
     write,
     write_ament_python,
@@ -305,6 +306,17 @@ def test_unknown_package_in_packages_select_suggests_and_changes_nothing(tmp_pat
     assert "navigation_core" in result.stderr  # the suggestion
     assert "Traceback" not in result.stderr
     assert snapshot(ws / "install") == before
+
+
+@requires_ros
+def test_a_misspelt_dependency_that_fails_the_build_gets_a_did_you_mean(tmp_path: Path) -> None:
+    ws = tmp_path / "ws"
+    write_cmake(ws / "src", "typo", "cmake_minimum_required(VERSION 3.14)\nproject(typo NONE)\n"
+                "find_package(std_msg REQUIRED)\n", depend=["std_msg"])
+    result = wsbuild("build", cwd=ws)
+    assert result.returncode == 1, output(result)
+    assert ("declares build dependency std_msg, which was not found (did you mean "
+            "'std_msgs'?)") in result.stdout, output(result)
 
 
 def test_bad_package_xml_is_one_line_naming_file_and_line(tmp_path: Path) -> None:

@@ -159,7 +159,8 @@ def test_missing_wheel_and_python_key_are_listed_planned_installed_and_built(
 def test_unknown_keys_and_missing_wheels_are_named_with_why(venv: Path, tmp_path: Path) -> None:
     ws = tmp_path / "ws"
     write_package(ws / "src", "odd", "ament_python", [],
-                  kinds={"exec_depend": ["wsbuild_no_such_pkg", "python3-wsbuild-no-such-dist"]})
+                  kinds={"exec_depend": ["wsbuild_no_such_pkg", "python3-wsbuild-no-such-dist",
+                                         "std_msg"]})
     before = freeze(venv)
     result = deps(venv, "deps", "install", "-y", cwd=ws)
     assert result.returncode == 1, output(result)
@@ -167,6 +168,8 @@ def test_unknown_keys_and_missing_wheels_are_named_with_why(venv: Path, tmp_path
     assert "no ros-jazzy-wsbuild-no-such-pkg wheel" in line and "rosdep" in line
     line = line_with(result.stdout, "unresolved: python3-wsbuild-no-such-dist (needed by odd")
     assert "no Python distribution wsbuild-no-such-dist" in line
+    line = line_with(result.stdout, "unresolved: std_msg (needed by odd")
+    assert "did you mean 'std_msgs'?" in line  # a misspelling, not a missing package
     assert freeze(venv) == before
 
 

@@ -30,10 +30,11 @@ from wsbuild.engine.jobserver import Jobserver
 from wsbuild.engine.process import env_delta, format_command, run_command
 from wsbuild.errors import WsbuildError
 from wsbuild.events import CacheRestored, Emit
+from wsbuild.redaction import redact
 from wsbuild.session import Session
 from wsbuild.workspace.model import DepCategory
 from wsbuild.workspace.selection import Selection
-from wsbuild.redaction import redact
+from wsbuild.words import did_you_mean
 
 
 @dataclass(frozen=True, slots=True)
@@ -410,8 +411,21 @@ class PackageBuild:
         unresolved = self.run.unresolved.get(self.name, ())
         if result.outcome is not Outcome.FAILED or not unresolved:
             return result
-        lines = [f"  declares build dependency {dep}, which was not found" for dep in unresolved]
+        known = self._known_packages()
+        lines = [f"  declares build dependency {dep}, which was not found"
+                 + (f" ({hint})" if (hint := did_you_mean(dep, known)) else "")
+                 for dep in unresolved]
         return replace(result, message="\n".join([result.message, *lines]))
+
+    def _known_packages(self) -> set[str]:
+        """The names a misspelt dependency may have meant: the workspace's packages and those
+        of the underlays' ament index."""
+        from wsbuild.workspace.resolve import ament_index
+
+        session = self.run.session
+        prefixes = [Path(p) for p in session.environ.get("AMENT_PREFIX_PATH", "").split(
+            os.pathsep) if p] + session.underlay_prefixes
+        return {*self.run.selection.packages, *ament_index(prefixes)}
 
     def _log(self, line: str) -> None:
         with open(self.log_dir / "command.log", "a") as handle:
