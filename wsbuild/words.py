@@ -22,12 +22,12 @@ def shorten(text: str, width: int = SHORT_WIDTH) -> str:
     return text if len(text) <= width else text[: width - 3] + "..."
 
 
-def close_to(word: str, choices: Iterable[str], n: int = 1) -> list[str]:
+def close_to(word: str, choices: Iterable[str], n: int = 1, cutoff: float = 0.6) -> list[str]:
     """The `n` choices closest to a misspelt `word` (`--packages-selct` → `--packages-select`),
-    best first; none when nothing is close."""
+    best first; none when nothing is as close as `cutoff` (difflib's ratio, 1 for equal)."""
     import difflib
 
-    return difflib.get_close_matches(word, list(choices), n=n, cutoff=0.6)
+    return difflib.get_close_matches(word, list(choices), n=n, cutoff=cutoff)
 
 
 def did_you_mean(word: str, choices: Iterable[str], n: int = 1) -> str:
