@@ -220,6 +220,24 @@ def test_a_failed_python_step_is_reproduced_by_its_by_hand_command(tmp_path: Pat
     assert again.stderr == f"error: {shown}\n"
 
 
+def test_a_syntax_error_in_setup_py_names_setup_py_and_its_line(tmp_path: Path) -> None:
+    """setuptools runs setup.py from a string (`File "<string>", line 11`) under the name of
+    the interpreter: the failure names setup.py, the line and the error instead."""
+    ws = tmp_path / "ws"
+    pkg = write_ament_python(ws / "src", "typo_py", modules={"main.py": VICTIM_MAIN})
+    setup_py = pkg / "setup.py"
+    lines = setup_py.read_text().splitlines()
+    number = next(i for i, line in enumerate(lines, 1) if line.strip().startswith("version="))
+    lines[number - 1] = lines[number - 1].rstrip(",")  # a comma forgotten
+    setup_py.write_text("\n".join(lines) + "\n")
+    result = wsbuild("build", cwd=ws)
+    assert result.returncode == 1, output(result)
+    failed = next(line for line in result.stdout.splitlines() if line.startswith("Failed"))
+    assert failed.endswith(f"{setup_py}:{number}: SyntaxError: invalid syntax. Perhaps you "
+                           "forgot a comma?"), output(result)
+    assert "<string>" not in result.stdout and "exited with code" not in result.stdout
+
+
 def _failure_ws(root: Path) -> Path:
     """aa_broken fails; bb_fine and cc_fine do not need it; dd_needs_aa does."""
     src = root / "src"
