@@ -25,6 +25,7 @@ from wsbuild.build_types import (
 from wsbuild.builder.compiler_cache import CompilerCache
 from wsbuild.builder.distribute import Distribution
 from wsbuild.builder.plan import BUILDING_MARKER, Decision, PackagePlan
+from wsbuild.builder.reproduce import write_reproduce_script
 from wsbuild.engine.jobs import JobResult, Outcome, StepStarted
 from wsbuild.engine.jobserver import Jobserver
 from wsbuild.engine.process import env_delta, format_command, run_command
@@ -395,15 +396,17 @@ class PackageBuild:
                 and not any(directory in v for directory in private)}
 
     def _failed(self, failure: StepFailed) -> JobResult:
-        reproduce = ""
+        reproduce, script = "", None
         if failure.command:
-            reproduce = format_command(failure.command, failure.cwd or self.build_dir,
-                                       failure.env_delta)
+            cwd = failure.cwd or self.build_dir
+            reproduce = format_command(failure.command, cwd, failure.env_delta)
+            script = write_reproduce_script(self.build_dir, self.name, failure.command, cwd,
+                                            failure.env_delta)
         tail = _log_tail(self.log_dir)
         message = str(failure) + ("\n" + "\n".join(tail) if tail else "")
         # the log tail in the message already shows stderr: no separate warnings block
         return JobResult(self.name, Outcome.FAILED, self._seconds(), message=message,
-                         log_dir=self.log_dir, reproduce=reproduce)
+                         log_dir=self.log_dir, reproduce=reproduce, reproduce_script=script)
 
     def _with_unresolved(self, result: JobResult) -> JobResult:
         """A failed package's report ends with the build dependencies it declared that were
