@@ -207,7 +207,8 @@ def run_build_verb(args: argparse.Namespace) -> int:
     loaded = load(verb.load, warn=print_warnings, remember=not verb.dry_run)
     request, notes = metas.with_build_arguments(verb.build, verb.metadata, loaded.packages,
                                                 loaded.selected)
-    print_notes(dict.fromkeys(notes))
+    print_notes(dict.fromkeys((loaded.chosen_because, *notes) if loaded.chosen_because
+                              else notes))
     selection = Selection(loaded.workspace, loaded.packages, loaded.graph, loaded.selected)
     if verb.dry_run:
         return _dry_run(selection, request, json_output=verb.json)

@@ -187,7 +187,8 @@ def run_test_verb(args: argparse.Namespace) -> int:
     loaded = load(verb.load, warn=print_warnings)
     request, notes = metas.with_test_arguments(verb.test, verb.metadata, loaded.packages,
                                                loaded.selected)
-    print_notes(dict.fromkeys(notes))
+    print_notes(dict.fromkeys((loaded.chosen_because, *notes) if loaded.chosen_because
+                              else notes))
     selection = Selection(loaded.workspace, loaded.packages, loaded.graph, loaded.selected)
     console = verb.console
     reporter = Reporter(verb="test", console=console, log_base=loaded.workspace.log_base,
