@@ -17,7 +17,7 @@ from pathlib import Path
 
 import pytest
 
-from conftest import REPO, write_package
+from conftest import REPO, run_wsbuild, write_package
 from test_build_helpers import REQUIRES_ROS, clean_env, output
 
 pytestmark = [*REQUIRES_ROS, pytest.mark.slow, pytest.mark.xdist_group("deps")]
@@ -210,6 +210,18 @@ def test_build_install_deps_from_a_defaults_file(venv: Path, tmp_path: Path) -> 
     assert "std_srvs -> ros-jazzy-std-srvs" in built.stdout
     assert "warning" not in (built.stdout + built.stderr).lower(), output(built)
     assert any(line.startswith("ros-jazzy-std-srvs==") for line in freeze(venv))
+
+
+def test_build_install_deps_lists_the_keys_it_could_not_install(tmp_path: Path) -> None:
+    """Nothing to install is no reason for silence: the keys no source has are listed, as
+    `wsbuild deps` lists them (this session's own venv: nothing here can be installed)."""
+    ws = tmp_path / "ws"
+    write_package(ws / "src", "odd_user", "ament_python", [],
+                  kinds={"exec_depend": ["wsbuild_no_such_pkg"]})
+    built = run_wsbuild("build", "--install-deps", cwd=ws, env=clean_env())
+    assert built.returncode == 0, output(built)
+    line = line_with(built.stdout, "unresolved: wsbuild_no_such_pkg (needed by odd_user")
+    assert "no ros-jazzy-wsbuild-no-such-pkg wheel" in line
 
 
 # -------------------------------------------------------------------------- rosdep's rules

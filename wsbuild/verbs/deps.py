@@ -174,6 +174,9 @@ def install_for_build(loaded: Loaded) -> None:
     request = DepsRequest(action="install", assume_yes=True)
     found = _survey(request, loaded)
     if not (found.plan.steps or found.plan.test_tools):
+        # nothing to install: still name what cannot be, as `wsbuild deps` does
+        if found.plan.unresolved or found.plan.from_source:
+            print("\n".join(plan_lines(found, constraint=None, dry_run=False)))
         return
     print("\n".join(plan_lines(found, constraint=_constraint(request, found), dry_run=False)))
     _install(request, loaded, found)
