@@ -21,7 +21,7 @@ from wsbuild.deps.plan import (
     wheel_name,
 )
 from wsbuild.deps.rosdep import load_rosdep
-from wsbuild.deps.test_tools import ros_pytest_step
+from wsbuild.deps.test_tools import linter_program_steps, ros_pytest_step
 from wsbuild.underlay.environment import PreparedUnderlay
 from wsbuild.errors import UnderlayError
 from wsbuild.underlay.detect import ros_distro, venv_python
@@ -81,6 +81,10 @@ def survey(packages: Sequence[Package], workspace: Mapping[str, Package],
                       stand_ins=_provided_by_wsbuild(underlay),
                       installed=frozenset(normalize_distribution(n) for n in installed))
     plan = planner.plan(needs)
+    programs = linter_program_steps(packages, kinds, path=underlay.environ.get("PATH", ""),
+                                    installed=planner.installed,
+                                    stood_in=_provided_by_wsbuild(underlay))
+    plan = replace(plan, steps=(*plan.steps, *programs))
     pytest_step = ros_pytest_step(packages, python, kinds)
     if pytest_step is not None:
         plan = replace(plan, test_tools=(pytest_step,))
