@@ -349,7 +349,7 @@ def _tail_lines(plan: DepsPlan) -> list[str]:
         lines.append(f"  unresolved: {_needed(item.need)}: {item.why}")
     if plan.stood_in:
         lines.append("  stood in for by wsbuild, or reported by wsbuild test as not installed "
-                     "(no wheel; see README): "
+                     "(no wheel; see docs/guide/testing.md): "
                      + ", ".join(n.key for n in plan.stood_in))
     if plan.by_rosdep:
         lines.append("  installed as rosdep's rules say: "
