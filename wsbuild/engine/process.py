@@ -192,6 +192,7 @@ def stop_signals_interrupt(registry: ProcessRegistry = REGISTRY) -> Iterator[Non
     every process it started (the same sweep, the same bounds as Ctrl-C) and releases the
     workspace lock only after they are gone. A later stop signal only hurries the sweep. Does
     nothing outside the main thread (Python delivers signals there only)."""
+    _stopped_by.clear()  # a run of its own (cli.main called again in one process)
     if threading.current_thread() is not threading.main_thread():
         yield
         return
