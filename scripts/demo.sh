@@ -1,8 +1,9 @@
 #!/usr/bin/env bash
-# The quickstart, end to end, on a fresh Debian/Ubuntu machine: set up .venv (wsbuild with ROS 2
-# Jazzy from PyPI as the underlay), build sample_ws/ in place, and run its nodes, service, xacro
-# and C++ app.  Every step prints its command first (the README quotes them); background nodes
-# are stopped on exit; the exit status is 0 only if every step worked.
+# The sample workspace, end to end, on a fresh Debian/Ubuntu machine: set up .venv (wsbuild with
+# ROS 2 Jazzy from PyPI as the underlay), build sample_ws/ in place, and run its nodes, service,
+# xacro and C++ app.  Every step prints its command first (docs/guide/sample-workspace.md
+# quotes them); background nodes are stopped on exit; the exit status is 0 only if every step
+# worked.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 

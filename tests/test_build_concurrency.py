@@ -374,3 +374,57 @@ def test_the_ctrl_c_tests_pass_when_the_suite_starts_with_sigint_ignored(tmp_pat
                            capture_output=True, text=True, timeout=300)
     assert suite.returncode == 0, suite.stdout + suite.stderr
     assert "1 passed" in suite.stdout, suite.stdout
+
+
+# ------------------------------------ SIGTERM and SIGHUP stop a build as Ctrl-C does (issue 37)
+
+TRACED_STEP = """\
+echo "start $$" >> '@TRACE@'
+# a build step of an earlier build still alive now is two builds in one build directory
+for pid in $(cat '@PIDS@' 2>/dev/null); do
+  if [ -e /proc/$pid ] && ! grep -q '^State:[[:space:]]*Z' /proc/$pid/status 2>/dev/null; then
+    echo "overlap $pid" >> '@TRACE@'
+  fi
+done
+echo $$ >> '@PIDS@'
+if [ -e '@GATE@' ]; then trap '' TERM; sleep @DURATION@; fi
+echo "end $$" >> '@TRACE@'
+touch "$1"
+"""
+
+
+@pytest.mark.parametrize("stop", [signal.SIGTERM, signal.SIGHUP], ids=["SIGTERM", "SIGHUP"])
+def test_sigterm_and_sighup_stop_every_build_step_before_the_next_build_starts(
+        tmp_path: Path, marker: str, stop: signal.Signals) -> None:
+    """A CI system cancelling a job (`timeout -s TERM`, SIGTERM to wsbuild alone) or a closed
+    terminal (SIGHUP) stops the build's steps too, even one that ignores SIGTERM; a build
+    started at once waits for the lock, which is released only once they are gone, so the two
+    never overlap. The exit code is the shell's for that signal."""
+    ws = tmp_path / "ws"
+    trace, pids, gate = tmp_path / "trace", tmp_path / "pids", tmp_path / "gate"
+    body = (TRACED_STEP.replace("@TRACE@", str(trace)).replace("@PIDS@", str(pids))
+            .replace("@GATE@", str(gate)).replace("@DURATION@", _duration(marker)))
+    write_cmake(ws / "src", "gen", STEP_CMAKE, files={"step.sh": body})
+    gate.touch()
+    first_log, second_log = tmp_path / "first.out", tmp_path / "second.out"
+    first = _start_build(ws, stdout=first_log)
+    second: subprocess.Popen[bytes] | None = None
+    try:
+        _wait_for(lambda: bool(_pids(f"sleep {_duration(marker)}")), 60,
+                  "the build step to start", first, first_log)
+        step = int(pids.read_text().split()[0])
+        os.kill(first.pid, stop)  # wsbuild alone, not its process group
+        gate.unlink()
+        second = _start_build(ws, stdout=second_log)
+        returncode = first.wait(timeout=30)
+        step_alive_at_exit = _alive(step)
+        assert second.wait(timeout=120) == 0, second_log.read_text()
+    finally:
+        _stop(first)
+        if second is not None:
+            _stop(second)
+    assert returncode == 128 + stop, first_log.read_text()
+    assert not step_alive_at_exit, f"the build step outlived wsbuild after {stop.name}"
+    lines = trace.read_text().splitlines()
+    assert [line.split()[0] for line in lines] == ["start", "start", "end"], lines
+    assert "Traceback" not in first_log.read_text()

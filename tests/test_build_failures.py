@@ -13,6 +13,7 @@ from test_build_helpers import (
     build,
     clean_env,
     output,
+    requires_ros,
     snapshot,
     write,
     write_ament_python,
@@ -27,6 +28,15 @@ install(FILES data.txt DESTINATION share/${{PROJECT_NAME}})
 """
 
 VICTIM_MAIN = "def main():\n    print('victim v1')\n"
+
+
+def _reproduce(result: subprocess.CompletedProcess[str], ws: Path) -> tuple[str, str]:
+    """The reproduce line the screen shows (run it from the workspace) and the text of the
+    script it names."""
+    lines = result.stdout.splitlines()
+    line = lines[lines.index("  reproduce by hand:") + 1].strip()
+    script = ws / line.split()[0]
+    return line, script.read_text()
 
 
 def _data_package(src: Path, name: str, deps: list[str] | None = None) -> Path:
@@ -90,8 +100,11 @@ def test_broken_package_fails_and_keeps_its_previous_install(tmp_path: Path, kin
     assert log_dir.name == "victim"
     assert shown in (log_dir / "stdout_stderr.log").read_text()
     assert (log_dir / "command.log").is_file()
-    reproduce = lines[lines.index("  reproduce by hand:") + 1].strip()
-    assert reproduce.startswith("cd ") and " && " in reproduce
+    reproduce, script = _reproduce(result, ws)
+    # a short line on the screen: a script that sets the step's environment (the whole line,
+    # with its dozen library directories, is in command.log)
+    assert reproduce.startswith("build/victim/reproduce.sh") and len(reproduce) < 100
+    assert script.startswith("#!/bin/sh\n") and "\ncd " in script and "\nexport PATH=" in script
     assert "victim" in result.stderr and "failed" in result.stderr
     # the previous install of the broken package is intact and still works
     assert _file_states(install, victim_files) == victim_before
@@ -125,9 +138,8 @@ def test_reproduce_command_reproduces_the_failure(tmp_path: Path) -> None:
     _break(pkg, "cmake-syntax")
     result = wsbuild("build", cwd=ws)
     assert result.returncode == 1, output(result)
-    lines = result.stdout.splitlines()
-    reproduce = lines[lines.index("  reproduce by hand:") + 1].strip()
-    again = subprocess.run(["bash", "-c", reproduce], capture_output=True, text=True,
+    reproduce, _ = _reproduce(result, ws)
+    again = subprocess.run(["bash", "-c", reproduce], cwd=ws, capture_output=True, text=True,
                            timeout=60)
     assert again.returncode != 0
     assert "Parse error" in again.stdout + again.stderr
@@ -162,13 +174,12 @@ def test_a_failed_cmake_packages_reproduce_line_fails_the_same_way_in_a_fresh_sh
     result = wsbuild("build", "--compiler-cache", "ccache", "--cmake-args",
                      f"-DBREAK_IN={step}", cwd=ws)
     assert result.returncode == 1, output(result)
-    lines = result.stdout.splitlines()
-    reproduce = lines[lines.index("  reproduce by hand:") + 1].strip()
+    reproduce, script = _reproduce(result, ws)
     code = re.search(r"'cmake' exited with code (\d+)", result.stdout)
     assert code is not None, output(result)
     # nothing of this run's own: its jobserver's descriptors, the compiler cache's stats log
-    assert "--jobserver-auth" not in reproduce and "MAKEFLAGS" not in reproduce
-    assert "CCACHE_STATSLOG" not in reproduce and "wsbuild-" not in reproduce
+    assert "--jobserver-auth" not in script and "MAKEFLAGS" not in script
+    assert "CCACHE_STATSLOG" not in script and "wsbuild-" not in script
     shown = ("broken on purpose from greeter" if step == "configure"
              else "broken on purpose, compiling")
     assert shown in result.stdout
@@ -188,10 +199,9 @@ def test_a_merged_install_that_fails_is_reproduced_without_the_stage(tmp_path: P
                 'install(CODE "message(FATAL_ERROR \\"install broken on purpose\\")")\n')
     result = wsbuild("build", "--merge-install", cwd=ws)
     assert result.returncode == 1, output(result)
-    lines = result.stdout.splitlines()
-    reproduce = lines[lines.index("  reproduce by hand:") + 1].strip()
-    assert reproduce.endswith(f"cmake --install {ws / 'build' / 'halfway'}")
-    assert "DESTDIR" not in reproduce
+    reproduce, script = _reproduce(result, ws)
+    assert script.endswith(f"cmake --install {ws / 'build' / 'halfway'}\n")
+    assert "DESTDIR" not in script
     assert "DESTDIR=" in (ws / "log" / "latest_build" / "halfway" / "command.log").read_text()
     again = subprocess.run(["bash", "-c", reproduce], cwd=ws, env=clean_env(),
                            capture_output=True, text=True, timeout=120)
@@ -210,13 +220,30 @@ def test_a_failed_python_step_is_reproduced_by_its_by_hand_command(tmp_path: Pat
     assert result.returncode == 1, output(result)
     shown = f"{pkg}: no setup.py, setup.cfg or pyproject.toml to build"
     assert shown in result.stdout
-    lines = result.stdout.splitlines()
-    reproduce = lines[lines.index("  reproduce by hand:") + 1].strip()
-    assert "-m wsbuild.build_types.pybuild.by_hand configure --name nosetup" in reproduce
+    reproduce, script = _reproduce(result, ws)
+    assert "-m wsbuild.build_types.pybuild.by_hand configure --name nosetup" in script
     again = subprocess.run(["bash", "-c", reproduce], cwd=ws, env=clean_env(),
                            capture_output=True, text=True, timeout=120)
     assert again.returncode == 1, again.stdout + again.stderr
     assert again.stderr == f"error: {shown}\n"
+
+
+def test_a_syntax_error_in_setup_py_names_setup_py_and_its_line(tmp_path: Path) -> None:
+    """setuptools runs setup.py from a string (`File "<string>", line 11`) under the name of
+    the interpreter: the failure names setup.py, the line and the error instead."""
+    ws = tmp_path / "ws"
+    pkg = write_ament_python(ws / "src", "typo_py", modules={"main.py": VICTIM_MAIN})
+    setup_py = pkg / "setup.py"
+    lines = setup_py.read_text().splitlines()
+    number = next(i for i, line in enumerate(lines, 1) if line.strip().startswith("version="))
+    lines[number - 1] = lines[number - 1].rstrip(",")  # a comma forgotten
+    setup_py.write_text("\n".join(lines) + "\n")
+    result = wsbuild("build", cwd=ws)
+    assert result.returncode == 1, output(result)
+    failed = next(line for line in result.stdout.splitlines() if line.startswith("Failed"))
+    assert failed.endswith(f"{setup_py}:{number}: SyntaxError: invalid syntax. Perhaps you "
+                           "forgot a comma?"), output(result)
+    assert "<string>" not in result.stdout and "exited with code" not in result.stdout
 
 
 def _failure_ws(root: Path) -> Path:
@@ -305,6 +332,17 @@ def test_unknown_package_in_packages_select_suggests_and_changes_nothing(tmp_pat
     assert "navigation_core" in result.stderr  # the suggestion
     assert "Traceback" not in result.stderr
     assert snapshot(ws / "install") == before
+
+
+@requires_ros
+def test_a_misspelt_dependency_that_fails_the_build_gets_a_did_you_mean(tmp_path: Path) -> None:
+    ws = tmp_path / "ws"
+    write_cmake(ws / "src", "typo", "cmake_minimum_required(VERSION 3.14)\nproject(typo NONE)\n"
+                "find_package(std_msg REQUIRED)\n", depend=["std_msg"])
+    result = wsbuild("build", cwd=ws)
+    assert result.returncode == 1, output(result)
+    assert ("declares build dependency std_msg, which was not found (did you mean "
+            "'std_msgs'?)") in result.stdout, output(result)
 
 
 def test_bad_package_xml_is_one_line_naming_file_and_line(tmp_path: Path) -> None:

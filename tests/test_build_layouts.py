@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import sys
 from pathlib import Path
 
 import pytest
@@ -188,3 +189,53 @@ def test_turning_on_symlink_install_in_a_built_workspace(tmp_path: Path, layout:
 
     _assert_symlinked(prefix, pkg)
     assert (prefix / "share" / "sym_cmake" / "package.xml").is_file()
+
+
+SWITCH_CMAKE = """\
+cmake_minimum_required(VERSION 3.14)
+project(switcher NONE)
+find_package(ament_cmake REQUIRED)
+find_package(ament_cmake_python REQUIRED)
+ament_python_install_package(${PROJECT_NAME})
+install(DIRECTORY launch DESTINATION share/${PROJECT_NAME})
+ament_package()
+"""
+
+
+@requires_ros
+@pytest.mark.parametrize("layout", ["isolated", "merged"])
+def test_switching_the_install_mode_and_deleting_a_file_need_no_clean(tmp_path: Path,
+                                                                      layout: str) -> None:
+    """An ament_cmake package installing a Python package (as a message package does):
+    turning --symlink-install on after a normal build, off again, and deleting a source file
+    under it each leave a correct install, with no clean by hand (colcon fails the first with
+    "failed to create symbolic link ... Is a directory", colcon-core #692 and #633)."""
+    ws = tmp_path / "ws"
+    pkg = write_cmake(ws / "src", "switcher", SWITCH_CMAKE, build_type="ament_cmake",
+                      buildtool=["ament_cmake", "ament_cmake_python"],
+                      files={"switcher/__init__.py": "VALUE = 'v1'\n",
+                             "launch/a.launch.py": "# a\n", "launch/b.launch.py": "# b\n"})
+    merged = ["--merge-install"] if layout == "merged" else []
+    prefix = ws / "install" if merged else ws / "install" / "switcher"
+    share = prefix / "share" / "switcher" / "launch"
+    module = prefix / "lib" / f"python{sys.version_info[0]}.{sys.version_info[1]}" / \
+        "site-packages" / "switcher" / "__init__.py"
+    build(ws, *merged)
+    built = build(ws, "--symlink-install", *merged)
+    assert "building it from scratch" in built.stdout + built.stderr
+    assert (share / "a.launch.py").is_symlink() and module.is_symlink()
+    write(pkg / "switcher" / "__init__.py", "VALUE = 'v2'\n")
+    assert module.read_text() == "VALUE = 'v2'\n"
+
+    (pkg / "launch" / "b.launch.py").unlink()  # deleted under symlink-install
+    build(ws, "--symlink-install", *merged)
+    assert sorted(p.name for p in share.iterdir()) == ["a.launch.py"]
+
+    build(ws, *merged)  # and off again
+    assert not (share / "a.launch.py").is_symlink() and not module.is_symlink()
+    assert sorted(p.name for p in share.iterdir()) == ["a.launch.py"]
+    write(pkg / "switcher" / "__init__.py", "VALUE = 'v3'\n")  # a copy now: no effect
+    assert module.read_text() == "VALUE = 'v2'\n"
+    if not merged:
+        imported = '"$WSBUILD_TEST_PYTHON" -c "import switcher; print(switcher.VALUE)"\n'
+        assert sourced(ws, imported).stdout.strip() == "v2"

@@ -6,7 +6,8 @@ from pathlib import Path
 
 import pytest
 
-from test_build_helpers import build, output, write_ament_python, write_cmake, wsbuild
+from test_build_helpers import build, clean_env, output, write_ament_python, write_cmake
+from test_build_helpers import wsbuild
 
 ECHO_MAIN = """\
 import sys
@@ -24,7 +25,9 @@ def run_ws(tmp_path_factory: pytest.TempPathFactory) -> Path:
     src = ws / "src"
     write_ament_python(src, "runner_py", modules={"main.py": ECHO_MAIN},
                        scripts={"echo_args": "runner_py.main:main",
-                                "echo_other": "runner_py.main:main"})
+                                "echo_other": "runner_py.main:main"},
+                       data={"launch/talk.launch.py": "def generate_launch_description():\n"
+                                                      "    pass\n"})
     write_cmake(src, "no_exes", "cmake_minimum_required(VERSION 3.14)\nproject(no_exes NONE)\n")
     build(ws)
     return ws
@@ -80,3 +83,26 @@ def test_run_before_building_says_to_build(tmp_path: Path) -> None:
     result = wsbuild("run", "unbuilt", "go", cwd=ws)
     assert result.returncode == 2, output(result)
     assert "wsbuild build" in _error(result)
+
+
+def test_a_launch_file_is_recognised_and_ros2_launch_is_named_with_where_it_comes_from(
+        run_ws: Path, tmp_path: Path) -> None:
+    result = wsbuild("run", "runner_py", "talk.launch.py", cwd=run_ws)
+    assert result.returncode == 2, output(result)
+    error = _error(result)
+    installed = run_ws / "install/runner_py/share/runner_py/launch/talk.launch.py"
+    assert f"'talk.launch.py' is a launch file ({installed}), not an executable" in error
+    assert "run it with `ros2 launch runner_py talk.launch.py`" in error
+    # no wheel carries ros2launch: it comes from source
+    assert "<exec_depend>ros2launch</exec_depend>" in error
+    assert "wsbuild deps install --from-source" in error
+
+    ros2launch = tmp_path / "prefix"  # an underlay that has it
+    (ros2launch / "share/ament_index/resource_index/packages").mkdir(parents=True)
+    (ros2launch / "share/ament_index/resource_index/packages/ros2launch").touch()
+    env = clean_env(AMENT_PREFIX_PATH=str(ros2launch))
+    result = wsbuild("run", "runner_py", "talk.launch.py", cwd=run_ws, env=env)
+    assert "(run it with: ros2 launch runner_py talk.launch.py  (in a shell that sourced " \
+        "install/setup.bash))" in _error(result)
+    result = wsbuild("run", "runner_py", "walk.launch.xml", cwd=run_ws)
+    assert "none by that name (its launch files: talk.launch.py)" in _error(result)

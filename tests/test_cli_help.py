@@ -90,6 +90,17 @@ def test_a_mistyped_verb_gets_a_did_you_mean(argv: list[str], wanted: str) -> No
     assert done.stderr.splitlines()[-1].endswith(wanted), done.stderr
 
 
+@pytest.mark.parametrize(("argv", "wanted"), [
+    (["build", "--packages-selct", "a"], "(did you mean '--packages-select'?)"),
+    (["test", "--pytst-args", "-x"], "(did you mean '--pytest-args'?)"),
+    (["list", "--topological-ordr"], "(did you mean '--topological-order'?)"),
+])
+def test_a_mistyped_option_gets_a_did_you_mean(argv: list[str], wanted: str) -> None:
+    done = _wsbuild(*argv)
+    assert done.returncode == 2
+    assert done.stderr.splitlines()[-1].endswith(wanted), done.stderr
+
+
 def test_a_word_like_no_verb_lists_them() -> None:
     done = _wsbuild("frobnicate")
     assert done.returncode == 2

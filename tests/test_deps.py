@@ -17,7 +17,7 @@ from pathlib import Path
 
 import pytest
 
-from conftest import REPO, write_package
+from conftest import REPO, run_wsbuild, write_package
 from test_build_helpers import REQUIRES_ROS, clean_env, output
 
 pytestmark = [*REQUIRES_ROS, pytest.mark.slow, pytest.mark.xdist_group("deps")]
@@ -159,7 +159,8 @@ def test_missing_wheel_and_python_key_are_listed_planned_installed_and_built(
 def test_unknown_keys_and_missing_wheels_are_named_with_why(venv: Path, tmp_path: Path) -> None:
     ws = tmp_path / "ws"
     write_package(ws / "src", "odd", "ament_python", [],
-                  kinds={"exec_depend": ["wsbuild_no_such_pkg", "python3-wsbuild-no-such-dist"]})
+                  kinds={"exec_depend": ["wsbuild_no_such_pkg", "python3-wsbuild-no-such-dist",
+                                         "std_msg"]})
     before = freeze(venv)
     result = deps(venv, "deps", "install", "-y", cwd=ws)
     assert result.returncode == 1, output(result)
@@ -167,6 +168,8 @@ def test_unknown_keys_and_missing_wheels_are_named_with_why(venv: Path, tmp_path
     assert "no ros-jazzy-wsbuild-no-such-pkg wheel" in line and "rosdep" in line
     line = line_with(result.stdout, "unresolved: python3-wsbuild-no-such-dist (needed by odd")
     assert "no Python distribution wsbuild-no-such-dist" in line
+    line = line_with(result.stdout, "unresolved: std_msg (needed by odd")
+    assert "did you mean 'std_msgs'?" in line  # a misspelling, not a missing package
     assert freeze(venv) == before
 
 
@@ -207,6 +210,73 @@ def test_build_install_deps_from_a_defaults_file(venv: Path, tmp_path: Path) -> 
     assert "std_srvs -> ros-jazzy-std-srvs" in built.stdout
     assert "warning" not in (built.stdout + built.stderr).lower(), output(built)
     assert any(line.startswith("ros-jazzy-std-srvs==") for line in freeze(venv))
+
+
+def test_build_install_deps_lists_the_keys_it_could_not_install(tmp_path: Path) -> None:
+    """Nothing to install is no reason for silence: the keys no source has are listed, as
+    `wsbuild deps` lists them (this session's own venv: nothing here can be installed)."""
+    ws = tmp_path / "ws"
+    write_package(ws / "src", "odd_user", "ament_python", [],
+                  kinds={"exec_depend": ["wsbuild_no_such_pkg"]})
+    built = run_wsbuild("build", "--install-deps", cwd=ws, env=clean_env())
+    assert built.returncode == 0, output(built)
+    line = line_with(built.stdout, "unresolved: wsbuild_no_such_pkg (needed by odd_user")
+    assert "no ros-jazzy-wsbuild-no-such-pkg wheel" in line
+
+
+#: apt-get on a machine without cppcheck, as near as a test can make one: the real cppcheck is
+#: installed (scripts/setup.sh) and only hidden from the test's PATH, so "installing" the
+#: package puts the program back on that PATH; every other package is refused
+HIDING_APT = """\
+#!/bin/sh
+echo "apt-get $*" >> '@LOG@'
+for arg in "$@"; do
+  case "$arg" in
+    -*|install) ;;
+    cppcheck) ln -sf /usr/bin/cppcheck '@BIN@/cppcheck' ;;
+    *) echo "E: Unable to locate package $arg" >&2; exit 100 ;;
+  esac
+done
+"""
+
+
+def test_a_new_users_first_day_passes_on_a_machine_without_cppcheck(venv: Path,
+                                                                     tmp_path: Path) -> None:
+    """Issue 37's first day, in a virtualenv holding only wsbuild[ros]: a C++ package (library
+    and node) and a Python one from `pkg create`, `deps install -y`, `build`, `test`. The C++
+    package's linters run cppcheck, which no wheel brings: deps installs it with apt-get."""
+    hidden = tmp_path / "bin"  # the machine's programs, less cppcheck
+    hidden.mkdir()
+    for directory in ("/usr/local/bin", "/usr/bin", "/bin", "/usr/sbin", "/sbin"):
+        for entry in sorted(Path(directory).iterdir()) if Path(directory).is_dir() else ():
+            if entry.name != "cppcheck" and not (hidden / entry.name).exists():
+                (hidden / entry.name).symlink_to(entry)
+    log = tmp_path / "apt.log"
+    (hidden / "apt-get").unlink(missing_ok=True)
+    (hidden / "apt-get").write_text(HIDING_APT.replace("@LOG@", str(log))
+                                    .replace("@BIN@", str(hidden)))
+    (hidden / "apt-get").chmod(0o755)
+    env = venv_env(venv)
+    env["PATH"] = f"{venv / 'bin'}{os.pathsep}{hidden}"
+    ws = tmp_path / "ws"
+    (ws / "src").mkdir(parents=True)
+    for create in (["demo_cpp", "--library-name", "demo", "--node-name", "demo_node"],
+                   ["demo_py", "--build-type", "ament_python", "--node-name", "demo_talker"]):
+        made = deps(venv, "pkg", "create", *create, cwd=ws, env=env)
+        assert made.returncode == 0, output(made)
+
+    checked = deps(venv, "deps", cwd=ws, env=env)
+    line_with(checked.stdout, "missing: cppcheck (needed by demo_cpp", "apt cppcheck")
+    installed = deps(venv, "deps", "install", "-y", cwd=ws, env=env)
+    assert installed.returncode == 0, output(installed)
+    assert "apt-get install -y --no-install-recommends -- cppcheck" in log.read_text()
+    built = deps(venv, "build", cwd=ws, env=env)
+    assert built.returncode == 0, output(built)
+    tested = deps(venv, "test", cwd=ws, env=env)
+    assert tested.returncode == 0, output(tested)
+    assert " 0 errors, 0 failures" in tested.stdout, output(tested)
+    ran = deps(venv, "run", "demo_cpp", "demo_node", cwd=ws, env=env)
+    assert "Hello, demo_cpp!" in ran.stdout, output(ran)  # the node calls its library
 
 
 # -------------------------------------------------------------------------- rosdep's rules

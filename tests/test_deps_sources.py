@@ -150,10 +150,18 @@ def test_the_ros_tests_pytest_comes_with_the_dependencies(venv: Path, tmp_path: 
 # ------------------------------------------------------------------------- from source
 
 
-def git_repository(path: Path, packages: dict[str, list[str]], branch: str = "jazzy") -> str:
-    """A git repository holding ament_python packages {name: exec_depends}; its file:// URL."""
+def git_repository(path: Path, packages: dict[str, list[str]], branch: str = "jazzy",
+                   broken: dict[str, list[str]] | None = None) -> str:
+    """A git repository holding ament_python packages {name: exec_depends}, and `broken`
+    CMake packages {name: depends} whose configure needs each of their depends; its file://
+    URL."""
     for name, exec_depends in packages.items():
         write_package(path, name, "ament_python", [], kinds={"exec_depend": exec_depends})
+    for name, depends in (broken or {}).items():
+        package = write_package(path, name, "cmake", depends)
+        (package / "CMakeLists.txt").write_text(
+            f"cmake_minimum_required(VERSION 3.14)\nproject({name} NONE)\n"
+            + "".join(f"find_package({d} REQUIRED)\n" for d in depends))
     git = ["git", "-c", "user.name=upstream", "-c", "user.email=upstream@example.invalid"]
     for command in (["init", "-q", "-b", branch], ["add", "-A"], ["commit", "-q", "-m", "v1"]):
         subprocess.run([*git, *command], cwd=path, check=True, capture_output=True)
@@ -203,9 +211,13 @@ def test_from_source_fetches_what_no_installer_has_and_its_dependencies_in_turn(
     upstream = tmp_path / "upstream"
     # a repository of two packages (like ros2/launch), the first needing a package of a second
     # repository and a key PyPI carries; a third repository nobody needs
+    # (its wsb_test_msgs, which nothing here needs, cannot build here, as ros2's test_msgs
+    # without its test_interface_files; its std_msgs would shadow the wheel of that name)
     core = git_repository(upstream / "wsb_launch_core",
                           {"wsb_launch": ["wsb_launch_dep", "urdfdom_py"],
-                           "wsb_launch_xml": ["wsb_launch"]})
+                           "wsb_launch_xml": ["wsb_launch"]},
+                          broken={"wsb_test_msgs": ["wsb_test_interface_files"],
+                                  "std_msgs": ["wsb_no_such_thing"]})
     dep = git_repository(upstream / "wsb_dep_repo", {"wsb_launch_dep": []})
     unused = git_repository(upstream / "wsb_unused", {"wsb_unused": []})
     index = rosdistro_index(tmp_path / "rosdistro", {
@@ -236,10 +248,11 @@ def test_from_source_fetches_what_no_installer_has_and_its_dependencies_in_turn(
                       "wsb_nowhere", cwd=ws, env=env)
     assert fetched.returncode == 0, output(fetched)
     assert "installed: urdfdom_py (urdfdom-py)" in fetched.stdout
-    # wsb_launch_xml came with wsb_launch's repository, but nothing needs it
-    assert ("from source: the fetched repositories also hold 1 package(s) nothing here needs: "
-            "wsb_launch_xml (wsbuild build --packages-up-to YOUR_PACKAGES leaves them out)"
-            in fetched.stdout)
+    # wsb_launch_xml and the others came with wsb_launch's repository, but nothing needs them:
+    # left out of the build, and named
+    assert ("from source: left out of the build, as nothing here needs them (a COLCON_IGNORE "
+            "in each; remove it to build one): std_msgs, wsb_launch_xml, wsb_test_msgs"
+            in fetched.stdout), output(fetched)
     assert "nothing is missing" in fetched.stdout
     for name in ("wsb_launch_core", "wsb_dep_repo"):  # the second one for wsb_launch's own key
         assert (ws / "src" / name / ".git").is_dir(), output(fetched)
@@ -260,8 +273,10 @@ def test_from_source_fetches_what_no_installer_has_and_its_dependencies_in_turn(
     assert sorted(p.name for p in (again / "src").iterdir()) == ["wsb_dep_repo",
                                                                  "wsb_launch_core"]
 
-    built = wsbuild(venv, "build", cwd=ws, env=env)
+    built = wsbuild(venv, "build", cwd=ws, env=env)  # a plain build, as deps said nothing else
     assert built.returncode == 0, output(built)
+    assert sorted(p.name for p in (ws / "install").iterdir() if p.is_dir()) == [
+        "my_app", "wsb_launch", "wsb_launch_dep"]  # std_msgs stays the wheel's
     ran = wsbuild(venv, "run", "wsb_launch", "wsb_launch_main", cwd=ws, env=env)
     assert ran.returncode == 0 and "hello from wsb_launch" in ran.stdout, output(ran)
     assert wsbuild(venv, "deps", "--skip-keys", "wsb_nowhere", cwd=ws, env=env).returncode == 0

@@ -10,7 +10,8 @@ import pytest
 
 from conftest import REPO
 from wsbuild.deps.plan import Source
-from wsbuild.deps.test_tools import has_tests, ros_pytest_command, ros_pytest_step
+from wsbuild.deps.test_tools import has_tests, linter_program_steps, ros_pytest_command
+from wsbuild.deps.test_tools import ros_pytest_step
 from wsbuild.underlay.constraints import (
     ROS_PYTEST_VAR,
     distro_constraints,
@@ -67,3 +68,35 @@ def test_each_distro_gets_its_shipped_constraints_and_only_by_a_plain_name() -> 
     assert distro_constraints("kilted") is None  # none shipped: pip runs unconstrained
     for odd in ("../jazzy", "jazzy/../x", "", "Jazzy"):
         assert distro_constraints(odd) is None
+
+
+def _linted(tmp_path: Path, name: str, *test_depends: str) -> Package:
+    (tmp_path / name).mkdir(parents=True)
+    return Package(name, tmp_path / name, "ament_cmake",
+                   dependencies=tuple(Dependency(d, DepKind.TEST) for d in test_depends))
+
+
+def test_the_programs_the_linters_run_are_installed_when_missing(tmp_path: Path) -> None:
+    """ament_lint_common brings cppcheck's linter, which runs the cppcheck program: missing
+    on PATH, it is an apt-get step; a linter wsbuild stands in for needs no program."""
+    common = _linted(tmp_path, "cpp_common", "ament_lint_auto", "ament_lint_common")
+    direct = _linted(tmp_path, "cpp_direct", "ament_cmake_cppcheck", "ament_mypy")
+    empty = tmp_path / "empty-path"
+    empty.mkdir()
+    steps = linter_program_steps([common, direct], ALL, path=str(empty), installed=(),
+                                 stood_in={"ament_cmake_xmllint", "ament_uncrustify"})
+    found = {(s.need.key, s.installer.value, s.packages, s.need.needed_by) for s in steps}
+    assert found == {("cppcheck", "apt", ("cppcheck",), ("cpp_common", "cpp_direct")),
+                     ("flake8", "pip", ("flake8",), ("cpp_common",)),
+                     ("pydocstyle", "pip", ("pydocstyle",), ("cpp_common",)),
+                     ("mypy", "pip", ("mypy",), ("cpp_direct",))}
+    assert all(s.source is Source.LINT_PROGRAM for s in steps)
+    # there already: nothing to do; and nothing at all without test dependencies
+    for program in ("cppcheck", "uncrustify"):
+        (empty / program).symlink_to("/bin/true")
+    again = linter_program_steps([common], ALL, path=str(empty), stood_in=(),
+                                 installed={"flake8", "pydocstyle"})
+    assert [s.need.key for s in again] == ["xmllint"]  # not stood in here: its program counts
+    assert again[0].packages == ("libxml2-utils",)
+    assert linter_program_steps([common, direct], ALL - {DepKind.TEST}, path=str(empty),
+                                installed=(), stood_in=()) == []

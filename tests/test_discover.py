@@ -7,7 +7,7 @@ from pathlib import Path
 
 import pytest
 
-from conftest import write_package
+from conftest import run_wsbuild, write_package
 from wsbuild.workspace.discover import discover_packages, find_package_dirs
 from wsbuild.errors import ManifestError, WorkspaceError
 from wsbuild.build_types import KnownBuildTypes
@@ -112,3 +112,19 @@ def test_workspace_root_without_src_is_the_start(tmp_path: Path) -> None:
     assert Workspace.at(tmp_path).default_base_paths() == [tmp_path]
     os.makedirs(tmp_path / "src")
     assert Workspace.at(tmp_path).default_base_paths() == [tmp_path / "src"]
+
+
+def test_a_build_inside_a_package_says_which_workspace_it_builds_and_why(tmp_path: Path) -> None:
+    """`wsbuild build` in src/pkg builds the workspace above it: it says so, and why that one."""
+    ws = tmp_path / "ws"
+    pkg = write_package(ws / "src", "here", "cmake")
+    (pkg / "CMakeLists.txt").write_text("cmake_minimum_required(VERSION 3.14)\nproject(here NONE)\n")
+    inside = run_wsbuild("build", cwd=pkg)
+    assert inside.returncode == 0, inside.stdout + inside.stderr
+    assert (f"wsbuild: note: workspace {ws}: the nearest directory above {pkg} holding src/ "
+            "(-C DIR names another)") in inside.stderr.splitlines()
+    assert (ws / "install" / "here").is_dir()
+    at_root = run_wsbuild("build", cwd=ws)
+    assert at_root.returncode == 0 and "note: workspace" not in at_root.stderr
+    again = run_wsbuild("test", cwd=pkg / "..")
+    assert "holding build/ of an earlier build" in again.stderr, again.stderr

@@ -321,6 +321,23 @@ def test_unknown_elements_and_attributes_are_warnings(tmp_path: Path) -> None:
     ]
 
 
+@pytest.mark.parametrize(("fmt", "written", "meant"), [
+    (3, "buildtool_dpend", "buildtool_depend"),
+    (3, "exec_depnd", "exec_depend"),
+    (2, "maintaner", "maintainer"),
+    (3, "licence", "license"),
+])
+def test_a_misspelt_known_element_is_an_error_naming_the_line_and_the_element_meant(
+        tmp_path: Path, fmt: int, written: str, meant: str) -> None:
+    """The build would go on without it and fail far away (CMake's 20 lines for a missing
+    <buildtool_depend>): the error says where and what was meant."""
+    path = write(tmp_path, manifest(fmt, f"  <{written}>ament_cmake</{written}>\n"))
+    with pytest.raises(ManifestError) as raised:
+        parse(path, warnings=[])
+    assert str(raised.value) == (f"{path}:{line_of(path, written)}: unknown element <{written}> "
+                                 f"(package format {fmt}) (did you mean <{meant}>?)")
+
+
 def test_warnings_are_optional(tmp_path: Path) -> None:
     path = write(tmp_path, manifest(3, "  <whatever/>\n"))
     assert parse(path, warnings=None).name == "pkg"

@@ -542,6 +542,28 @@ def test_generated_executables_run(built: Path, package: str) -> None:
     result = run_wsbuild("run", package, node, cwd=built, env=ros_env(), timeout=60)
     assert result.returncode == 0, result.stderr
     assert f"Hello from {node} in {package}" in result.stdout
+    if WORKSPACE.get(package, {}).get("library_name"):  # the node links the package's library
+        assert f"Hello, {package}!" in result.stdout, result.stdout
+
+
+def test_the_node_tests_leave_the_words_to_the_node(tmp_path: Path) -> None:
+    """Any edit to what the generated node says leaves its generated test passing: the test
+    checks that it runs, not its words."""
+    (tmp_path / "src").mkdir()
+    made = pkg_create_command("says", "--build-type", "ament_python", "--node-name", "hello",
+                              cwd=tmp_path)
+    assert made.returncode == 0, made.stderr
+    node = tmp_path / "src" / "says" / "says" / "hello.py"
+    node.write_text(node.read_text().replace("Hello from hello", "Good morning"))
+    result = subprocess.run([sys.executable, "-m", "pytest", "-q", "-p", "no:cacheprovider",
+                             "test/test_hello.py"], cwd=tmp_path / "src" / "says",
+                            capture_output=True, text=True, timeout=120)
+    assert result.returncode == 0, result.stdout + result.stderr
+    for build_type in ("ament_cmake", "cmake"):
+        rendered = dict(render_package(request(tmp_path, build_type=build_type,
+                                               node_name="hello")).files)
+        # CTest's check of the node: it runs and exits 0, whatever it prints
+        assert "PASS_REGULAR_EXPRESSION" not in rendered[PurePosixPath("CMakeLists.txt")]
 
 
 def run_until(command: list[str], expected: str, *, cwd: Path, timeout: float = 30) -> str:

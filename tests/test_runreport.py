@@ -167,6 +167,15 @@ def test_a_failed_build_records_the_failure_with_its_repro_and_log(tmp_path: Pat
     assert "failed: broken: 'cmake' exited with code 1" in summary.stdout
 
 
+def test_a_one_package_run_is_counted_in_the_singular(tmp_path: Path) -> None:
+    ws = tmp_path / "ws"
+    write_package(ws / "src", "alone", "cmake")
+    assert run_wsbuild("build", "--parallel-workers", "1", cwd=ws).returncode == 0
+    html = (ws / "log" / "latest" / "report.html").read_text()
+    assert "<p>1 package: 1 finished</p>" in html and "1 package at once" in html
+    assert "1 packages" not in html
+
+
 # ----------------------------------------------------------------------------- every test
 
 

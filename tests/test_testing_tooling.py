@@ -3,6 +3,7 @@ tooling that could not start, the linters named when missing, the ROS tests' pyt
 
 from __future__ import annotations
 
+import os
 import sys
 from pathlib import Path
 
@@ -54,6 +55,18 @@ def test_a_module_that_cannot_be_imported_names_the_module_to_install() -> None:
     assert failure.what == "pkg.test.test_driver could not be collected"
     assert failure.cause == "ModuleNotFoundError: No module named 'serial'"
     assert failure.fix.startswith("install the Python module 'serial'")
+
+
+def test_a_linter_whose_program_is_missing_names_it_and_the_command_that_installs_it() -> None:
+    case = Case("cppcheck.xunit.missing_result", "demo_cpp", CaseOutcome.ERROR,
+                message="The test did not generate a result file:\n\n"
+                        "Could not find 'cppcheck' executable\n")
+    assert is_tooling(case)
+    [failure] = tooling_failures([case], sys.executable)
+    assert failure.cause == "cppcheck is not installed"
+    assert failure.fix.startswith("sudo apt-get install -y cppcheck" if os.geteuid()
+                                  else "apt-get install -y cppcheck")
+    assert "wsbuild deps install -y" in failure.fix
 
 
 def test_the_summary_keeps_failing_tests_and_tooling_apart_and_names_missing_linters_once(

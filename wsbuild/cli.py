@@ -3,7 +3,7 @@ errors and picks exit codes. Each verb's options, and their conversion into a re
 to its module under verbs/.
 
 Exit codes: 0 success, 1 a package failed (build or test), 2 usage or workspace error,
-130 interrupted (Ctrl-C), 3 an unexpected internal error (a bug in wsbuild).
+130 interrupted (Ctrl-C; 143 SIGTERM, 129 SIGHUP), 3 an unexpected internal error (a bug in wsbuild).
 """
 
 from __future__ import annotations
@@ -13,11 +13,14 @@ import os
 import shutil
 import sys
 from collections.abc import Callable, Collection, Mapping, Sequence
+from typing import NoReturn
 from pathlib import Path
 
 from wsbuild import __version__
-from wsbuild.errors import WsbuildError
+from wsbuild.errors import Interrupted, WsbuildError
 from wsbuild.verbs.arguments import PASSTHROUGH, add_workspace_arguments
+from wsbuild.verbs.arguments import collect_passthrough, may_pass_through
+from wsbuild.words import did_you_mean
 
 
 class _Formatter(argparse.RawDescriptionHelpFormatter):
@@ -94,7 +97,8 @@ _TOP_EPILOG = "Run `wsbuild VERB --help` for what a verb does and its options."
 
 
 class _Parser(argparse.ArgumentParser):
-    """argparse's parser, but a word that is no verb (or action) gets a "did you mean"."""
+    """argparse's parser, but a word that is no verb (or action) and an option the verb does
+    not have get a "did you mean"."""
 
     def _check_value(self, action: argparse.Action, value: object) -> None:
         if isinstance(action, argparse._SubParsersAction) and action.choices is not None \
@@ -103,15 +107,19 @@ class _Parser(argparse.ArgumentParser):
                 str(value), list(action.choices), str(action.metavar or "VERB").lower()))
         super()._check_value(action, value)
 
+    def error(self, message: str) -> NoReturn:
+        unknown = [word.split("=")[0] for word in message.split()
+                   if word.startswith("--")] if message.startswith("unrecognized") else []
+        options = [o for a in self._actions for o in a.option_strings]  # no public walk
+        hint = did_you_mean(unknown[0], options) if unknown else ""
+        super().error(f"{message} ({hint})" if hint else message)
+
 
 def unknown_choice_message(word: str, choices: Sequence[str], kind: str) -> str:
     """`unknown verb 'biuld': did you mean 'build'?`, or the choices when none is close."""
-    import difflib
-
-    close = difflib.get_close_matches(word, choices, n=1, cutoff=0.6)
-    if close:
-        return f"unknown {kind} '{word}': did you mean '{close[0]}'?"
-    return f"unknown {kind} '{word}'; the {kind}s: {', '.join(choices)}"
+    hint = did_you_mean(word, choices)
+    return f"unknown {kind} '{word}': {hint}" if hint else \
+        f"unknown {kind} '{word}'; the {kind}s: {', '.join(choices)}"
 
 
 class _Tree:
@@ -338,57 +346,6 @@ _ADDERS: dict[str, Callable[[_Tree, str], None]] = {
 }
 
 
-def _passthrough_name(item: str, known: set[str] | None) -> str | None:
-    """The pass-through option `item` spells: itself, or (with `known`, every long option)
-    an abbreviation argparse would accept for it (`--cmake-arg`)."""
-    if item in PASSTHROUGH:
-        return item
-    if known is None or not item.startswith("--") or "=" in item or len(item) < 4:
-        return None
-    matches = [name for name in known | set(PASSTHROUGH) if name.startswith(item)]
-    return matches[0] if len(matches) == 1 and matches[0] in PASSTHROUGH else None
-
-
-def _collect_passthrough(argv: list[str]) -> list[str]:
-    """`--cmake-args -DA=1 -DB=2` → `--cmake-args=-DA=1 --cmake-args=-DB=2`, as colcon allows.
-
-    Values run until `--` or the next option wsbuild knows; a value starting with a space
-    (`' --help'`) is one too, as in colcon.
-    """
-    known = _known_long_options(argv)
-    result: list[str] = []
-    index = 0
-    while index < len(argv):
-        item = argv[index]
-        index += 1
-        name = _passthrough_name(item, known)
-        if name is None:
-            result.append(item)
-            continue
-        values = []
-        while index < len(argv) and argv[index] != "--" and not _ends_values(argv[index], known):
-            values.append(argv[index])
-            index += 1
-        if index < len(argv) and argv[index] == "--":
-            index += 1
-        result.extend(f"{name}={value}" for value in values)
-        if not values:
-            result.append(f"{name}=")
-    return result
-
-
-def _ends_values(item: str, known: set[str]) -> bool:
-    """Whether `item` is an option of wsbuild's (another pass-through one too), which ends the
-    values of a pass-through option."""
-    return item.split("=")[0] in known or _passthrough_name(item, known) is not None
-
-
-def _may_pass_through(item: str) -> bool:
-    """Whether `item` might be a pass-through option (cheap: no parser built)."""
-    return item in PASSTHROUGH or (
-        len(item) >= 5 and "=" not in item and any(p.startswith(item) for p in PASSTHROUGH))
-
-
 def _known_long_options(argv: Sequence[str]) -> set[str]:
     """The long options of the verb `argv` runs and those before it (not the other verbs':
     `test --ctest-args --verbose` passes `--verbose` on, although test-result has one)."""
@@ -415,8 +372,8 @@ def parse_command_line(raw: list[str], environ: Mapping[str, str],
     mixins it names. Usage errors exit (2); bad files raise WsbuildError."""
     from wsbuild.verbs.defaults import parse_with_defaults
 
-    if any(_may_pass_through(item) for item in raw):
-        raw = _collect_passthrough(raw)
+    if any(may_pass_through(item) for item in raw):
+        raw = collect_passthrough(raw, _known_long_options(raw))
 
     def make_parser(verbs_in_defaults: set[str]) -> argparse.ArgumentParser:
         full = "pkg" in raw or any(v.split(".")[0] == "pkg" for v in verbs_in_defaults)
@@ -442,18 +399,20 @@ def main(argv: Sequence[str] | None = None) -> int:
     if not hasattr(args, "func"):  # a bare `wsbuild` or `wsbuild cache`: what each one does
         _print_choices(args.verb)
         return 2
+    from wsbuild.engine.process import interrupted_exit_code, stop_signals_interrupt
     from wsbuild.reporter import print_notes
     from wsbuild.verbs.colcon import ignored_notes
 
     print_notes(ignored_notes(args, args.verb))
     try:
-        return int(_resolve_func(args.func)(args) or 0)
+        with stop_signals_interrupt():
+            return int(_resolve_func(args.func)(args) or 0)
     except WsbuildError as exc:
         print(f"wsbuild: error: {exc}", file=sys.stderr)
-        return exc.exit_code
+        return interrupted_exit_code() if isinstance(exc, Interrupted) else exc.exit_code
     except KeyboardInterrupt:
         print("wsbuild: interrupted", file=sys.stderr)
-        return 130
+        return interrupted_exit_code()
     except BrokenPipeError:
         # `wsbuild list | head`: the reader went away; not an error
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())

@@ -45,6 +45,14 @@ def _shown(kind: str, data: object) -> None:
         watcher.shown(kind, data)
 
 
+def _near(path: Path) -> str:
+    """`path` relative to the working directory when it is below it (`build/pkg/x.sh`)."""
+    try:
+        return str(path.relative_to(Path.cwd()))
+    except ValueError:
+        return str(path)
+
+
 class ReplayDrawing:
     """What a recorded no-op build showed, shown again through the same functions: its
     warnings and notes, its reporter (same console options) and the reporter's events, the
@@ -314,7 +322,12 @@ class Reporter:
             self._write(f"Failed   <<< {name} [{result.seconds:.2f}s] {result.message}".rstrip())
             if result.log_dir is not None:
                 self._write(f"  log: {result.log_dir}")
-            if result.reproduce:
+            if result.reproduce_script is not None:
+                # the line itself (its environment: ~2,000 characters) is in the log
+                self._write("  reproduce by hand:")
+                self._write(f"    {_near(result.reproduce_script)}   # the step's directory, "
+                            "environment and command")
+            elif result.reproduce:
                 self._write("  reproduce by hand:")
                 for line in result.reproduce.splitlines():
                     self._write(f"    {line}")

@@ -2,7 +2,9 @@
 
 from __future__ import annotations
 
+import re
 from dataclasses import dataclass
+from pathlib import Path
 
 from wsbuild.build_types import BuildContext, BuildOptions, cmake_key_options
 from wsbuild.build_types.cmake import CMakeBuildType
@@ -19,6 +21,16 @@ class AmentCMakeBuildType(CMakeBuildType):
     def installs_in_place(self, ctx: BuildContext) -> bool:
         return ctx.options.symlink_install
 
+    def install_mode_switched(self, ctx: BuildContext) -> str:
+        """A build directory built with the other install mode: its ament_cmake_python copies
+        (or links) and symlink-install scripts make the next build fail ("failed to create
+        symbolic link ... Is a directory"), and the cache keeps AMENT_CMAKE_SYMLINK_INSTALL."""
+        cached = cached_symlink_install(ctx.build_dir)
+        if cached is None or cached == ctx.options.symlink_install:
+            return ""
+        return "with --symlink-install, this build is without" if cached else \
+            "without --symlink-install, this build is with it"
+
     def key_options(self, options: BuildOptions) -> dict[str, object]:
         return cmake_key_options(options)
 
@@ -31,3 +43,18 @@ class AmentCMakeBuildType(CMakeBuildType):
 
 
 BUILD_TYPE = AmentCMakeBuildType()
+
+
+_SYMLINK_INSTALL = re.compile(r"^AMENT_CMAKE_SYMLINK_INSTALL:[A-Z]+=(.*)$", re.MULTILINE)
+
+
+def cached_symlink_install(build_dir: Path) -> bool | None:
+    """Whether the build directory's CMake cache was configured for a symlink install (None:
+    not configured)."""
+    try:
+        text = (build_dir / "CMakeCache.txt").read_text(errors="replace")
+    except OSError:
+        return None
+    match = _SYMLINK_INSTALL.search(text)
+    return match is not None and match.group(1).strip().upper() in ("1", "ON", "TRUE", "YES",
+                                                                      "Y")

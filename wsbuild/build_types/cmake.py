@@ -3,7 +3,8 @@
 Generator: Ninja when a `ninja` executable is found (on the build environment's PATH or next
 to wsbuild's interpreter, where `pip install ninja` puts it), unless `--cmake-args` name a
 generator (`-G`) or `CMAKE_GENERATOR` is set; otherwise CMake's default (Unix Makefiles).
-A build directory configured with another generator is configured again from scratch.
+A build directory configured with another generator is configured again from scratch, and one
+built for another install mode (ament's symlink install) is emptied first.
 Both share the run's CPU budget: make through the jobserver's file descriptors, Ninja ≥ 1.13
 through its named FIFO; an older Ninja gets a fixed `-j` of the budget.
 The compiler cache chosen for the run (`compiler_launcher`) becomes
@@ -321,6 +322,15 @@ class CMakeBuildType:
             cache.unlink()
             shutil.rmtree(ctx.build_dir / "CMakeFiles", ignore_errors=True)
         (ctx.build_dir / CONFIGURE_RECORD).unlink(missing_ok=True)
+        switched = self.install_mode_switched(ctx)
+        if switched:
+            ctx.warn(f"{ctx.build_dir} was built {switched}: building it from scratch")
+            empty_build_directory(ctx.build_dir)
+
+    def install_mode_switched(self, ctx: BuildContext) -> str:
+        """How the build directory was built, when it was for another install mode, whose
+        leftovers break this build ("" when not): plain CMake has only one."""
+        return ""
 
     def build_step(self, ctx: BuildContext) -> Step:
         command = ["cmake", "--build", str(ctx.build_dir), *self.parallel_args(ctx)]
@@ -374,6 +384,21 @@ class CMakeBuildType:
                     around=lambda context: direct_install(context.install_prefix,
                                                           context.stage_prefix),
                     reads=(ctx.build_dir,), writes=writes)
+
+
+#: what stays when a build directory is emptied: wsbuild's own records and markers
+_KEPT_IN_BUILD_DIRECTORY = frozenset({".wsbuild", "COLCON_IGNORE", "AMENT_IGNORE"})
+
+
+def empty_build_directory(build_dir: Path) -> None:
+    """Remove what CMake and the build wrote into `build_dir` (a configure from scratch)."""
+    for entry in os.scandir(build_dir):
+        if entry.name in _KEPT_IN_BUILD_DIRECTORY:
+            continue
+        if entry.is_dir(follow_symlinks=False):
+            shutil.rmtree(entry.path)
+        else:
+            os.unlink(entry.path)
 
 
 def _write_configure_record(ctx: BuildContext, record: Mapping[str, object]) -> None:

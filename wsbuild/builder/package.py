@@ -26,15 +26,18 @@ from wsbuild.builder.compiler_cache import CompilerCache
 from wsbuild.builder.step_trace import StepTraces
 from wsbuild.builder.distribute import Distribution
 from wsbuild.builder.plan import BUILDING_MARKER, Decision, PackagePlan
+from wsbuild.builder.reproduce import write_reproduce_script
 from wsbuild.engine.jobs import JobResult, Outcome, StepStarted
 from wsbuild.engine.jobserver import Jobserver
 from wsbuild.engine.process import env_delta, format_command, run_command
 from wsbuild.errors import WsbuildError
 from wsbuild.events import CacheRestored, Emit
 from wsbuild.record.model import PackageRecord
+from wsbuild.redaction import redact
 from wsbuild.session import Session
 from wsbuild.workspace.model import DepCategory
 from wsbuild.workspace.selection import Selection
+from wsbuild.words import did_you_mean
 
 
 @dataclass(frozen=True, slots=True)
@@ -424,15 +427,17 @@ class PackageBuild:
                 and not any(directory in v for directory in private)}
 
     def _failed(self, failure: StepFailed) -> JobResult:
-        reproduce = ""
+        reproduce, script = "", None
         if failure.command:
-            reproduce = format_command(failure.command, failure.cwd or self.build_dir,
-                                       failure.env_delta)
+            cwd = failure.cwd or self.build_dir
+            reproduce = format_command(failure.command, cwd, failure.env_delta)
+            script = write_reproduce_script(self.build_dir, self.name, failure.command, cwd,
+                                            failure.env_delta)
         tail = _log_tail(self.log_dir)
         message = str(failure) + ("\n" + "\n".join(tail) if tail else "")
         # the log tail in the message already shows stderr: no separate warnings block
         return JobResult(self.name, Outcome.FAILED, self._seconds(), message=message,
-                         log_dir=self.log_dir, reproduce=reproduce)
+                         log_dir=self.log_dir, reproduce=reproduce, reproduce_script=script)
 
     def _with_unresolved(self, result: JobResult) -> JobResult:
         """A failed package's report ends with the build dependencies it declared that were
@@ -440,12 +445,25 @@ class PackageBuild:
         unresolved = self.run.unresolved.get(self.name, ())
         if result.outcome is not Outcome.FAILED or not unresolved:
             return result
-        lines = [f"  declares build dependency {dep}, which was not found" for dep in unresolved]
+        known = self._known_packages()
+        lines = [f"  declares build dependency {dep}, which was not found"
+                 + (f" ({hint})" if (hint := did_you_mean(dep, known)) else "")
+                 for dep in unresolved]
         return replace(result, message="\n".join([result.message, *lines]))
+
+    def _known_packages(self) -> set[str]:
+        """The names a misspelt dependency may have meant: the workspace's packages and those
+        of the underlays' ament index."""
+        from wsbuild.workspace.resolve import ament_index
+
+        session = self.run.session
+        prefixes = [Path(p) for p in session.environ.get("AMENT_PREFIX_PATH", "").split(
+            os.pathsep) if p] + session.underlay_prefixes
+        return {*self.run.selection.packages, *ament_index(prefixes)}
 
     def _log(self, line: str) -> None:
         with open(self.log_dir / "command.log", "a") as handle:
-            handle.write(line + "\n")
+            handle.write(redact(line) + "\n")
 
     def _seconds(self) -> float:
         return time.monotonic() - self.started

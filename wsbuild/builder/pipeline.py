@@ -52,7 +52,8 @@ def session_options(request: BuildRequest, *, dry_run: bool = False) -> SessionO
     return SessionOptions(verb="build", merge_install=request.build.merge_install,
                           dry_run=dry_run, wait_for_lock=request.run.wait_for_lock,
                           repair_underlay=request.repair_underlay, cache=request.cache,
-                          symlink_install=request.build.symlink_install, jobs=request.build.jobs)
+                          symlink_install=request.build.symlink_install, jobs=request.build.jobs,
+                          not_inputs=request.env_ignore)
 
 
 def plan_build(selection: Selection, request: BuildRequest, emit: Emit) -> BuildPlan:

@@ -67,3 +67,5 @@ class BuildRequest:
     #: --distribute: distcc hosts in DISTCC_HOSTS syntax; None: compile here only
     #: (builder/distribute.py)
     distribute: str | None = None
+    #: --env-ignore: variables that reach no build, beside record/environment.py's own list
+    env_ignore: tuple[str, ...] = ()

@@ -10,7 +10,7 @@ from __future__ import annotations
 import datetime
 import os
 import re
-from collections.abc import Collection, Mapping
+from collections.abc import Collection, Iterable, Mapping
 from dataclasses import dataclass
 from pathlib import Path, PurePosixPath
 from xml.sax.saxutils import escape
@@ -259,12 +259,13 @@ def render_package(request: PackageRequest, *, root: Path | None = None) -> Rend
         assert dependency is not None  # select_variants checked
         for slot, source in dependency.fragments:
             first[slot] += _fragment(source, {**values, "dependency": dep}, {})
-    # Round 2: the fragments of the chosen folders, which may use round-1 slots.
+    # Round 2: the fragments of the chosen folders, which may use round-1 slots and those the
+    # folders before them filled (a node links the package's own library: @cmake_own_libraries@)
     slots = {slot: first.get(slot, "") for slot in every_slot}
     filled: set[str] = set()
     for variant in variants:
         for slot, source in variant.fragments:
-            text = _fragment(source, values, first)
+            text = _fragment(source, values, slots)
             slots[slot] += text
             if text:
                 filled.add(slot)
@@ -291,8 +292,9 @@ def render_package(request: PackageRequest, *, root: Path | None = None) -> Rend
             raise TemplateError("a template writes LICENSE, which --license writes",
                                 path=root / "pkg" / request.build_type)
         files[PurePosixPath("LICENSE")] = ("license", text)
-    # Dependency fragments nobody asks for are fine (no target to link); an option's are not.
-    leftover = sorted(filled - file_used)
+    # Dependency fragments nobody asks for are fine (no target to link), and so are an option's
+    # for a folder not chosen (the library's lines for a node); a slot no template names is not.
+    leftover = sorted(filled - file_used - _named_slots(all_variants.values()))
     if leftover:
         raise TemplateError(f"fragments for @{leftover[0]}@ are used by no file",
                             path=root / "pkg" / request.build_type,
@@ -304,6 +306,13 @@ def render_package(request: PackageRequest, *, root: Path | None = None) -> Rend
         files=tuple(sorted((path, content) for path, (_, content) in files.items())),
         notes=checked.notes,
     )
+
+
+def _named_slots(variants: Iterable[Variant]) -> set[str]:
+    """The tokens the templates of `variants` (files and fragments) name."""
+    return {token for variant in variants
+            for _, source in (*variant.files, *variant.fragments)
+            for token in TOKEN.findall(_read(source))}
 
 
 def _fragment(source: Path, values: Mapping[str, str], slots: Mapping[str, str]) -> str:

@@ -230,3 +230,49 @@ def repositories_for(keys: Sequence[str], sources: DistroSources) -> list[Source
     """The source repositories holding `keys`, once each, sorted by name."""
     found = {r.name: r for r in (sources.repository_of(k) for k in keys) if r is not None}
     return [found[name] for name in sorted(found)]
+
+
+# ----------------------------------------------- the fetched packages nothing needs, left out
+
+#: the marker that leaves a fetched package out of the build (colcon honours it too)
+LEFT_OUT = "COLCON_IGNORE"
+_LEFT_OUT_TEXT = ("wsbuild deps install --from-source: nothing in this workspace needs this "
+                  "package (a wheel may provide it); remove this file to build it\n")
+
+
+def fetched_packages(folders: Iterable[Path]) -> dict[str, Path]:
+    """package name -> its directory, for every package.xml in the fetched `folders`, left
+    out or not (the name read as the manifest's <name>, never run)."""
+    found: dict[str, Path] = {}
+    for folder in folders:
+        for manifest in sorted(folder.rglob("package.xml")):
+            if ".git" in manifest.relative_to(folder).parts:
+                continue
+            match = re.search(r"<name>\s*([^<\s]+)\s*</name>",
+                              manifest.read_text(encoding="utf-8", errors="replace"))
+            if match:
+                found.setdefault(match.group(1), manifest.parent)
+    return found
+
+
+def keep_only_needed(packages: Mapping[str, Path], needed: Iterable[str]) -> tuple[list[str],
+                                                                                   list[str]]:
+    """Leave every fetched package out of the build that is not `needed` (its marker written),
+    take back a needed one left out before (only wsbuild's own marker is removed): a plain
+    `wsbuild build` then builds what the workspace needs, and a wheel is not shadowed by an
+    unneeded source copy of its package. Returns (left out, taken back), sorted."""
+    wanted = set(needed)
+    left, taken = [], []
+    for name, directory in sorted(packages.items()):
+        marker = directory / LEFT_OUT
+        ours = marker.is_file() and marker.read_text(errors="replace") == _LEFT_OUT_TEXT
+        if name in wanted:
+            if ours:
+                marker.unlink()
+                taken.append(name)
+        else:
+            if not marker.exists():
+                atomic_write(marker, _LEFT_OUT_TEXT)
+            if ours or marker.read_text(errors="replace") == _LEFT_OUT_TEXT:
+                left.append(name)
+    return left, taken

@@ -48,6 +48,7 @@ class Source(Enum):
     ROSDEP = "rosdep"
     PYTHON = "Python key by convention"
     ROS_PYTEST = "the ROS tests' pytest"
+    LINT_PROGRAM = "a program a linter runs"
 
 
 class Installer(Enum):

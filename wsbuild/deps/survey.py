@@ -21,14 +21,16 @@ from wsbuild.deps.plan import (
     wheel_name,
 )
 from wsbuild.deps.rosdep import load_rosdep
-from wsbuild.deps.test_tools import ros_pytest_step
+from wsbuild.deps.test_tools import linter_program_steps, ros_pytest_step
 from wsbuild.underlay.environment import PreparedUnderlay
 from wsbuild.errors import UnderlayError
 from wsbuild.underlay.detect import ros_distro, venv_python
 from wsbuild.underlay.environment import prepare_underlay
 from wsbuild.underlay.wheels import JAZZY_WHEELS, wheel_name as jazzy_wheel_name
 from wsbuild.workspace.model import DepKind, Package
-from wsbuild.workspace.resolve import Resolver, normalize_distribution, python_distributions
+from wsbuild.workspace.resolve import Resolver, ament_index, normalize_distribution
+from wsbuild.workspace.resolve import python_distributions
+from wsbuild.words import did_you_mean
 
 
 @dataclass(frozen=True, slots=True)
@@ -79,12 +81,28 @@ def survey(packages: Sequence[Package], workspace: Mapping[str, Package],
                       stand_ins=_provided_by_wsbuild(underlay),
                       installed=frozenset(normalize_distribution(n) for n in installed))
     plan = planner.plan(needs)
+    programs = linter_program_steps(packages, kinds, path=underlay.environ.get("PATH", ""),
+                                    installed=planner.installed,
+                                    stood_in=_provided_by_wsbuild(underlay))
+    plan = replace(plan, steps=(*plan.steps, *programs))
     pytest_step = ros_pytest_step(packages, python, kinds)
     if pytest_step is not None:
         plan = replace(plan, test_tools=(pytest_step,))
     memory = index.AnswerMemory.for_index(python, environ)
     plan, sources_status = _from_source(plan, distro, memory.path.parent, memory.now, refresh)
+    plan = _with_close_names(plan, {*workspace, *ament_index(resolver.ament_prefixes),
+                                    *(JAZZY_WHEELS if distro == "jazzy" else ())})
     return Survey(plan, venv, python, distro, rosdep_status, sources_status)
+
+
+def _with_close_names(plan: DepsPlan, known: set[str]) -> DepsPlan:
+    """An unresolved key close to a package name that exists (`std_msg`) says which one it
+    may have meant (`std_msgs`): a misspelling, not a missing package."""
+    unresolved = []
+    for item in plan.unresolved:
+        hint = did_you_mean(item.need.key, known - {item.need.key})
+        unresolved.append(replace(item, why=f"{hint} {item.why}") if hint else item)
+    return replace(plan, unresolved=tuple(unresolved))
 
 
 def _from_source(plan: DepsPlan, distro: str, cache_dir: Path, now: float,

@@ -24,8 +24,11 @@ class JobResult:
     seconds: float = 0.0
     message: str = ""
     log_dir: Path | None = None
+    #: a shell line that reproduces the failed step by hand
     reproduce: str = ""
     warnings: tuple[str, ...] = field(default=())
+    #: a script doing what `reproduce` does, shown instead of its long line
+    reproduce_script: Path | None = None
 
 
 @dataclass(frozen=True, slots=True)

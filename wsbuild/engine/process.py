@@ -1,5 +1,6 @@
 """Run one command: its own process group, output streamed to log files and to a line callback;
-Ctrl-C ends every process wsbuild started and every process those started in turn."""
+Ctrl-C, SIGTERM and SIGHUP end every process wsbuild started and every process those started
+in turn."""
 
 from __future__ import annotations
 
@@ -13,9 +14,12 @@ import sys
 import threading
 import time
 from collections import deque
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Callable, Iterator, Mapping, Sequence
+from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
+
+from wsbuild.redaction import redact_bytes
 
 #: how long the processes of a cancelled run get to stop after SIGTERM before SIGKILL
 GRACE_SECONDS = 3.0
@@ -161,6 +165,59 @@ def _signal_group(pgid: int, sig: int) -> None:
 
 REGISTRY = ProcessRegistry()
 
+#: the signals that stop a run as Ctrl-C does: a CI system cancelling a job or `timeout`
+#: (SIGTERM), a closed terminal (SIGHUP). Every step runs in a session of its own, so none of
+#: them reaches the steps: wsbuild must pass it on, or they outlive it
+STOP_SIGNALS = (signal.SIGTERM, signal.SIGHUP)
+#: a stop signal repeated this soon is the same request (`timeout` signals wsbuild, then its
+#: whole process group); a later one cuts the grace period short, as a second Ctrl-C does
+_SAME_REQUEST_SECONDS = 1.0
+
+
+class Stopped(KeyboardInterrupt):
+    """A stop signal (SIGTERM, SIGHUP) in the main thread: handled as Ctrl-C is, wherever the
+    run is (waiting for the lock, running jobs), and exits 128 + the signal's number."""
+
+    def __init__(self, signum: int) -> None:
+        super().__init__(signal.Signals(signum).name)
+        self.signum = signum
+
+
+_stopped_by: list[tuple[int, float]] = []
+
+
+@contextmanager
+def stop_signals_interrupt(registry: ProcessRegistry = REGISTRY) -> Iterator[None]:
+    """While inside, SIGTERM and SIGHUP raise `Stopped` in the main thread, so the run stops
+    every process it started (the same sweep, the same bounds as Ctrl-C) and releases the
+    workspace lock only after they are gone. A later stop signal only hurries the sweep. Does
+    nothing outside the main thread (Python delivers signals there only)."""
+    _stopped_by.clear()  # a run of its own (cli.main called again in one process)
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+
+    def handler(signum: int, _frame: object) -> None:
+        if not _stopped_by:
+            _stopped_by.append((signum, time.monotonic()))
+            raise Stopped(signum)
+        if time.monotonic() - _stopped_by[0][1] >= _SAME_REQUEST_SECONDS:
+            registry.hurry()
+
+    previous = {sig: signal.signal(sig, handler) for sig in STOP_SIGNALS}
+    try:
+        yield
+    finally:
+        for sig, action in previous.items():
+            signal.signal(sig, action)
+
+
+def interrupted_exit_code() -> int:
+    """The exit code of an interrupted run: 128 + the signal that stopped it (130 for Ctrl-C,
+    143 for SIGTERM, 129 for SIGHUP), as a shell reports a command its signal killed."""
+    signum = _stopped_by[0][0] if _stopped_by else signal.SIGINT
+    return 128 + int(signum)
+
 
 @dataclass(frozen=True, slots=True)
 class Completed:
@@ -240,6 +297,7 @@ def run_command(
                     *lines, partial[is_err] = data.split(b"\n")
                     lines = [line + b"\n" for line in lines]
                 for raw in lines:
+                    raw = redact_bytes(raw)
                     for name in ("stderr" if is_err else "stdout", "stdout_stderr"):
                         if name in logs:
                             logs[name].write(raw)  # type: ignore[attr-defined]

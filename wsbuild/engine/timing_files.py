@@ -10,6 +10,8 @@ import time
 from collections.abc import Iterable, Sequence
 from pathlib import Path
 
+from wsbuild.redaction import redact
+
 TIMINGS_JSON = "timings.json"
 TIMINGS_TEXT = "timings.txt"
 
@@ -92,5 +94,5 @@ def summary_line(wall: float, children: float, own: float, cores: int,
 def write_timing_files(run_log: Path, data: dict[str, object], lines: list[str]) -> None:
     """`timings.json` (`data`) and `timings.txt` (`lines`) in the run's log."""
     run_log.mkdir(parents=True, exist_ok=True)
-    (run_log / TIMINGS_JSON).write_text(json.dumps(data, indent=1) + "\n")
-    (run_log / TIMINGS_TEXT).write_text("\n".join(lines) + "\n")
+    (run_log / TIMINGS_JSON).write_text(redact(json.dumps(data, indent=1)) + "\n")
+    (run_log / TIMINGS_TEXT).write_text(redact("\n".join(lines)) + "\n")

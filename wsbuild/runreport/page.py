@@ -11,6 +11,8 @@ from wsbuild.engine.timeline import Timeline, render_cpu_svg, render_svg
 from wsbuild.engine.timing_files import bound_text
 from wsbuild.runreport.model import PackageRow, RunReport, compiler_cache_text, load_run
 from wsbuild.runreport.report_json import REPORT_HTML
+from wsbuild.redaction import redact
+from wsbuild.words import plural
 
 _CSS = """
 body{font-family:sans-serif;font-size:14px;margin:16px 24px;color:#222;max-width:1100px}
@@ -67,8 +69,13 @@ def _headline(report: RunReport) -> str:
     parts = ", ".join(f"{n} {outcome}" for outcome, n in sorted(counts.items()))
     css = "bad" if report.failed else "ok"
     return (f'<h1>wsbuild {escape(report.verb)} <span class="{css}">{verdict}</span> '
-            f"in {_seconds(report.wall)}</h1>\n<p>{len(report.packages)} packages: "
+            f"in {_seconds(report.wall)}</h1>\n<p>{plural(len(report.packages), 'package')}: "
             f"{escape(parts)}</p>")
+
+
+def _workers(workers: object) -> str:
+    """`1 package`, `4 packages`: how many packages the run built or tested at once."""
+    return plural(workers, "package") if isinstance(workers, int) else f"{workers} packages"
 
 
 def _failures(report: RunReport) -> str:
@@ -122,7 +129,7 @@ def _facts(report: RunReport) -> str:
             ("started", escape(str(record.get("started", "")))),
             ("workspace", f"<code>{escape(str(record.get('workspace', '')))}</code>"),
             ("jobs", f"{cores} CPUs{' (one jobserver)' if report.verb == 'build' else ''}, "
-                     f"{escape(str(record.get('workers', '')))} packages at once")]
+                     f"{escape(_workers(record.get('workers')))} at once")]
     if record.get("verb") == "build":
         compiler = record.get("compiler_cache")
         if isinstance(compiler, dict):
@@ -226,5 +233,5 @@ def write_report(run_dir: Path) -> Path:
     path = run_dir / REPORT_HTML
     # written in place: each run has its own directory, and nothing reads it while it is
     # written (a rename would cost the no-op path a metadata write on a busy disk)
-    path.write_text(page, encoding="utf-8")
+    path.write_text(redact(page), encoding="utf-8")
     return path

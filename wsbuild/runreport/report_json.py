@@ -21,6 +21,7 @@ from wsbuild.engine.jobs import JobResult, Outcome
 from wsbuild.engine.ready_queue import JobGraph
 from wsbuild.engine.timing_files import started_at
 from wsbuild import inputs
+from wsbuild.redaction import redact
 
 if TYPE_CHECKING:
     from wsbuild.cache.settings import CacheSettings
@@ -55,7 +56,7 @@ FORMAT = 1
 def command_line(argv: Sequence[str] | None = None) -> str:
     """The command as a user would type it again (`wsbuild build --timings`)."""
     args = sys.argv[1:] if argv is None else argv
-    return shlex.join(["wsbuild", *args])
+    return redact(shlex.join(["wsbuild", *args]))
 
 
 def artifact_cache_text(settings: CacheSettings | None, symlink_install: bool = False) -> str:
@@ -150,5 +151,7 @@ def report_data(selection: Selection, facts: RunFacts, run_log: Path, jobs: JobG
 
 def write_report_json(run_log: Path, record: Mapping[str, object]) -> Path:
     path = run_log / REPORT_JSON
-    path.write_text(json.dumps(record, indent=1, sort_keys=True) + "\n", encoding="utf-8")
+    # a message or a command line may quote a URL with its credentials
+    path.write_text(redact(json.dumps(record, indent=1, sort_keys=True)) + "\n",
+                    encoding="utf-8")
     return path

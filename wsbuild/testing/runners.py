@@ -75,6 +75,8 @@ class TestRequest:
     python_executable: str = sys.executable
     #: a test module importing an ament linter that is not installed is an error, not a skip
     strict_linters: bool = False
+    #: --env-ignore: variables that reach no test, beside record/environment.py's own list
+    env_ignore: tuple[str, ...] = ()
     #: reuse a package's last passing result while nothing its tests observe changed
     #: (cached_result.py); False: --no-test-cache
     reuse_results: bool = True

@@ -65,7 +65,8 @@ class TestKeys:
         return TestKey(
             build=own.key, closure={dep: key for dep, key in closure.items() if key is not None},
             sources=stat_digest(packages[name].path, self._outputs(), observed.files),
-            options=json.dumps(options), environment=environment_digests(ctx.environ),
+            options=json.dumps(options),
+            environment=environment_digests(ctx.environ, not_inputs=request.env_ignore),
             tools=json.dumps([self._tools, *observed.tools]),
             underlays=self._underlays.signature(outside, ctx.environ))
 

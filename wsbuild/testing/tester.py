@@ -12,7 +12,8 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from wsbuild.build_types import Command, get_build_type
-from wsbuild.build_types.junit import Case, CaseOutcome, Counts, ResultFile
+from wsbuild.build_types.junit import BadResultFile, Case, CaseOutcome, Counts, NotJUnit
+from wsbuild.build_types.junit import ResultFile, read_junit
 from wsbuild.build_types.test_runner import TestContext, TestOutcome, TestRunner
 from wsbuild.engine.process import REGISTRY, Completed, env_delta, format_command, run_command
 from wsbuild.events import Emit, StepStarted
@@ -31,6 +32,7 @@ from wsbuild.testing.pytest_env import with_ros_pytest
 from wsbuild.testing.results import PackageStatus, PackageTests, results_dir
 from wsbuild.testing.test_key import TestKeys
 from wsbuild.testing.tooling import tooling_failures
+from wsbuild.redaction import redact
 
 if TYPE_CHECKING:
     from wsbuild.testing.runners import TestRequest
@@ -124,10 +126,11 @@ class PackageTester:
             if cached is not None:
                 _log(log_dir, f"test result reused from {cached.log_dir}: nothing its tests "
                               "observe changed")
+                files = tuple(Path(p) for p in cached.result_files)
                 return PackageTests(name, PackageStatus.PASSED, cached.counts,
-                                    result_files=tuple(Path(p) for p in cached.result_files),
-                                    log_dir=cached.log_dir, cached=True,
-                                    seconds=time.monotonic() - started)
+                                    result_files=files, log_dir=cached.log_dir, cached=True,
+                                    seconds=time.monotonic() - started,
+                                    missing_linters=_missing_linters_in(files))
         forget_cached_result(ctx.build_dir)
         ctx.results_dir.mkdir(parents=True, exist_ok=True)
         report = self._attempts(runner, ctx, log_dir, emit)
@@ -173,17 +176,30 @@ def package_result(name: str, outcome: TestOutcome, python_executable: str) -> P
                             result_files=tuple(result.path for result in files),
                             message=outcome.no_tests)
     problems: list[Case] = []
-    missing: set[str] = set()
     for result in files:
         problems += result.problems()
-        missing.update(c.message[len(MISSING_LINTER_PREFIX):].strip() for c in result.cases
-                       if c.outcome is CaseOutcome.SKIPPED
-                       and c.message.startswith(MISSING_LINTER_PREFIX))
     status = PackageStatus.FAILED if counts.failed else PackageStatus.PASSED
     return PackageTests(name, status, counts, tuple(problems),
                         tuple(result.path for result in files),
-                        missing_linters=tuple(sorted(missing)),
+                        missing_linters=_missing_linters(files),
                         tooling=tooling_failures(problems, python_executable))
+
+
+def _missing_linters(files: Sequence[ResultFile]) -> tuple[str, ...]:
+    """The linters whose tests were skipped as not installed (the skip reason names them)."""
+    return tuple(sorted({c.message[len(MISSING_LINTER_PREFIX):].strip()
+                         for result in files for c in result.cases
+                         if c.outcome is CaseOutcome.SKIPPED
+                         and c.message.startswith(MISSING_LINTER_PREFIX)}))
+
+
+def _missing_linters_in(paths: Sequence[Path]) -> tuple[str, ...]:
+    """`_missing_linters` of a reused result's JUnit files (unchanged since, as its reuse
+    checked), so its summary still names them."""
+    try:
+        return _missing_linters([read_junit(path) for path in paths])
+    except (NotJUnit, BadResultFile):
+        return ()
 
 
 def _run(command: Command, env: Mapping[str, str], log_dir: Path,
@@ -199,13 +215,14 @@ def _run(command: Command, env: Mapping[str, str], log_dir: Path,
 
 
 def _reusable_later(report: PackageTests) -> bool:
-    """Only a plain pass is kept: not one that needed a retry (flaky), nor one where tests
-    were skipped because their linter is missing or the tooling failed."""
+    """Only a plain pass is kept: not one that needed a retry (flaky), nor one where the
+    tooling failed. One whose tests were skipped because their linter is not installed is a
+    pass like another: which tools are installed is part of its key, so installing the linter
+    runs them again."""
     return (report.status is PackageStatus.PASSED and not report.flaky
-            and not report.missing_linters and not report.tooling
-            and not REGISTRY.cancelled.is_set())
+            and not report.tooling and not REGISTRY.cancelled.is_set())
 
 
 def _log(log_dir: Path, line: str) -> None:
     with open(log_dir / "command.log", "a") as handle:
-        handle.write(line + "\n")
+        handle.write(redact(line) + "\n")

@@ -11,6 +11,7 @@ from dataclasses import dataclass
 from wsbuild.build_types.junit import Case, CaseOutcome
 from wsbuild.testing.linters import LINTER_MODULES, STRICT_MESSAGE
 from wsbuild.testing.pytest_env import ROS_PYTEST_VERSION, install_hint
+from wsbuild.underlay.lint_programs import missing_program
 
 #: the cases the built-in test runners write when the tool itself failed
 #: (build_types/test_runner.py's `tool_error`, `read_or_error`)
@@ -30,10 +31,12 @@ class ToolingFailure:
 
 
 def is_tooling(case: Case) -> bool:
-    """Whether a failing case stands for the tooling failing rather than a test."""
+    """Whether a failing case stands for the tooling failing rather than a test (a linter
+    whose program is not installed, too)."""
     if case.outcome is not CaseOutcome.ERROR:
         return False
-    return case.name in TOOL_CASES or case.message.strip().lower() == COLLECTION_FAILURE
+    return (case.name in TOOL_CASES or case.message.strip().lower() == COLLECTION_FAILURE
+            or missing_program(f"{case.message}\n{case.details}") is not None)
 
 
 def tooling_failures(cases: Iterable[Case], python_executable: str) -> tuple[ToolingFailure, ...]:
@@ -41,6 +44,13 @@ def tooling_failures(cases: Iterable[Case], python_executable: str) -> tuple[Too
     found = []
     for case in cases:
         if not is_tooling(case):
+            continue
+        program = missing_program(f"{case.message}\n{case.details}")
+        if program is not None:
+            found.append(ToolingFailure(
+                f"{case.full_name} wrote no result", f"{program.name} is not installed",
+                f"{program.install_command()} (wsbuild deps install -y installs the programs "
+                "the linters run)"))
             continue
         if case.name in TOOL_CASES:
             cause = _cause(case.details) or case.message

@@ -1,5 +1,6 @@
 """The arguments several verbs share: workspace, bases, scheduling and colcon's package
-selection options, and their conversion into the records of `workspace/`."""
+selection options, and their conversion into the records of `workspace/`; the values of the
+pass-through options (`--cmake-args -DA=1`) collected before parsing."""
 
 from __future__ import annotations
 
@@ -17,6 +18,57 @@ if TYPE_CHECKING:  # imported when a verb runs, not to parse its arguments
 #: options whose values are handed through to another tool and may start with '-'
 PASSTHROUGH = ("--cmake-args", "--pytest-args", "--ctest-args", "--ament-cmake-args",
                "--catkin-cmake-args", "--unittest-args")
+
+
+def _passthrough_name(item: str, known: set[str] | None) -> str | None:
+    """The pass-through option `item` spells: itself, or (with `known`, every long option)
+    an abbreviation argparse would accept for it (`--cmake-arg`)."""
+    if item in PASSTHROUGH:
+        return item
+    if known is None or not item.startswith("--") or "=" in item or len(item) < 4:
+        return None
+    matches = [name for name in known | set(PASSTHROUGH) if name.startswith(item)]
+    return matches[0] if len(matches) == 1 and matches[0] in PASSTHROUGH else None
+
+
+def collect_passthrough(argv: list[str], known: set[str]) -> list[str]:
+    """`--cmake-args -DA=1 -DB=2` → `--cmake-args=-DA=1 --cmake-args=-DB=2`, as colcon allows.
+
+    Values run until `--` or the next option wsbuild knows; a value starting with a space
+    (`' --help'`) is one too, as in colcon.
+    `known`: every long option of wsbuild's the command line may hold (cli.py's parser).
+    """
+    result: list[str] = []
+    index = 0
+    while index < len(argv):
+        item = argv[index]
+        index += 1
+        name = _passthrough_name(item, known)
+        if name is None:
+            result.append(item)
+            continue
+        values = []
+        while index < len(argv) and argv[index] != "--" and not _ends_values(argv[index], known):
+            values.append(argv[index])
+            index += 1
+        if index < len(argv) and argv[index] == "--":
+            index += 1
+        result.extend(f"{name}={value}" for value in values)
+        if not values:
+            result.append(f"{name}=")
+    return result
+
+
+def _ends_values(item: str, known: set[str]) -> bool:
+    """Whether `item` is an option of wsbuild's (another pass-through one too), which ends the
+    values of a pass-through option."""
+    return item.split("=")[0] in known or _passthrough_name(item, known) is not None
+
+
+def may_pass_through(item: str) -> bool:
+    """Whether `item` might be a pass-through option (cheap: no parser built)."""
+    return item in PASSTHROUGH or (
+        len(item) >= 5 and "=" not in item and any(p.startswith(item) for p in PASSTHROUGH))
 
 
 def secondary(action: argparse.Action) -> argparse.Action:
@@ -183,3 +235,27 @@ def _discarded_log_base() -> str:
     path = tempfile.mkdtemp(prefix="wsbuild-log-")
     atexit.register(shutil.rmtree, path, ignore_errors=True)
     return path
+
+
+def add_env_ignore_argument(group: argparse._ActionsContainer) -> None:
+    """`--env-ignore`: the variables a user knows reach no build and no test (build, test)."""
+    secondary(group.add_argument(
+        "--env-ignore", nargs="+", action="extend", default=[], metavar="VAR",
+        help="environment variables (names, or patterns with *) that reach no package's build "
+             "or tests, beside wsbuild's own short list (the terminal's, CI's per-run ones); "
+             "every other variable is compared, by digest. Set them once in a defaults file: "
+             "build: {env-ignore: [MY_VAR]}"))
+
+
+def env_ignore_from_args(args: argparse.Namespace) -> tuple[str, ...]:
+    """The --env-ignore names and patterns, checked: letters, digits, _ and *."""
+    import re
+
+    from wsbuild.errors import WsbuildError
+
+    names = tuple(getattr(args, "env_ignore", None) or ())
+    for name in names:
+        if not re.fullmatch(r"[A-Za-z_*][A-Za-z0-9_*]*", name):
+            raise WsbuildError(f"--env-ignore: {name!r} is no environment variable name",
+                               hint="give names like MY_TOKEN, or patterns like CI_*")
+    return names

@@ -12,7 +12,13 @@ from typing import TYPE_CHECKING
 
 from wsbuild.errors import WsbuildError
 from wsbuild.reporter import print_warnings
-from wsbuild.verbs.arguments import add_base_arguments, add_scheduling_arguments, secondary
+from wsbuild.verbs.arguments import (
+    add_base_arguments,
+    add_env_ignore_argument,
+    add_scheduling_arguments,
+    env_ignore_from_args,
+    secondary,
+)
 
 if TYPE_CHECKING:  # the modules of the work are imported when the verb runs, not to parse
     from wsbuild.builder.request import BuildRequest
@@ -54,6 +60,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     how.add_argument("--install-deps", action="store_true",
                      help="first install what nothing provides (wsbuild deps install -y)")
     how.add_argument("--force", action="store_true", help="rebuild even what is up to date")
+    add_env_ignore_argument(how)
     how.add_argument("--allow-overriding", nargs="+", default=[], metavar="PKG",
                      help="no override warning for these packages")
     how.add_argument("--dry-run", action="store_true",
@@ -139,6 +146,7 @@ def request_from_args(args: argparse.Namespace) -> BuildRequest:
             continue_on_error=args.continue_on_error,
             wait_for_lock=not args.no_wait,
         ),
+        env_ignore=env_ignore_from_args(args),
         skip_dependency_check=args.skip_dependency_check,
         strict_dependencies=args.strict_dependencies,
         force=args.force,
@@ -207,7 +215,8 @@ def run_build_verb(args: argparse.Namespace) -> int:
     loaded = load(verb.load, warn=print_warnings, remember=not verb.dry_run)
     request, notes = metas.with_build_arguments(verb.build, verb.metadata, loaded.packages,
                                                 loaded.selected)
-    print_notes(dict.fromkeys(notes))
+    print_notes(dict.fromkeys((loaded.chosen_because, *notes) if loaded.chosen_because
+                              else notes))
     selection = Selection(loaded.workspace, loaded.packages, loaded.graph, loaded.selected)
     if verb.dry_run:
         return _dry_run(selection, request, json_output=verb.json)

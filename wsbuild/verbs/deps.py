@@ -114,52 +114,65 @@ def run_deps(args: argparse.Namespace) -> int:
 def _fetch_sources(request: DepsRequest, load_request: LoadRequest, loaded: Loaded,
                    names: list[str], found: Survey) -> tuple[Loaded, list[str], Survey]:
     """`--from-source`: clone the repositories of the keys available from source, look at
-    the packages they bring, and again for their own keys, until nothing new is wanted."""
+    the packages they bring, and again for their own keys, until nothing new is wanted. The
+    packages of those repositories nothing needs are left out of the build, and named."""
     import os
 
-    from wsbuild.deps.from_source import REPOS_FILE, import_repositories, write_repos_file
+    from wsbuild.deps.from_source import (
+        REPOS_FILE,
+        fetched_packages,
+        import_repositories,
+        keep_only_needed,
+        write_repos_file,
+    )
     from wsbuild.reporter import print_warnings
     from wsbuild.verbs.load import load
 
     root = loaded.workspace.root
     repos_file, src = root / REPOS_FILE, root / "src"
     fetched: set[str] = set()
+    wanted: set[str] = set()
+    left: list[str] = []
     while True:
+        wanted |= {f.key for f in found.plan.from_source}
         new = {f.repository.name: f.repository for f in found.plan.from_source
                if f.repository.name not in fetched}
-        if not new:
-            _unneeded_note(loaded, names, [src / name for name in sorted(fetched)])
+        if new:
+            write_repos_file(repos_file, new.values())
+            src.mkdir(exist_ok=True)
+            for name in sorted(new):
+                repository = new[name]
+                print(f"from source: {name} ({repository.url} {repository.version}) into "
+                      f"{src / name}")
+            ok, message = import_repositories(repos_file, src, os.environ)
+            if not ok:
+                print(f"wsbuild: error: vcs-import of {repos_file} failed: {message}",
+                      file=sys.stderr)
+                return loaded, names, found
+            fetched |= set(new)
+        left, taken = keep_only_needed(
+            fetched_packages(src / name for name in sorted(fetched)), wanted)
+        if not new and not taken:
+            _left_out_note(left)
             return loaded, names, found
-        write_repos_file(repos_file, new.values())
-        src.mkdir(exist_ok=True)
-        for name in sorted(new):
-            repository = new[name]
-            print(f"from source: {name} ({repository.url} {repository.version}) into "
-                  f"{src / name}")
-        ok, message = import_repositories(repos_file, src, os.environ)
-        if not ok:
-            print(f"wsbuild: error: vcs-import of {repos_file} failed: {message}",
-                  file=sys.stderr)
-            return loaded, names, found
-        fetched |= set(new)
-        wanted = [f.key for f in found.plan.from_source]
         loaded = load(load_request, warn=print_warnings)
         names = [n for n in names if n in loaded.packages]
-        names += [k for k in wanted if k in loaded.packages and k not in names]
+        names += [k for k in sorted(wanted) if k in loaded.packages and k not in names]
         found = _survey(request, loaded, names)
-        print(f"from source: {len(fetched)} repositories in {repos_file.name} "
-              f"(vcs-import src < {repos_file.name} fetches them again)")
+        if new:
+            print(f"from source: {len(fetched)} repositories in {repos_file.name} "
+                  f"(vcs-import src < {repos_file.name} fetches them again)")
 
 
-def _unneeded_note(loaded: Loaded, names: list[str], folders: list[Path]) -> None:
-    """Name the packages of the fetched repositories nothing needed: `build` builds them too
-    (over the underlay's wheels of the same name) unless the selection leaves them out."""
-    extra = sorted(name for name, package in loaded.packages.items()
-                   if name not in names and any(package.path.is_relative_to(f) for f in folders))
-    if extra:
-        print(f"from source: the fetched repositories also hold {len(extra)} package(s) "
-              f"nothing here needs: {', '.join(extra)} (wsbuild build --packages-up-to "
-              "YOUR_PACKAGES leaves them out)")
+def _left_out_note(left: list[str]) -> None:
+    """Name the packages of the fetched repositories nothing needs: left out of the build (a
+    marker in each), so that a plain `wsbuild build` builds only what is needed and an
+    installed wheel is not shadowed by a source copy."""
+    if left:
+        from wsbuild.deps.from_source import LEFT_OUT
+
+        print(f"from source: left out of the build, as nothing here needs them (a {LEFT_OUT} "
+              f"in each; remove it to build one): {', '.join(left)}")
 
 
 def _from_source_error(found: Survey) -> None:
@@ -174,6 +187,9 @@ def install_for_build(loaded: Loaded) -> None:
     request = DepsRequest(action="install", assume_yes=True)
     found = _survey(request, loaded)
     if not (found.plan.steps or found.plan.test_tools):
+        # nothing to install: still name what cannot be, as `wsbuild deps` does
+        if found.plan.unresolved or found.plan.from_source:
+            print("\n".join(plan_lines(found, constraint=None, dry_run=False)))
         return
     print("\n".join(plan_lines(found, constraint=_constraint(request, found), dry_run=False)))
     _install(request, loaded, found)
@@ -333,7 +349,7 @@ def _tail_lines(plan: DepsPlan) -> list[str]:
         lines.append(f"  unresolved: {_needed(item.need)}: {item.why}")
     if plan.stood_in:
         lines.append("  stood in for by wsbuild, or reported by wsbuild test as not installed "
-                     "(no wheel; see README): "
+                     "(no wheel; see docs/guide/testing.md): "
                      + ", ".join(n.key for n in plan.stood_in))
     if plan.by_rosdep:
         lines.append("  installed as rosdep's rules say: "

@@ -18,7 +18,7 @@ from wsbuild.verbs.arguments import Bases, bases_from_args, selection_from_args
 from wsbuild.workspace.discover import discover_packages, expand_paths
 from wsbuild.workspace.graph import Graph, build_graph
 from wsbuild.workspace.model import Package
-from wsbuild.workspace.root import Workspace
+from wsbuild.workspace.root import Workspace, why_workspace_root
 from wsbuild.workspace.selection import (
     SelectionOptions,
     ignored_packages,
@@ -40,6 +40,8 @@ class Loaded:
     graph: Graph
     selected: list[str]
     warnings: tuple[str, ...]
+    #: why the workspace is the one above the current directory ("" when it is not)
+    chosen_because: str = ""
 
 
 @dataclass(frozen=True, slots=True)
@@ -146,4 +148,5 @@ def load(request: LoadRequest, *, select: bool = True,
                                        Selection(workspace, packages, graph, selected))
     else:
         selected = graph.topological_order()
-    return Loaded(workspace, packages, graph, selected, warnings)
+    because = "" if request.workspace_dir else why_workspace_root(workspace.root, cwd)
+    return Loaded(workspace, packages, graph, selected, warnings, because)

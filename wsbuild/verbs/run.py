@@ -85,6 +85,8 @@ def run_executable(args: argparse.Namespace) -> int:
                              f"{install_base})", hint=hint)
     prefix = prefixes[package]
     available = _executables(prefix, package)
+    if executable not in available and is_launch_file(executable):
+        raise launch_file_error(package, executable, prefix, prefixes)
     if executable not in available:
         hint = _suggest(executable, available) or (
             f"executables of {package}: {', '.join(available)}" if available
@@ -101,6 +103,40 @@ def run_executable(args: argparse.Namespace) -> int:
         raise WsbuildError(f"cannot run {command[0]}: {exc.strerror}",
                            hint="check its shebang line and permissions") from exc
     return 0  # not reached
+
+
+#: the names `ros2 launch` takes for launch files (launch's own front ends: Python, XML, YAML)
+LAUNCH_SUFFIXES = (".launch.py", ".launch.xml", ".launch.yaml", ".launch.yml", "_launch.py")
+
+
+def is_launch_file(name: str) -> bool:
+    return name.endswith(LAUNCH_SUFFIXES)
+
+
+def launch_file_error(package: str, name: str, prefix: Path,
+                      prefixes: Mapping[str, Path]) -> SelectionError:
+    """`wsbuild run PKG x.launch.py`: a launch file is no executable; how to run it with
+    `ros2 launch`, and where `ros2 launch` comes from when it is not installed (ros2launch has
+    no wheel: it is built from source)."""
+    share = prefix / "share" / package
+    found = sorted(share.rglob(name)) if share.is_dir() else []
+    if not found:
+        installed = sorted({p.name for p in share.rglob("*") if is_launch_file(p.name)}) \
+            if share.is_dir() else []
+        return SelectionError(
+            f"'{name}' names a launch file, not an executable, and {package} installs none by "
+            f"that name", path=share, hint=f"its launch files: {', '.join(installed)}"
+            if installed else f"{package} installs no launch files")
+    what = f"'{name}' is a launch file ({found[0]}), not an executable"
+    command = f"ros2 launch {package} {name}"
+    if "ros2launch" in prefixes:
+        hint = f"run it with: {command}  (in a shell that sourced install/setup.bash)"
+    else:
+        hint = (f"run it with `{command}`; ros2 launch (the ros2launch package) is not "
+                "installed and has no wheel: declare <exec_depend>ros2launch</exec_depend> "
+                f"in {package}'s package.xml, then `wsbuild deps install --from-source` "
+                "fetches and `wsbuild build` builds it into this workspace")
+    return SelectionError(what, hint=hint)
 
 
 def _needs_workspace_environment(environ: Mapping[str, str], prefix: Path,

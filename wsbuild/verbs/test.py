@@ -13,6 +13,8 @@ from wsbuild.errors import Interrupted, WorkspaceError, WsbuildError
 from wsbuild.reporter import print_warnings
 from wsbuild.verbs.arguments import (
     add_base_arguments,
+    add_env_ignore_argument,
+    env_ignore_from_args,
     add_scheduling_arguments,
     add_workspace_option,
     secondary,
@@ -74,6 +76,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help="a test of an ament linter that is not installed fails (default: skip)"))
     how.add_argument("--no-test-cache", action="store_true",
                      help="run every test, even where the last passing result still applies")
+    add_env_ignore_argument(how)
     how.add_argument("--abort-on-error", action="store_true",
                      help="start no more packages once one has failing tests")
     how.add_argument("--pytest-args", action="append", metavar="ARG",
@@ -137,6 +140,7 @@ def request_from_args(args: argparse.Namespace, root: Path) -> TestRequest:
         strict_linters=args.strict_linters,
         reuse_results=not args.no_test_cache,
         report=not args.no_report,
+        env_ignore=env_ignore_from_args(args),
     )
 
 
@@ -187,7 +191,8 @@ def run_test_verb(args: argparse.Namespace) -> int:
     loaded = load(verb.load, warn=print_warnings)
     request, notes = metas.with_test_arguments(verb.test, verb.metadata, loaded.packages,
                                                loaded.selected)
-    print_notes(dict.fromkeys(notes))
+    print_notes(dict.fromkeys((loaded.chosen_because, *notes) if loaded.chosen_because
+                              else notes))
     selection = Selection(loaded.workspace, loaded.packages, loaded.graph, loaded.selected)
     console = verb.console
     reporter = Reporter(verb="test", console=console, log_base=loaded.workspace.log_base,

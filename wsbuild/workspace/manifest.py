@@ -26,6 +26,7 @@ from wsbuild.workspace.manifest_dependencies import (
 )
 from wsbuild.workspace.manifest_elements import ElementReader
 from wsbuild.workspace.model import DepKind, Package, Person
+from wsbuild.words import close_to
 from wsbuild.workspace.names import (
     PACKAGE_NAME_RULE,
     is_valid_package_name,
@@ -37,6 +38,8 @@ _VERSION = re.compile(r"[0-9]+\.[0-9]+\.[0-9]+").fullmatch
 _CANONICAL_VERSION = re.compile(r"(?:0|[1-9][0-9]*)(?:\.(?:0|[1-9][0-9]*)){2}").fullmatch
 
 _FORMATS = {"1": 1, "2": 2, "3": 3}
+#: how close an unknown element must be to a known one to count as its misspelling
+_MISSPELT = 0.8
 
 _METADATA_TAGS = frozenset(
     {"name", "version", "description", "maintainer", "license", "url", "author", "export"}
@@ -224,11 +227,21 @@ class _Reader(ElementReader):
             elif tag in ALL_FORMAT_TAGS:
                 raise self.wrong_format(element, tag)
             else:
-                self.warn(
-                    element.sourceline,
-                    f"unknown element <{tag}> ignored (not part of package format {self.format})",
-                )
+                self.unknown_element(element, tag, depends)
         return found
+
+    def unknown_element(self, element: etree._Element, tag: str,
+                        depends: Mapping[str, tuple[DepKind, ...]]) -> None:
+        """A misspelling of an element this format knows (`<buildtool_dpend>`) is an error: the
+        build would go on without it and fail far from the cause. Other unknown elements are
+        warnings, as catkin_pkg has them (a tool's own element is no mistake)."""
+        known = [*depends, *_METADATA_TAGS, *(("member_of_group",) if self.format >= 3 else ())]
+        close = close_to(tag, known, cutoff=_MISSPELT)
+        if close:
+            raise self.error(f"unknown element <{tag}> (package format {self.format})",
+                             element.sourceline, f"did you mean <{close[0]}>?")
+        self.warn(element.sourceline,
+                  f"unknown element <{tag}> ignored (not part of package format {self.format})")
 
     def wrong_format(self, element: etree._Element, tag: str) -> ManifestError:
         fmt = self.format

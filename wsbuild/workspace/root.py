@@ -54,6 +54,22 @@ def _is_workspace_dir(path: Path) -> bool:
     return (path / "src").is_dir() and not _is_package_dir(path)
 
 
+def why_workspace_root(root: Path, start: Path) -> str:
+    """Why `find_workspace_root(start)` chose `root`, in words ("" when it is `start`, where
+    nobody wonders): a `wsbuild build` in `src/pkg` builds the workspace above it."""
+    start = start.absolute()
+    if root == start:
+        return ""
+    if inputs.exists(root / BUILD_BASE / BUILD_MARKER):
+        holds = f"{BUILD_BASE}/ of an earlier build"
+    elif inputs.exists(root / INSTALL_BASE / ".colcon_install_layout"):
+        holds = f"an {INSTALL_BASE}/ of colcon's"
+    else:
+        holds = "src/"
+    return (f"workspace {root}: the nearest directory above {start} holding {holds} "
+            "(-C DIR names another)")
+
+
 def find_workspace_root(start: Path) -> Path:
     """The nearest directory at or above `start` that holds `src/` or a wsbuild/colcon build.
 

@@ -35,6 +35,7 @@ from wsbuild.build_types.pybuild.setup_py import (
     read_build_system,
     read_setup,
 )
+from wsbuild import inputs
 from wsbuild.errors import WsbuildError
 
 _PROJECT_FILES = ("setup.py", "setup.cfg", "pyproject.toml")
@@ -78,6 +79,7 @@ def configure(ctx: BuildContext) -> PythonBuildPlan:
     blocker = build_system.fast_path_blocker()
     if not build_system.is_setuptools:
         return PythonBuildPlan(build_system, None, (blocker or "",))
+    _check_syntax(source / "setup.py", python_executable(ctx))
     setup = read_setup(source, ctx.build_dir.absolute(), environ=ctx.environ,
                        python_executable=python_executable(ctx))
     reasons = setup.fallback_reasons + ((blocker,) if blocker else ())
@@ -85,6 +87,25 @@ def configure(ctx: BuildContext) -> PythonBuildPlan:
         ctx.warn(f"{source / 'setup.cfg'}: [install] options "
                  f"{', '.join(setup.ignored_install_options)} are ignored by wsbuild")
     return PythonBuildPlan(build_system, setup, reasons)
+
+
+def _check_syntax(setup_py: Path, executable: str) -> None:
+    """A setup.py that is no valid Python fails here, naming itself and the line: setuptools
+    runs it from a string (`File "<string>", line 17`) under the interpreter's name. Only
+    parsed, never run; only when the build's interpreter is this one (another version may
+    accept other syntax: its own build then reports the error)."""
+    if os.path.realpath(executable) != os.path.realpath(sys.executable):
+        return
+    try:
+        source = inputs.read_bytes(setup_py)
+    except OSError:  # none (setup.cfg, pyproject.toml), or unreadable: the build says so
+        return
+    try:
+        compile(source, str(setup_py), "exec", dont_inherit=True)
+    except SyntaxError as exc:
+        shown = (exc.text or "").rstrip()
+        raise StepFailed(f"{setup_py}:{exc.lineno}: {type(exc).__name__}: {exc.msg}"
+                         + (f"\n    {shown.strip()}" if shown.strip() else "")) from None
 
 
 def install(ctx: BuildContext, plan: PythonBuildPlan | None) -> None:
