@@ -15,9 +15,9 @@ The workspace copies the patterns of real packages, written here:
   directory, a generated table whose custom command names its input in a depfile
   (`add_custom_command(DEPFILE …)`), a vendored subdirectory marked COLCON_IGNORE that
   `add_subdirectory` builds, files in directories named `build/` and `log/` it installs, the
-  environment variable TURTLEBOT3_MODEL read at configure (turtlebot3's pattern), a value each
-  from a mixin and from the defaults file (`--mixin flavour`, COLCON_DEFAULTS_FILE), and a
-  `tools/` directory it installs into its share directory;
+  environment variable TURTLEBOT3_MODEL read at configure (turtlebot3's pattern), two values
+  from mixins that the defaults file applies (COLCON_DEFAULTS_FILE: `build: {mixin: [...]}`),
+  and a `tools/` directory it installs into its share directory;
 - `churn_py` (ament_python, depends on churn_core): its setup.py finds churn_core's share
   directory through ament_index_python and makes a console script of each `*.tool` there (a
   glob over a dependency's share directory), installs a `data_files` file from outside the
@@ -343,11 +343,13 @@ CHANGES: tuple[Change, ...] = (
     Change("TURTLEBOT3_MODEL", 4, _environment,
            "an environment variable setup.py, CMakeLists.txt and a test read"),
     _file_variant("colcon_home/mixin/churn.mixin",
-                  [json.dumps({"build": {"flavour": {"cmake-args": [f"-DCHURN_MIXIN={v}"]}}})
-                   + "\n" for v in ("alpha", "beta")], "a mixin file", under="."),
-    _file_variant("defaults.yaml",
-                  ["build:\n  cmake-args: [-DCHURN_DEFAULT=" + v + "]\n" for v in ("one", "two")],
-                  "the file COLCON_DEFAULTS_FILE names", under="."),
+                  [json.dumps({"build": {
+                      "flavour": {"cmake-args": [f"-DCHURN_MIXIN={v}"]},
+                      "extra": {"cmake-args": ["-DCHURN_DEFAULT=two"]}}}) + "\n"
+                   for v in ("alpha", "beta")], "a mixin file", under="."),
+    _file_variant("defaults.yaml", ["build:\n  mixin: [flavour]\n",
+                                    "build:\n  mixin: [flavour, extra]\n"],
+                  "the file COLCON_DEFAULTS_FILE names (the mixins it applies)", under="."),
     _file_variant("under/src/churn_under/churn_under/core.py",
                   [f"VALUE = {v}\n" for v in (1, 5)],
                   "a package of the chained underlay workspace (rebuilt)", under="."),
@@ -445,8 +447,7 @@ class Churn:
 
     def _run(self, verb: str, *args: str, cwd: Path, env: Mapping[str, str] | None = None,
              check: bool = True) -> subprocess.CompletedProcess[str]:
-        extra = ("--mixin", "flavour") if verb == "build" and cwd.name != "under" else ()
-        done = subprocess.run([*self.command, verb, *extra, *args], cwd=cwd,
+        done = subprocess.run([*self.command, verb, *args], cwd=cwd,
                               env=dict(env if env is not None else self.environ()),
                               capture_output=True, text=True, timeout=900, check=False)
         if check and done.returncode != 0:

@@ -367,3 +367,42 @@ def test_cache_verb_stats_verify_prune(tmp_path: Path, template: Path) -> None:
     prune = wsbuild("cache", "prune", "--max-size", "0", cwd=tmp_path, env=env)
     assert prune.returncode == 0, output(prune)
     assert "0 entries, 0 blobs" in wsbuild("cache", "stats", cwd=tmp_path, env=env).stdout
+
+
+TESTED_CMAKE = """\
+cmake_minimum_required(VERSION 3.14)
+project(tested CXX)
+enable_testing()
+add_executable(check check.cpp)
+add_test(NAME answer COMMAND check)
+install(TARGETS check DESTINATION bin)
+install(FILES package.xml DESTINATION share/tested)
+"""
+
+
+def test_a_restored_package_whose_tests_run_from_its_build_tree_is_built_for_them(
+        tmp_path: Path) -> None:
+    """A restore brings back a package's install, not the build directory CTest runs its tests
+    from: `wsbuild test` builds that tree first (with the options the record holds), then
+    tests what was built; a restored package without tests there is tested as it is."""
+    env = env_for(tmp_path / "xdg")
+    ws = tmp_path / "ws"
+    write_cmake(ws / "src", "tested", TESTED_CMAKE,
+                files={"check.cpp": "int main() { return 0; }\n"})
+    run_build(ws, "--cmake-args", "-DCMAKE_BUILD_TYPE=Release", env=env)
+    for base in ("build", "install"):
+        shutil.rmtree(ws / base)
+    again = run_build(ws, "--cmake-args", "-DCMAKE_BUILD_TYPE=Release", env=env)
+    assert restored(again) == ["tested"], output(again)
+
+    tested = wsbuild("test", cwd=ws, env=env)
+
+    assert tested.returncode == 0, output(tested)
+    assert "building tested for its tests first" in tested.stdout, output(tested)
+    assert "1 test, 0 errors, 0 failures" in tested.stdout, output(tested)
+    cache = (ws / "build" / "tested" / "CMakeCache.txt").read_text()
+    assert "CMAKE_BUILD_TYPE:UNINITIALIZED=Release" in cache or \
+        "CMAKE_BUILD_TYPE:STRING=Release" in cache
+    # built with the options it was built with: the next build has nothing to do
+    after = run_build(ws, "--cmake-args", "-DCMAKE_BUILD_TYPE=Release", env=env)
+    assert "1 package up to date" in after.stdout, output(after)

@@ -204,21 +204,24 @@ def test_a_planning_file_changed_after_a_recorded_no_op_runs_the_full_build(
     """Mixin files and defaults files are read through declared inputs (wsbuild/inputs.py):
     a change after a recorded no-op runs the full build, which builds pc with the new
     arguments."""
-    mixin = built.parent / "colcon-home" / "mixin" / "probe.mixin"
-    mixin.parent.mkdir(parents=True)
-    mixin.write_text('{"build": {"probe": {"cmake-args": ["-DWSB_MIXIN=1"]}}}\n')
-    defaults = built.parent / "defaults.yaml"
-    defaults.write_text("build:\n  cmake-args: [-DWSB_DEFAULT=1]\n")
-    monkeypatch.setenv("COLCON_DEFAULTS_FILE", str(defaults))
-    assert run_wsbuild("build", "--mixin", "probe", cwd=built).returncode == 0
+    if changed == "a mixin file":
+        edited = built.parent / "colcon-home" / "mixin" / "probe.mixin"
+        edited.parent.mkdir(parents=True)
+        edited.write_text('{"build": {"probe": {"cmake-args": ["-DWSB_MIXIN=1"]}}}\n')
+        args: tuple[str, ...] = ("--mixin", "probe")
+    else:
+        edited = built.parent / "defaults.yaml"
+        edited.write_text("build:\n  cmake-args: [-DWSB_DEFAULT=1]\n")
+        monkeypatch.setenv("COLCON_DEFAULTS_FILE", str(edited))
+        args = ()
+    assert run_wsbuild("build", *args, cwd=built).returncode == 0
     time.sleep(SETTLE)
-    no_op = run_wsbuild("build", "--mixin", "probe", cwd=built)
+    no_op = run_wsbuild("build", *args, cwd=built)
     assert no_op.returncode == 0 and "2 packages up to date" in no_op.stdout, no_op.stdout
     runs = Runs(built, monkeypatch, capsys)
-    edited = mixin if changed == "a mixin file" else defaults
     edited.write_text(edited.read_text().replace("=1", "=2"))
 
-    code, out, replayed = runs.build("--mixin", "probe")
+    code, out, replayed = runs.build(*args)
 
     assert code == 0, out
     assert not replayed, f"{changed}: replayed\n{out}"

@@ -375,7 +375,7 @@ def test_a_test_fixture_in_a_directory_named_log_reruns_its_test(tmp_path: Path)
         "    assert 'ok' in (Path(__file__).parent / 'log' / 'sample.log').read_text()\n")
     _build(ws)
     assert _test(ws).returncode == 0
-    assert "cached: passed" in _test(ws).stdout
+    assert "[reader] cached:" in _test(ws).stdout
     (pkg / "test" / "log" / "sample.log").write_text("all bad\n")
     failed = _test(ws)
     assert failed.returncode != 0 and "cached" not in failed.stdout, failed.stdout
@@ -399,7 +399,7 @@ def test_an_underlay_package_rebuilt_under_a_passing_test_reruns_it(tmp_path: Pa
     env = dict(item.split("=", 1) for item in sourced.stdout.split("\0") if "=" in item)
     assert run_wsbuild("build", cwd=ws, env=env).returncode == 0
     assert run_wsbuild("test", cwd=ws, env=env).returncode == 0
-    assert "cached: passed" in run_wsbuild("test", cwd=ws, env=env).stdout
+    assert "[over] cached:" in run_wsbuild("test", cwd=ws, env=env).stdout
 
     (lib / "under_lib" / "core.py").write_text("VALUE = 5\n")
     assert run_wsbuild("build", cwd=under, env=_env()).returncode == 0

@@ -5,6 +5,7 @@ and CTest's own result formats (its JUnit, the Test.xml `colcon test` makes it w
 from __future__ import annotations
 
 import json
+import os
 import re
 import shlex
 import shutil
@@ -58,7 +59,18 @@ class CTestRunner(TestRunnerBase):
         return record is not None and not record.test_tree
 
     def tests_in_build_tree(self, build_dir: Path) -> bool:
-        return (build_dir / "CTestTestfile.cmake").is_file()
+        """Whether a CTestTestfile.cmake of the tree declares a test (ament_cmake enables
+        testing in every package; one without tests declares none)."""
+        for directory, names, files in os.walk(build_dir):
+            names[:] = [n for n in names if n != "CMakeFiles"]
+            if "CTestTestfile.cmake" in files:
+                try:
+                    text = Path(directory, "CTestTestfile.cmake").read_text(errors="replace")
+                except OSError:
+                    continue
+                if "add_test(" in text:
+                    return True
+        return False
 
     def key_inputs(self, ctx: TestContext) -> KeyInputs:
         ctest = inputs.which("ctest", path=ctx.environ.get("PATH"))

@@ -100,8 +100,8 @@ class TestRunner(Protocol):
     def tests_in_build_tree(self, build_dir: Path) -> bool:
         """Whether, after a build, the package's tests run from what the build left in its
         build directory (CTest's test programs). The build cache brings back a package's
-        install only, so such a package is built, never restored: its tests then test what
-        was built."""
+        install only: `wsbuild test` builds such a package's tree again before its tests
+        (verbs/test.py), with the options its record holds."""
         ...
 
     def key_inputs(self, ctx: TestContext) -> KeyInputs:

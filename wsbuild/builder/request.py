@@ -13,7 +13,7 @@ from wsbuild.cache.settings import CacheSettings
 from wsbuild.engine.timings import cpu_count
 
 #: cpu_count is the engine's (the test run counts the cores too); the verbs find it here
-__all__ = ["BuildRequest", "RunOptions", "cpu_count"]
+__all__ = ["BuildRequest", "RunOptions", "cpu_count", "options_of_record"]
 
 
 @dataclass(frozen=True, slots=True)
@@ -69,3 +69,14 @@ class BuildRequest:
     distribute: str | None = None
     #: --env-ignore: variables that reach no build, beside record/environment.py's own list
     env_ignore: tuple[str, ...] = ()
+
+
+def options_of_record(options: Mapping[str, object]) -> BuildOptions:
+    """The build options a package's record holds (its settings' `options`: what shaped its
+    output), as the options of a build that makes the same output again."""
+    from dataclasses import fields
+
+    known = {f.name for f in fields(BuildOptions)}
+    values = {name: tuple(value) if isinstance(value, list) else value
+              for name, value in options.items() if name in known}
+    return replace(BuildOptions(**values), jobs=cpu_count())  # type: ignore[arg-type]

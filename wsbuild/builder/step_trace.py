@@ -4,10 +4,11 @@ open, openat and execve), and once the package's record is written, each file a 
 the record does not hold is appended to that file, naming the package, the step and the file
 (Shake's lint, Bazel's sandbox). Never on in a user's run.
 
-A read counts when a step opened a file for reading and got it: failed opens are the search
-of include and module paths, which no build system records either. The record holds a read
-when the file is one of the package's own files, or the record's outside files hold it (or a
-listing holds a directory it opened). Not files the record must hold (`TOOLS`): what the
+A read counts when a step opened a file for reading and got it: failed opens and directory
+listings are the searches of include, module and package paths (`find_package`, the compiler's
+`-I`), which no build system records either (a glob that must be redone, CMake's
+`CONFIGURE_DEPENDS`, is in the record by its build system's list). The record holds a read
+when the file is one of the package's own files, or the record's outside files hold it. Not files the record must hold (`TOOLS`): what the
 package's build writes (its build directory, its stage and install prefix, what a step
 created), the programs the steps ran and the shared libraries and files those programs are
 made of (the compilers' own directories, CMake's modules, the interpreter's standard library
@@ -20,7 +21,7 @@ import os
 import re
 import sys
 import sysconfig
-from collections.abc import Iterable, Iterator, Mapping, Sequence
+from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -114,28 +115,20 @@ def unrecorded(record: PackageRecord, traces: Mapping[str, Path], *, source_dir:
     held = {os.path.realpath(p) for p in record.outside.files} | set(record.outside.files)
     # an own file that is a symlink out of the package is read where it points
     held |= {os.path.realpath(source_dir / rel.partition("\0")[0]) for rel in record.own}
-    listed = {os.path.realpath(p) for p in record.outside.listings} | set(record.outside.listings)
     tools = _tool_roots() + _SYSTEM
     found: list[tuple[str, str]] = []
     checked = 0
     for step, trace in traces.items():
         reads = step_reads(trace)
         programs = reads.programs
-        for path, directory in _each(reads):
+        for path in reads.read:
             checked += 1
             if (path + os.sep).startswith(inside) or (path + os.sep).startswith(own) \
                     or (path + os.sep).startswith(tools) or path in programs \
-                    or _TOOL_FILE.search(path) or path in reads.written:
+                    or _TOOL_FILE.search(path) or path in reads.written or path in held:
                 continue
-            if path in (listed if directory else held):
-                continue
-            found.append((step, path + (" (listed)" if directory else "")))
+            found.append((step, path))
     return found, checked
-
-
-def _each(reads: StepReads) -> Iterator[tuple[str, bool]]:
-    yield from ((path, False) for path in reads.read)
-    yield from ((path, True) for path in reads.directories)
 
 
 @dataclass(slots=True)

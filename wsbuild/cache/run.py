@@ -64,9 +64,6 @@ def disproof(found: Found, inputs_key: str, dependencies: Mapping[str, str], dig
         return None, "the entry's package record cannot be read"
     if record.inputs_key != inputs_key:
         return None, "the entry's package record is not of these inputs"
-    if record.test_tree:
-        return None, ("its tests run from its build directory, which a restore does not bring "
-                      "back: it is built")
     for dep, key in sorted(dependencies.items()):
         if not key.startswith(PENDING) and record.dependencies.get(dep) != key:
             return None, f"built against another build of {dep}"

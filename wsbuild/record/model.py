@@ -61,7 +61,7 @@ class PackageRecord:
     complete: bool = False
     installed: tuple[tuple[str, int], ...] = ()
     #: its tests run from what the build left in its build directory (TestRunner's
-    #: `tests_in_build_tree`): never restored from the build cache
+    #: `tests_in_build_tree`): after a restore, `wsbuild test` builds that tree first
     test_tree: bool = False
     #: the keys (see the module's docstring), computed by `sealed()`
     inputs_key: str = ""

@@ -22,7 +22,8 @@ from wsbuild.verbs.arguments import (
 from wsbuild.workspace.root import BUILD_BASE
 
 if TYPE_CHECKING:  # the modules of the work are imported when the verb runs, not to parse
-    from wsbuild.reporter import Console
+    from wsbuild.reporter import Console, Reporter
+    from wsbuild.workspace.selection import Selection
     from wsbuild.testing.runners import TestRequest
     from wsbuild.verbs.load import Loaded, LoadRequest
     from wsbuild.verbs.metas import MetadataRequest
@@ -203,6 +204,7 @@ def run_test_verb(args: argparse.Namespace) -> int:
         reporter(Notice(missing, warning=True))
     reporter.start_ticker()
     try:
+        _build_test_trees(selection, request, reporter)
         run = run_tests(selection, request, reporter)  # timings, report: runreport/package_run.py
         if console.summary:
             reporter(Summary(tuple(summary_lines(run, shown=Path.cwd()))))
@@ -211,6 +213,40 @@ def run_test_verb(args: argparse.Namespace) -> int:
     if run.interrupted:
         raise Interrupted("tests interrupted")
     return 1 if run.failed else 0
+
+
+def _build_test_trees(selection: Selection, request: TestRequest, reporter: Reporter) -> None:
+    """The selected packages restored from the build cache whose tests run from their build
+    directories (CTest): the cache brought back their install, not that tree, so they are
+    built first (configure, build, install), with the options their records hold."""
+    import json
+
+    from wsbuild.build_types import get_build_type
+    from wsbuild.builder.pipeline import run_build
+    from wsbuild.builder.request import BuildRequest, RunOptions, options_of_record
+    from wsbuild.events import Notice
+    from wsbuild.record.model import read_record
+    from wsbuild.workspace.selection import Selection
+
+    groups: dict[str, list[str]] = {}
+    for name in selection.selected:
+        runner = get_build_type(selection.packages[name].build_type).test_runner
+        build_dir = selection.workspace.build_base / name
+        record = read_record(build_dir)
+        if runner is None or record is None or not record.test_tree or runner.built(build_dir):
+            continue
+        groups.setdefault(json.dumps(record.settings.get("options") or {}, sort_keys=True),
+                          []).append(name)
+    for options, names in groups.items():
+        reporter(Notice(f"building {' '.join(names)} for {'its' if len(names) == 1 else 'their'}"
+                        " tests first: a restore from the build cache brings back an install, "
+                        "not the build directory CTest runs the tests from"))
+        run_build(Selection(selection.workspace, selection.packages, selection.graph, names),
+                  BuildRequest(build=options_of_record(json.loads(options)),
+                               run=RunOptions(workers=request.workers, sequential=False,
+                                              continue_on_error=False,
+                                              wait_for_lock=request.wait_for_lock),
+                               force=True, report=False), reporter)
 
 
 def _missing_ros_pytest(loaded: Loaded, python_executable: str) -> str:
