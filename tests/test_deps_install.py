@@ -97,7 +97,8 @@ def test_apt_with_password_less_sudo(monkeypatch: pytest.MonkeyPatch) -> None:
     recorder = Recorder()
     report = run_plan([step("gnu-hello", Installer.APT, "hello", source=Source.ROSDEP)],
                       recorder)
+    # the run waits for dpkg's lock a bounded time (another apt-get may hold it)
     assert recorder.commands == [["sudo", "-n", "true"],
-                                 ["sudo", "-n", "apt-get", "install", "-y",
-                                  "--no-install-recommends", "--", "hello"]]
+                                 ["sudo", "-n", "apt-get", "-o", "DPkg::Lock::Timeout=120",
+                                  "install", "-y", "--no-install-recommends", "--", "hello"]]
     assert report.failed == []

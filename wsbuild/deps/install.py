@@ -70,11 +70,19 @@ def apt_privilege(run: Run = subprocess.run) -> list[str] | None:
     return ["sudo", "-n"] if done.returncode == 0 else None
 
 
-def apt_install_command(packages: Sequence[str], prefix: Sequence[str] | None) -> list[str]:
+#: how long apt-get waits for dpkg's lock, which another apt-get (unattended-upgrades, a second
+#: `deps install`) may hold, before it fails: a bounded wait instead of an error at once
+APT_LOCK_SECONDS = 120
+
+
+def apt_install_command(packages: Sequence[str], prefix: Sequence[str] | None, *,
+                        wait_for_lock: bool = False) -> list[str]:
     """`apt-get install -y … -- PACKAGES`, behind `sudo` when not root (the printed form uses
-    plain sudo)."""
+    plain sudo); `wait_for_lock`: the command wsbuild runs waits for dpkg's lock."""
     head = list(prefix) if prefix is not None else ["sudo"]
-    return [*head, "apt-get", "install", "-y", "--no-install-recommends", "--", *packages]
+    wait = ["-o", f"DPkg::Lock::Timeout={APT_LOCK_SECONDS}"] if wait_for_lock else []
+    return [*head, "apt-get", *wait, "install", "-y", "--no-install-recommends", "--",
+            *packages]
 
 
 def installer_command(installer: Installer, steps: Sequence[Step], *, python: Path,
@@ -109,7 +117,8 @@ def install(plan: DepsPlan, *, venv: Path, python: Path, constraint: Path | None
         else:
             env = dict(environ, DEBIAN_FRONTEND="noninteractive")
             outcomes += _run_group(apt_steps,
-                                   lambda steps: apt_install_command(_packages(steps), prefix),
+                                   lambda steps: apt_install_command(_packages(steps), prefix,
+                                                                     wait_for_lock=True),
                                    env, run)
     for step in plan.test_tools:
         ok, message = _run(ros_pytest_command(python), pip_environment(environ), run)
