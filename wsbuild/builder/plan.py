@@ -231,15 +231,14 @@ def plan_package(planning: _Planning, name: str) -> PackagePlan:
                           digests=session.digests,
                           unfinished=declared.exists(build_dir / BUILDING_MARKER),
                           forced=forced, pending=planning.pending)
-    before = inputs_key(name, package.build_type, own.digest, settings, now.environment,
-                        dependency_inputs)
     common = dict(name=name, build_type=package.build_type, prefix=prefix, now=now,
-                  dependency_inputs=dependency_inputs, inputs_key=before,
-                  source_dir=package.path, options=own_options)
+                  dependency_inputs=dependency_inputs, source_dir=package.path,
+                  options=own_options)
     if reason is None and old is not None:
         note = cutoff_note(old, now.dependencies)
-        if not note:
-            return PackagePlan(decision=Decision.UP_TO_DATE, reason=None, key=old.key, **common)
+        if not note:  # its record holds: its keys are the record's
+            return PackagePlan(decision=Decision.UP_TO_DATE, reason=None, key=old.key,
+                               inputs_key=old.inputs_key, **common)
         # early cutoff: its dependencies were rebuilt, nothing it read of them changed; it
         # takes the key its record now gives (its dependents then decide for themselves)
         kept = replace(old, dependencies=dict(now.dependencies),
@@ -247,9 +246,13 @@ def plan_package(planning: _Planning, name: str) -> PackagePlan:
                        outside=refreshed(old.outside, session.digests,
                                          own=own_entries(str(selection.workspace.install_base),
                                                          old.installed))).sealed()
-        return PackagePlan(decision=Decision.UP_TO_DATE, reason=None, key=kept.key, note=note,
-                           previous=old, cut_off=kept, **common)
+        return PackagePlan(decision=Decision.UP_TO_DATE, reason=None, key=kept.key,
+                           inputs_key=kept.inputs_key, note=note, previous=old, cut_off=kept,
+                           **common)
     assert reason is not None
+    before = inputs_key(name, package.build_type, own.digest, settings, now.environment,
+                        dependency_inputs)
+    common["inputs_key"] = before
     common["backdated"] = _backdated(old, own)
     common["previous"] = old
     cache_key = session.cache.key(name, package.build_type, before, prefix, session.environ)

@@ -25,8 +25,10 @@ two users of one checkout path share entries, and a restore names those that dif
 from __future__ import annotations
 
 import fnmatch
+import functools
 import hashlib
 import os
+import re
 from collections.abc import Iterable, Mapping
 
 #: variables that cannot reach a build's output (names, or fnmatch patterns with `*`)
@@ -73,10 +75,14 @@ SHARED: tuple[str, ...] = (
 UNORDERED = frozenset({"LD_LIBRARY_PATH"})
 
 
+@functools.lru_cache(maxsize=16)
+def _pattern(patterns: tuple[str, ...]) -> re.Pattern[str]:
+    return re.compile("|".join(fnmatch.translate(p) for p in patterns) or r"(?!)")
+
+
 def matches(name: str, patterns: Iterable[str]) -> bool:
     """Whether `name` is one of `patterns` (an exact name, or an fnmatch pattern with `*`)."""
-    return any(name == pattern or ("*" in pattern and fnmatch.fnmatchcase(name, pattern))
-               for pattern in patterns)
+    return _pattern(tuple(patterns)).match(name) is not None
 
 
 def _digest(value: str) -> str:
