@@ -160,6 +160,8 @@ class _Planning:
     inputs_keys: dict[str, str] = field(default_factory=dict)
     #: the packages this run builds or restores
     pending: set[str] = field(default_factory=set)
+    #: each build type's key options of each set of options, as JSON values
+    key_options: dict[tuple[str, BuildOptions], object] = field(default_factory=dict)
 
 
 def make_plan(selection: Selection, request: BuildRequest, session: Session) -> BuildPlan:
@@ -217,8 +219,8 @@ def plan_package(planning: _Planning, name: str) -> PackagePlan:
     old = read_record(build_dir)
     own = own_files(package.path, old.own if old else {}, planning.outputs)
     prefix = _prefix(selection, session, name)
-    settings = package_settings(selection, own_options.applied_to(planning.options), name,
-                                prefix, planning.underlay)
+    settings = package_settings(package.build_type, own_options.applied_to(planning.options),
+                                prefix, planning.underlay, planning.key_options)
     closure = selection.graph.build_closure(name)
     _read_dependencies(planning, closure)
     now = PackageNow(own, settings, session.environment,
@@ -293,26 +295,31 @@ def _prefix(selection: Selection, session: Session, name: str) -> Path:
     return package_prefix(selection.workspace.install_base, name, merged=session.merged)
 
 
-def package_settings(selection: Selection, options: BuildOptions, name: str, prefix: Path,
-                     underlay: Mapping[str, list[str]]) -> dict[str, object]:
+def package_settings(build_type: str, options: BuildOptions, prefix: Path,
+                     underlay: Mapping[str, list[str]],
+                     memo: dict[tuple[str, BuildOptions], object] | None = None
+                     ) -> dict[str, object]:
     """Everything besides files, the environment and dependencies that shapes a package's
-    build, as its record holds it (JSON values). The build type says which options count;
-    `underlay` is `underlay_paths()` of the run."""
+    build, as its record holds it (JSON values). The build type says which options count
+    (worked out once per build type and options with `memo`); `underlay` is
+    `underlay_paths()` of the run."""
     from wsbuild import __version__
 
-    build_type = selection.packages[name].build_type
-    kind = get_build_type(build_type)
-    settings = {
+    memo = {} if memo is None else memo
+    key_options = memo.get((build_type, options))
+    if key_options is None:  # as JSON keeps them: tuples become lists
+        key_options = memo[(build_type, options)] = json.loads(json.dumps(
+            get_build_type(build_type).key_options(options)))
+    return {
         "wsbuild": __version__,
         "build_type": build_type,
-        "options": kind.key_options(options),
+        "options": key_options,
         # the interpreter by its environment and version, not by how its path is spelled
         "python": [sys.prefix, sys.version],
-        "ament_prefix_path": underlay["AMENT_PREFIX_PATH"],
-        "cmake_prefix_path": underlay["CMAKE_PREFIX_PATH"],
+        "ament_prefix_path": list(underlay["AMENT_PREFIX_PATH"]),
+        "cmake_prefix_path": list(underlay["CMAKE_PREFIX_PATH"]),
         "install_prefix": str(prefix),
     }
-    return json.loads(json.dumps(settings))
 
 
 def underlay_paths(own: str, environ: Mapping[str, str]) -> dict[str, list[str]]:

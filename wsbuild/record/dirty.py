@@ -62,7 +62,7 @@ def dirty_reason(old: PackageRecord | None, now: PackageNow, *, install_base: Pa
         names = tuple(changed_names(old.environment, now.environment))
         shown = ", ".join(names[:5]) + (" …" if len(names) > 5 else "")
         return Reason("environment", f"environment variable changed: {shown}", names)
-    if files_digest(old.own) != now.own.digest:  # by content: a touched file is unchanged
+    if (old.own_digest or files_digest(old.own)) != now.own.digest:  # by content, not stat
         changed = now.own.changed or sorted(set(old.own) ^ set(now.own.files))
         shown = ", ".join(changed[:3]) + (" …" if len(changed) > 3 else "")
         return Reason("source", f"source changed: {shown}" if shown else "source changed",

@@ -63,15 +63,17 @@ class PackageRecord:
     #: its tests run from what the build left in its build directory (TestRunner's
     #: `tests_in_build_tree`): after a restore, `wsbuild test` builds that tree first
     test_tree: bool = False
-    #: the keys (see the module's docstring), computed by `sealed()`
+    #: the keys (see the module's docstring) and the own files' digest, computed by `sealed()`
     inputs_key: str = ""
     key: str = ""
+    own_digest: str = ""
 
     def sealed(self) -> PackageRecord:
         """The record with its keys computed from its fields."""
-        before = inputs_key(self.package, self.build_type, files_digest(self.own),
-                            self.settings, self.environment, self.dependency_inputs)
-        return replace(self, inputs_key=before,
+        own = files_digest(self.own)
+        before = inputs_key(self.package, self.build_type, own, self.settings,
+                            self.environment, self.dependency_inputs)
+        return replace(self, inputs_key=before, own_digest=own,
                        key=output_key(before, self.outside, self.dependencies))
 
 
@@ -117,6 +119,7 @@ def read_record(build_dir: Path) -> PackageRecord | None:
             test_tree=bool(data["test_tree"]),
             inputs_key=data["inputs_key"],
             key=data["key"],
+            own_digest=data["own_digest"],
         )
     except (OSError, ValueError, KeyError, TypeError, AttributeError):
         return None
@@ -130,6 +133,7 @@ def encode(record: PackageRecord) -> dict[str, object]:
         "build_type": record.build_type,
         "key": record.key,
         "inputs_key": record.inputs_key,
+        "own_digest": record.own_digest,
         "own": {rel: value.as_list() for rel, value in sorted(record.own.items())},
         "settings": record.settings,
         "environment": dict(sorted(record.environment.items())),

@@ -16,6 +16,7 @@ import stat as modes
 import threading
 from collections.abc import Callable, Collection, Iterable, Mapping
 from dataclasses import dataclass, field
+from typing import NamedTuple
 
 from wsbuild import inputs
 from wsbuild.record.own_files import content_digest
@@ -50,8 +51,7 @@ def own_entries(install_base: str, installed: Collection[tuple[str, int]]) -> Ow
     return entries
 
 
-@dataclass(frozen=True, slots=True)
-class Seen:
+class Seen(NamedTuple):
     """A path as the record holds it: its stat signature, and its content's digest (a file) or
     its entries' (a listing)."""
 
@@ -93,15 +93,13 @@ class Digests:
     def signature(self, path: str, *, planning: bool = False) -> tuple[int, ...]:
         """The path's stat signature: while planning taken once per process (packages share
         most of what they read outside), else afresh (a build may have changed it)."""
-        if planning:
-            with self._lock:
-                known = self._signatures.get(path)
+        if planning:  # (one thread plans: a dict's get and set are atomic anyway)
+            known = self._signatures.get(path)
             if known is not None:
                 return known
         signature = inputs.signature(path)
         if planning:
-            with self._lock:
-                self._signatures[path] = signature
+            self._signatures[path] = signature
         return signature
 
     def file(self, path: str, signature: tuple[int, ...]) -> str:
