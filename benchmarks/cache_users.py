@@ -54,6 +54,11 @@ def _account(name: str, same_account: bool, homes: Path) -> tuple[list[str], dic
     except KeyError:
         subprocess.run(["useradd", "--create-home", "--shell", "/bin/bash", name], check=True)
     home = pwd.getpwnam(name).pw_dir
+    python = DEFAULT_PROJECT_VENV / "bin" / "python"
+    if subprocess.run(["runuser", "-u", name, "--", str(python), "-c", "pass"],
+                      capture_output=True, check=False).returncode != 0:
+        raise PermissionError(f"{name} cannot run {python} (the interpreter's directories "
+                              "are private)")
     return ["runuser", "-u", name, "--"], {"HOME": home, "USER": name, "LOGNAME": name}
 
 
@@ -93,7 +98,12 @@ def main(argv: list[str] | None = None) -> int:
     try:
         results = []
         for number, name in enumerate(USERS):
-            prefix, own = _account(name, same, work / "homes")
+            try:
+                prefix, own = _account(name, same, work / "homes")
+            except PermissionError as exc:
+                print(f"{exc}: both users run as this account instead", file=sys.stderr)
+                same = True
+                prefix, own = _account(name, same, work / "homes")
             env = {**clean_environ(), **own}
             env.pop("WSBUILD_CACHE_DIR", None)
             env.pop("XDG_CACHE_HOME", None)
