@@ -35,6 +35,10 @@ def _listdir(path: Path) -> list[str]:
         return []
 
 
+def _inside(real: str, own: str) -> bool:
+    return real == own or real.startswith(own + os.sep)
+
+
 def underlay_packages(environ: Mapping[str, str], own_install_base: Path) -> dict[str, Path]:
     """package -> the first underlay prefix providing it: the ament index and colcon's package
     index of every AMENT_PREFIX_PATH entry, and the installs on COLCON_PREFIX_PATH; this
@@ -48,13 +52,14 @@ def underlay_packages(environ: Mapping[str, str], own_install_base: Path) -> dic
         if not entry:
             continue
         base = Path(entry)
+        if _inside(inputs.realpath(base), own):
+            continue
         # a merged install base is one prefix; an isolated one has one per package
         prefixes += [base] + [base / name for name in _listdir(base)
-                              if (base / name / _COLCON_INDEX / name).is_file()]
+                              if inputs.is_file(base / name / _COLCON_INDEX / name)]
     provided: dict[str, Path] = {}
     for prefix in prefixes:
-        real = inputs.realpath(prefix)
-        if real == own or real.startswith(own + os.sep):
+        if _inside(inputs.realpath(prefix), own):
             continue
         for name in (*_listdir(prefix / _AMENT_INDEX), *_listdir(prefix / _COLCON_INDEX)):
             provided.setdefault(name, prefix)
