@@ -6,6 +6,7 @@ that a package is up to date loads nothing of the Python packaging machinery.
 
 from __future__ import annotations
 
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
@@ -55,16 +56,16 @@ DESCRIPTIONS = {
 }
 
 
-def python_steps(ctx: BuildContext, *, ament: bool = False) -> list[Step]:
+def python_steps(ctx: BuildContext, *,
+                 extra: Mapping[str, Callable[[BuildContext], None]] | None = None) -> list[Step]:
     """The recipe's steps: in-process, because the helper stays warm across packages and the
-    files go straight into the stage; each with the by-hand command that does the same."""
-    from wsbuild.build_types.ament_python import register
+    files go straight into the stage; each with the by-hand command that does the same.
+    `extra`: a build type's own steps after `install` (ament_python's `index`)."""
     from wsbuild.build_types.pybuild.by_hand import by_hand_command
 
     build = PythonBuild()
-    actions = {"configure": build.configure, "install": build.install}
-    if ament:
-        actions["index"] = register
+    actions: dict[str, Callable[[BuildContext], None]] = {
+        "configure": build.configure, "install": build.install, **(extra or {})}
     actions["record"] = record
     source = ctx.source_dir.absolute()
     reads = {"configure": (source,), "install": (source, ctx.build_dir), "index": (source,),

@@ -21,7 +21,6 @@ class RunOptions:
     """How packages are scheduled and reported (shared by build and test)."""
 
     workers: int
-    sequential: bool
     continue_on_error: bool
     wait_for_lock: bool
 

@@ -142,7 +142,6 @@ def request_from_args(args: argparse.Namespace) -> BuildRequest:
         ),
         run=RunOptions(
             workers=1 if sequential else workers,
-            sequential=sequential,
             continue_on_error=args.continue_on_error,
             wait_for_lock=not args.no_wait,
         ),

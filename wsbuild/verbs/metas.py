@@ -19,7 +19,7 @@ from wsbuild import inputs
 
 if TYPE_CHECKING:  # imported when a verb applies the metadata
     from wsbuild.builder.request import BuildRequest
-    from wsbuild.testing.runners import TestRequest
+    from wsbuild.testing.request import TestRequest
     from wsbuild.workspace.model import Package
 
 META_FILE = "colcon.meta"

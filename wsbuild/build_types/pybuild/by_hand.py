@@ -99,8 +99,8 @@ def _context(values: Mapping[str, str], symlink: bool, warnings: list[str]) -> B
 
 def run_step(step: str, ctx: BuildContext) -> None:
     """One step of the recipe, into `ctx.stage_prefix`."""
-    from wsbuild.build_types.ament_python import register
     from wsbuild.build_types.pybuild import recipe
+    from wsbuild.build_types.pybuild.index import register
 
     if step == "configure":
         recipe.configure(ctx)
