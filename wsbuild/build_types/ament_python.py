@@ -10,7 +10,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from wsbuild.build_types import BuildContext, BuildTypeBase, RunnerNamed, Step
+from wsbuild.build_types import PackageContext, BuildTypeBase, RunnerNamed, Step
 from wsbuild.build_types.python import python_steps
 from wsbuild.prefix.hooks import EnvironmentHooks
 
@@ -22,14 +22,14 @@ class AmentPythonBuildType(BuildTypeBase):
 
     test_runner = RunnerNamed("wsbuild.build_types.pybuild.tests:PYTEST")
 
-    def steps(self, ctx: BuildContext) -> list[Step]:
+    def steps(self, ctx: PackageContext) -> list[Step]:
         return python_steps(ctx, extra={"index": register})
 
 
 BUILD_TYPE = AmentPythonBuildType()
 
 
-def register(ctx: BuildContext) -> None:
+def register(ctx: PackageContext) -> None:
     """The `index` step: the ament index marker and package.xml, if setup.py did not."""
     from wsbuild.build_types.pybuild.index import register as install_index
 

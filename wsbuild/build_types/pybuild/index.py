@@ -6,12 +6,12 @@ from __future__ import annotations
 
 from pathlib import PurePosixPath
 
-from wsbuild.build_types import BuildContext, StepFailed
+from wsbuild.build_types import PackageContext, StepFailed
 
 INDEX_DIR = PurePosixPath("share/ament_index/resource_index/packages")
 
 
-def register(ctx: BuildContext) -> None:
+def register(ctx: PackageContext) -> None:
     """Install the ament index marker and package.xml if setup.py did not."""
     from wsbuild.build_types.pybuild.install import StageWriter
     from wsbuild.build_types.pybuild.recipe import origin_file
@@ -38,6 +38,6 @@ def register(ctx: BuildContext) -> None:
                  f"anyway. Add ('share/{name}', ['package.xml']) to data_files in {origin}")
 
 
-def _installed(ctx: BuildContext, relpath: PurePosixPath) -> bool:
+def _installed(ctx: PackageContext, relpath: PurePosixPath) -> bool:
     path = ctx.stage_prefix / relpath
     return path.is_symlink() or path.exists()
