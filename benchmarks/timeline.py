@@ -1,26 +1,45 @@
-"""colcon's side of the benchmark timelines: per-package phases read from colcon's
-`log/<run>/events.log`. The drawing (and wsbuild's side, from `timings.json`) is the product's
-own, `wsbuild/engine/timeline.py`, which also draws every run's report."""
+"""The benchmark timelines: wsbuild's side from `timings.json` and colcon's from its
+`log/<run>/events.log`, per-package phases drawn by the product's own drawing
+(`wsbuild/engine/timeline.py`, which also draws every run's report), and their totals."""
 
 from __future__ import annotations
 
 import ast
 import json
 import re
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 
-from wsbuild.engine.timeline import (
-    Bar,
-    Timeline,
-    phase_of,
-    phase_totals,
-    render_svg,
-    timeline_from_timings,
-    write_svg,
-)
+from wsbuild.engine.timeline import Bar, Timeline, phase_of, render_svg
 
 __all__ = ["Bar", "Timeline", "colcon_timeline", "phase_totals", "render_svg",
            "wsbuild_timeline", "write_svg"]
+
+
+def timeline_from_timings(data: Mapping[str, object], title: str) -> Timeline:
+    """A timeline from wsbuild's `timings.json` content: waiting, then each step's phase."""
+    bars = []
+    for p in data["packages"]:  # type: ignore[attr-defined]
+        spans: list[tuple[str, float, float]] = []
+        if p["started"] > p["ready"]:
+            spans.append(("waiting", p["ready"], p["started"]))
+        spans += [(phase_of(label), start, end) for label, start, end in p["phases"]]
+        bars.append(Bar(p["package"], tuple(spans)))
+    return Timeline(title, tuple(bars), float(data["wall_seconds"]))  # type: ignore[arg-type]
+
+
+def write_svg(path: Path, timelines: Sequence[Timeline]) -> None:
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text(render_svg(timelines), encoding="utf-8")
+
+
+def phase_totals(timeline: Timeline) -> Mapping[str, float]:
+    """Seconds per phase summed over packages."""
+    totals: dict[str, float] = {}
+    for bar in timeline.bars:
+        for phase, start, end in bar.spans:
+            totals[phase] = totals.get(phase, 0.0) + max(0.0, end - start)
+    return totals
 
 
 def wsbuild_timeline(timings_json: Path, title: str) -> Timeline:

@@ -57,6 +57,137 @@ def test_the_tests_the_architecture_document_names_exist() -> None:
     assert not missing, "docs/architecture.md names tests that do not exist:\n" + "\n".join(missing)
 
 
+#: a node of the document's diagrams: `NAME["room/module.py<br/>what it holds"]`
+NODE = re.compile(r'\["((?:[a-z_]+/)*[a-z_0-9]+\.py)<br/>(.*?)"\]')
+#: a name the label claims the module has: `Class`, `Class.attribute`, `function`, `.attribute`
+#: (of the class named last)
+NAMED = re.compile(r"(?<![\w./])(\.?[A-Za-z_]\w*(?:\.\w+)?)")
+
+
+def _defined(path: Path) -> dict[str, set[str]]:
+    """Top-level names of a module (classes, functions, assignments, imports), each class with
+    its annotated attributes, methods and properties."""
+    tree = ast.parse(path.read_text(encoding="utf-8"))
+    names: dict[str, set[str]] = {}
+    for node in tree.body:
+        if isinstance(node, ast.ClassDef):
+            names[node.name] = {
+                item.target.id if isinstance(item, ast.AnnAssign) else item.name  # type: ignore[union-attr]
+                for item in node.body
+                if isinstance(item, (ast.FunctionDef, ast.AsyncFunctionDef))
+                or (isinstance(item, ast.AnnAssign) and isinstance(item.target, ast.Name))}
+        elif isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef)):
+            names[node.name] = set()
+        elif isinstance(node, (ast.Assign, ast.AnnAssign)):
+            for target in (node.targets if isinstance(node, ast.Assign) else [node.target]):
+                if isinstance(target, ast.Name):
+                    names[target.id] = set()
+        elif isinstance(node, (ast.Import, ast.ImportFrom)):
+            names.update({(a.asname or a.name).split(".")[0]: set() for a in node.names})
+    return names
+
+
+def diagram_claims(text: str) -> list[str]:
+    """What the diagrams (the fenced blocks) claim of the code that is not so: each node's
+    label names its module first, then code names (with a capital, an underscore or a dot)
+    that the module must define — a class's attributes as `Class.attr, .attr`."""
+    wrong: list[str] = []
+    blocks = re.findall(r"^```\w*\n(.*?)^```", text, re.S | re.M)
+    for block in blocks:
+        for module, label in NODE.findall(block):
+            path = PACKAGE / module
+            if not path.is_file():
+                wrong.append(f"{module}: no such module")
+                continue
+            defined = _defined(path)
+            last_class = ""
+            for word in NAMED.findall(label.replace("<br/>", " ").replace("&lt;", "<")):
+                owner, _, attribute = word.partition(".")
+                if not owner:  # `.attribute` of the class named last
+                    owner = last_class
+                elif not (owner[0].isupper() or "_" in owner or attribute):
+                    continue  # a plain word of the label
+                if owner not in defined:
+                    wrong.append(f"{module}: names {owner}, which it does not define")
+                    continue
+                if owner[0].isupper() and owner in defined and defined[owner]:
+                    last_class = owner
+                if attribute and attribute not in defined[owner]:
+                    wrong.append(f"{module}: names {owner}.{attribute}, which is no attribute")
+    return wrong
+
+
+def test_the_diagrams_name_only_what_the_code_has() -> None:
+    """The fenced diagrams are claims too: each node's module exists and defines the classes,
+    functions and attributes its label names (`BuildPlan`, `PackagePlan.steps`)."""
+    text = DOC.read_text(encoding="utf-8")
+    assert len(NODE.findall(text)) >= 10
+    wrong = diagram_claims(text)
+    assert not wrong, "docs/architecture.md's diagrams:\n" + "\n".join(wrong)
+
+
+def test_the_diagram_check_finds_a_missing_attribute_and_class() -> None:
+    text = ('```mermaid\nA["builder/plan.py<br/>BuildPlan: PackagePlan.steps, .wheels"]\n'
+            'B["builder/plan.py<br/>Nowhere, make_plan"]\n```\n')
+    assert diagram_claims(text) == [
+        "builder/plan.py: names PackagePlan.wheels, which is no attribute",
+        "builder/plan.py: names Nowhere, which it does not define",
+    ]
+
+
+def test_sessions_are_opened_by_the_build_and_the_test_run_only() -> None:
+    """The document's "the session its run opened": `open_session` is called by
+    builder/pipeline.py (a build, its dry run) and testing/test_run.py (a test run) only."""
+    callers = sorted({str(path.relative_to(PACKAGE)) for path in PACKAGE.rglob("*.py")
+                      for node in ast.walk(ast.parse(path.read_text(encoding="utf-8")))
+                      if isinstance(node, ast.Call) and isinstance(node.func, ast.Name)
+                      and node.func.id == "open_session"})
+    assert callers == ["builder/pipeline.py", "testing/test_run.py"]
+
+
+#: names retired by issue 38 (one meaning per word, docs/architecture.md's glossary): a module,
+#: class or function by an old name, or a word that meant several things
+RETIRED: dict[str, str] = {
+    r"(?<!\w)runners\.py": "testing/test_run.py (the test run); a runner is a TestRunner",
+    r"(?<![\w/])report\.(?:py|print_|Reporter)": "reporter.py (the one reporter)",
+    r"\bBuildContext\b": "PackageContext (build_types/__init__.py: package_context)",
+    r"\brebuild_reason\b": "record/dirty.py: dirty_reason (the one dirty check)",
+    r"\bforget_state\b": "nothing: a CMake package's steps forget its configure record",
+    r"\bclear_directory\b": "nothing (dead code)",
+    r"\bEnvironmentFailure\b": "nothing (dead code)",
+    r"\bTestTool\b": "BuildType.test_runner",
+}
+
+
+def retired_names(files: list[Path]) -> list[str]:
+    found = []
+    for path in files:
+        text = path.read_text(encoding="utf-8")
+        where = path.relative_to(ROOT) if path.is_relative_to(ROOT) else path.name
+        for pattern, instead in RETIRED.items():
+            for match in re.finditer(pattern, text):
+                line = text.count("\n", 0, match.start()) + 1
+                found.append(f"{where}:{line}: {match.group(0)} → {instead}")
+    return found
+
+
+def test_no_retired_name_is_left_in_code_tests_or_docs() -> None:
+    files = [p for p in [*PACKAGE.rglob("*.py"), *(ROOT / "tests").rglob("*.py"),
+                         *(ROOT / "benchmarks").rglob("*.py"), *(ROOT / "docs").rglob("*.md"),
+                         ROOT / "README.md"]
+             if p != Path(__file__).resolve()]
+    found = retired_names(files)
+    assert not found, "\n".join(found)
+
+
+def test_the_retired_name_check_finds_an_old_name(tmp_path: Path) -> None:
+    old = tmp_path / "old.md"
+    old.write_text("see testing/runners.py\nand the BuildContext, not test_runners.py\n")
+    assert retired_names([old]) == [
+        "old.md:1: runners.py → testing/test_run.py (the test run); a runner is a TestRunner",
+        "old.md:2: BuildContext → PackageContext (build_types/__init__.py: package_context)"]
+
+
 def test_the_claim_check_finds_an_uncited_item() -> None:
     text = ("intro\n\n- a claim checked by `tests/test_a.py::test_b`\n- a claim\n  continued"
             " without a test\n\n```\n- code\n```\n")

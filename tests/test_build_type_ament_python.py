@@ -11,7 +11,7 @@ from pathlib import Path
 
 import pytest
 
-from wsbuild.build_types import BuildContext, BuildOptions, StepFailed, get_build_type
+from wsbuild.build_types import PackageContext, BuildOptions, StepFailed, get_build_type
 from wsbuild.workspace.model import Package
 from wsbuild.build_types.pybuild.install import read_installed_files
 from wsbuild.build_types.pybuild.paths import site_packages_relpath
@@ -114,7 +114,7 @@ def subprocess_runner(log: list[str]):
 
 
 def make_ctx(source: Path, workspace: Path, *, symlink: bool = False,
-             environ: Mapping[str, str] | None = None) -> tuple[BuildContext, list[str], list[str]]:
+             environ: Mapping[str, str] | None = None) -> tuple[PackageContext, list[str], list[str]]:
     name = source.name
     build_dir = workspace / "build" / name
     build_dir.mkdir(parents=True, exist_ok=True)
@@ -126,7 +126,7 @@ def make_ctx(source: Path, workspace: Path, *, symlink: bool = False,
     output: list[str] = []
     package = Package(name=name, path=source, build_type="ament_python",
                       manifest=source / "package.xml")
-    ctx = BuildContext(
+    ctx = PackageContext(
         package=package, build_dir=build_dir, install_prefix=workspace / "install" / name,
         stage_prefix=stage,
         options=BuildOptions(symlink_install=symlink, python_executable=sys.executable),
@@ -135,7 +135,7 @@ def make_ctx(source: Path, workspace: Path, *, symlink: bool = False,
     return ctx, warnings, output
 
 
-def build(source: Path, workspace: Path, **kwargs: object) -> tuple[BuildContext, list[str], str]:
+def build(source: Path, workspace: Path, **kwargs: object) -> tuple[PackageContext, list[str], str]:
     """Run every step, then move the stage into place as the orchestrator does."""
     ctx, warnings, output = make_ctx(source, workspace, **kwargs)  # type: ignore[arg-type]
     for step in get_build_type("ament_python").steps(ctx):

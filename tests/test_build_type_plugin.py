@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import ast
 import os
+import subprocess
 from importlib.metadata import entry_points
 from pathlib import Path
 
@@ -128,7 +129,7 @@ def test_a_third_party_build_type_builds_gets_hooks_and_runs_its_tests(tmp_path:
     # its step in the old form, `Step(label, action)`: in-process, said so by the dry run
     planned = run_wsbuild("build", "--dry-run", cwd=ws, env=env)
     assert planned.returncode == 0, planned.stdout + planned.stderr
-    assert "  # copy: runs inside wsbuild (no command to show)" in planned.stdout.splitlines()
+    assert "  # (in wsbuild) copy (no command to show)" in planned.stdout.splitlines()
 
     built = run_wsbuild("build", cwd=ws, env=env)
     assert built.returncode == 0, built.stdout + built.stderr
@@ -226,3 +227,117 @@ def test_the_build_type_check_finds_a_comparison(tmp_path: Path) -> None:
         assert any(any(_is_build_type(o) for o in [c.left, *c.comparators]) and
                    any(_is_fixed(o) for o in [c.left, *c.comparators]) for c in compares) or \
             any(_is_fixed(a.value) for a in assigns), sample
+
+
+MAP_PLUGIN = '''
+"""A third-party build type with an option of its own (--map-resolution) and an in-process
+step that writes what the option says, with the command that does the same by hand."""
+from dataclasses import dataclass
+from wsbuild.build_types import BuildTypeBase, Command, Step, TypeOption
+
+RESOLUTION = TypeOption("--map-resolution", "map_resolution", metavar="METRES",
+                        help="the resolution the installed maps are made for")
+
+#: what the step writes, by hand as in wsbuild
+SCRIPT = 'mkdir -p -- "$(dirname -- "$1")" && printf "%s\\\\n" "$2" > "$1"'
+
+
+def write_resolution(ctx):
+    target = ctx.stage_prefix / "share" / ctx.package.name / "resolution.txt"
+    target.parent.mkdir(parents=True, exist_ok=True)
+    target.write_text(f"{ctx.options.value(RESOLUTION) or 'unset'}\\n")
+
+
+@dataclass(frozen=True, slots=True)
+class MapBuildType(BuildTypeBase):
+    name: str = "wsb_map"
+    options: tuple = (RESOLUTION,)
+
+    def steps(self, ctx):
+        value = ctx.options.value(RESOLUTION) or "unset"
+        target = ctx.install_prefix / "share" / ctx.package.name / "resolution.txt"
+        return [Step("resolution", write_resolution,
+                     description=f"write the map resolution {value}", writes=(target,),
+                     by_hand=Command(("sh", "-c", SCRIPT, "sh", str(target), value),
+                                     ctx.source_dir))]
+
+
+BUILD_TYPE = MapBuildType()
+'''
+
+
+def _map_distribution(root: Path) -> Path:
+    root.mkdir()
+    (root / "wsb_map_type.py").write_text(MAP_PLUGIN)
+    info = root / "wsb_map_type-0.1.dist-info"
+    info.mkdir()
+    (info / "METADATA").write_text("Metadata-Version: 2.1\nName: wsb-map-type\nVersion: 0.1\n")
+    (info / "entry_points.txt").write_text(
+        f"[{ENTRY_POINT_GROUP}]\nwsb_map = wsb_map_type:BUILD_TYPE\n")
+    return root
+
+
+def _map_workspace(ws: Path) -> None:
+    package = ws / "src" / "maps"
+    package.mkdir(parents=True)
+    (package / "package.xml").write_text(MANIFEST.replace("wsb_copy", "wsb_map"))
+
+
+def test_a_third_party_option_reaches_its_packages_build_dry_run_and_by_hand_alike(
+        tmp_path: Path) -> None:
+    """The type's own option is on `build --help`, reaches its package's in-process step, is
+    printed by the dry run with the command that does the step by hand, and enters the
+    package's key: the build, the dry run and the pasted command agree, from one context."""
+    env = {**os.environ, "PYTHONPATH": str(_map_distribution(tmp_path / "plugins"))}
+    ws, by_hand = tmp_path / "ws", tmp_path / "by_hand"
+    _map_workspace(ws)
+    _map_workspace(by_hand)
+    written = Path("install") / "maps" / "share" / "maps" / "resolution.txt"
+
+    helped = run_wsbuild("build", "--help", cwd=ws, env=env)
+    assert helped.returncode == 0, helped.stderr
+    assert "wsb_map packages:" in helped.stdout
+    assert "--map-resolution METRES" in helped.stdout
+
+    planned = run_wsbuild("build", "--dry-run", "--map-resolution", "0.05", cwd=ws, env=env)
+    assert planned.returncode == 0, planned.stdout + planned.stderr
+    lines = planned.stdout.splitlines()
+    step = lines.index(f"  # (in wsbuild) write the map resolution 0.05: {written}")
+    command = lines[step + 1].strip()
+    assert command.endswith(f" {ws / written} 0.05"), command
+    # by hand: the printed command, pasted into a shell in another checkout of the workspace
+    pasted = subprocess.run(["bash", "-c", command.replace(str(ws), str(by_hand))],
+                            cwd=by_hand, capture_output=True, text=True, timeout=60)
+    assert pasted.returncode == 0, pasted.stderr
+    built = run_wsbuild("build", "--map-resolution", "0.05", cwd=ws, env=env)
+    assert built.returncode == 0, built.stdout + built.stderr
+    assert (ws / written).read_text() == (by_hand / written).read_text() == "0.05\n"
+
+    # the option is in the package's key: the same value is up to date, another rebuilds
+    same = run_wsbuild("build", "--map-resolution", "0.05", cwd=ws, env=env)
+    assert "1 package up to date" in same.stdout or "[maps] up to date" in same.stdout, \
+        same.stdout
+    changed = run_wsbuild("build", "--dry-run", "--map-resolution", "0.1", cwd=ws, env=env)
+    assert "build options changed: map_resolution: 0.05 → 0.1" in changed.stdout, \
+        changed.stdout
+    assert run_wsbuild("build", "--map-resolution", "0.1", cwd=ws, env=env).returncode == 0
+    assert (ws / written).read_text() == "0.1\n"
+
+    # a built-in type knows nothing of it: a wsbuild without the distribution refuses it
+    unknown = run_wsbuild("build", "--map-resolution", "0.1", cwd=ws)
+    assert unknown.returncode == 2
+    assert "unrecognized arguments: --map-resolution" in unknown.stderr
+
+
+def test_the_built_in_types_options_are_the_ones_the_parser_reads() -> None:
+    """The parser reads the built-in types' options without importing the types
+    (BUILTIN_OPTIONS); colcon.meta's per-package keys are their list options."""
+    from wsbuild.build_types import declared_options
+    from wsbuild.verbs.metas import BUILD_KEYS
+
+    declared = dict(declared_options(plugins=False))
+    for name in BUILTIN:
+        assert tuple(getattr(get_build_type(name), "options", ())) == declared.get(name, ())
+    lists = {option.flag[2:] for options in declared.values() for option in options
+             if option.kind == "arguments" and option.flag}
+    assert set(BUILD_KEYS) == lists

@@ -11,7 +11,7 @@ from pathlib import Path
 
 import pytest
 
-from wsbuild.build_types import BuildContext, BuildOptions, StepFailed, get_build_type
+from wsbuild.build_types import PackageContext, BuildOptions, StepFailed, get_build_type
 from wsbuild.workspace.model import Package
 from wsbuild.build_types.pybuild.paths import site_packages_relpath
 from wsbuild.build_types.pybuild.setup_py import SETUP_LOG, shutdown_helpers
@@ -32,7 +32,7 @@ def runner(output: list[str]):
 
 
 def build(source: Path, workspace: Path, *, symlink: bool = False,
-          output: list[str] | None = None) -> tuple[BuildContext, list[str], str]:
+          output: list[str] | None = None) -> tuple[PackageContext, list[str], str]:
     """Run every step of the python build type; the stage then replaces the prefix."""
     name = source.name
     stage = workspace / "install" / f".{name}.stage"
@@ -40,7 +40,7 @@ def build(source: Path, workspace: Path, *, symlink: bool = False,
     stage.mkdir(parents=True)
     warnings: list[str] = []
     output = [] if output is None else output
-    ctx = BuildContext(
+    ctx = PackageContext(
         package=Package(name=name, path=source, build_type="python"),
         build_dir=workspace / "build" / name, install_prefix=workspace / "install" / name,
         stage_prefix=stage,

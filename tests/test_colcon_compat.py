@@ -15,6 +15,7 @@ from pathlib import Path
 import pytest
 
 from conftest import run_wsbuild
+from wsbuild.build_types.cmake_options import CMAKE_ARGS
 from wsbuild.cli import build_parser, parse_command_line
 from wsbuild.verbs.build import request_from_args
 
@@ -188,7 +189,8 @@ def test_the_values_arrive_as_colcon_passes_them(colcon_home: Path) -> None:
     cwd = colcon_home.parent
 
     def cmake_args(line: str) -> tuple[str, ...]:
-        return request_from_args(parse(line, colcon_home, cwd)).build.cmake_args
+        build = request_from_args(parse(line, colcon_home, cwd)).build
+        return build.value(CMAKE_ARGS)  # type: ignore[return-value]
 
     assert cmake_args("colcon build --cmake-args --no-warn-unused-cli -G Ninja") == (
         "--no-warn-unused-cli", "-G", "Ninja")

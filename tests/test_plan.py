@@ -86,10 +86,13 @@ def test_the_commands_the_dry_run_prints_are_the_ones_the_build_runs(
     first = run_wsbuild("build", cwd=ws)
     assert first.returncode == 0, first.stdout + first.stderr
     # a changed CMake argument configures again: the dry run and the build agree on that too
+    # (the in-process steps are in the plan too, labelled; only the commands are invoked)
+    isolated_install = ["park install", "install", "stage"]
     for args, labels in ((["--cmake-args", "-DWSB_TEST_FLAG=1", "--"],
-                          ["configure", "build", "install"]),
+                          ["forget configure", "configure", "configure record", "build",
+                           *isolated_install]),
                          (["--cmake-args", "-DWSB_TEST_FLAG=1", "--", "--force"],
-                          ["build", "install"])):
+                          ["build", *isolated_install])):
         planned = run_wsbuild("build", "--dry-run", "--json", *args, cwd=ws)
         assert planned.returncode == 0, planned.stdout + planned.stderr
         steps = {p["name"]: p.get("steps") for p in json.loads(planned.stdout)["packages"]}
@@ -97,8 +100,9 @@ def test_the_commands_the_dry_run_prints_are_the_ones_the_build_runs(
         built = run_wsbuild("build", *args, cwd=ws)
         assert built.returncode == 0, built.stdout + built.stderr
         invoked = _invoked(ws, "pc")
-        assert len(invoked) == len(labels)
-        for line, step in zip(invoked, steps["pc"]):
+        commands = [step for step in steps["pc"] if not step["in_process"]]
+        assert len(invoked) == len(commands)
+        for line, step in zip(invoked, commands):
             assert line.startswith(f"cd {shlex.quote(step['cwd'])} && ")
             assert line.endswith(" " + shlex.join(step["argv"])), (line, step["argv"])
 
@@ -127,3 +131,51 @@ def test_the_dry_run_lists_packages_in_the_order_a_one_worker_build_starts_them(
     assert built.returncode == 0, built.stdout + built.stderr
     started = re.findall(r"^Starting >>> (\S+)", built.stdout, re.M)
     assert started == [name for name, decision in order if decision == "build"]
+
+
+def test_a_build_types_steps_read_nothing_and_run_nothing(tmp_path: Path,
+                                                          monkeypatch) -> None:  # type: ignore[no-untyped-def]
+    """Issue 38: `steps()` is pure. What it decides from comes in the context: the run's facts
+    (Ninja and its version, `run_facts`) and the build directory's state (`read_state`), read
+    when the context was made. Called again with every file and process function failing,
+    each built-in type returns the same steps."""
+    import builtins
+    import shutil
+
+    from wsbuild.build_types import BuildOptions, get_build_type, package_context
+    from wsbuild.workspace.manifest import parse_manifest
+
+    build_types = ("cmake", "ament_cmake", "python", "ament_python")
+    contexts = {}
+    for kind in build_types:
+        path = write_package(tmp_path / "src", f"pkg_{kind}", kind)
+        package = parse_manifest(path / "package.xml", environ=os.environ,
+                                 known_build_types=build_types)
+        build_type = get_build_type(kind)
+        build = tmp_path / "build" / package.name
+        (build / "CMakeFiles").mkdir(parents=True)
+        (build / "CMakeCache.txt").write_text("CMAKE_GENERATOR:INTERNAL=Unix Makefiles\n")
+        facts = getattr(build_type, "run_facts", lambda _env: None)(dict(os.environ))
+        contexts[kind] = (build_type, package_context(
+            build_type, package=package, build_dir=build,
+            install_prefix=tmp_path / "install" / package.name,
+            stage_prefix=tmp_path / "stage" / package.name,
+            options=BuildOptions(jobs=2, python_executable=shutil.which("python3") or ""),
+            environ=dict(os.environ), run=lambda *a, **k: None, warn=lambda _t: None,
+            facts=facts))
+    first = {kind: [(s.label, s.command) for s in bt.steps(ctx)]
+             for kind, (bt, ctx) in contexts.items()}
+
+    def refused(*_args: object, **_kwargs: object) -> None:
+        raise AssertionError("steps() touched the disk or ran a process")
+
+    for module, name in ((os, "stat"), (os, "lstat"), (os, "scandir"), (os, "listdir"),
+                         (os, "open"), (builtins, "open"), (subprocess, "run"),
+                         (subprocess, "Popen"), (shutil, "which")):
+        monkeypatch.setattr(module, name, refused)
+    again = {kind: [(s.label, s.command) for s in bt.steps(ctx)]
+             for kind, (bt, ctx) in contexts.items()}
+    monkeypatch.undo()
+    assert again == first
+    # the CMake cache of another generator came in the state: its removal is a step
+    assert [label for label, _ in first["cmake"]][:2] == ["clean cache", "configure"]

@@ -169,3 +169,23 @@ def test_the_one_dirty_check_names_what_changed_first(tmp_path: Path) -> None:
     assert reason() == "source: source changed: CMakeLists.txt"
     assert dirty_reason(None, PackageNow(own_files(pkg, {}), {}, {}, {}),
                         install_base=tmp_path, digests=Digests()).kind == "new"
+
+
+def test_every_shortcut_asks_the_one_dirty_check() -> None:
+    """Issue 38: one dirty check, in record/dirty.py, with a typed reason (`Dirty`). Planning
+    (the no-op decision, `--dry-run`, the replay's plan) asks `dirty_reason`; early cutoff and
+    the cache's restore proof ask `changed_read`; nothing else compares a record with now."""
+    import ast
+
+    from wsbuild.record.dirty import Dirty
+
+    package = Path(__file__).resolve().parent.parent / "wsbuild"
+    askers: dict[str, set[str]] = {}
+    for path in package.rglob("*.py"):
+        for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+            if isinstance(node, ast.Call) and isinstance(node.func, ast.Name) \
+                    and node.func.id in ("dirty_reason", "changed_read"):
+                askers.setdefault(node.func.id, set()).add(str(path.relative_to(package)))
+    assert askers == {"dirty_reason": {"builder/plan.py"},
+                      "changed_read": {"builder/records.py", "cache/run.py"}}
+    assert {kind.value for kind in Dirty} >= {"source", "environment", "dependency", "options"}

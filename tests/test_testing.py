@@ -20,7 +20,8 @@ from wsbuild.testing.results import (
     PackageStatus, PackageTests, TestRun, results_dir, summary_lines,
 )
 from wsbuild.testing.closure import check_built, closure_under_test
-from wsbuild.testing.runners import TestRequest, run_tests
+from wsbuild.testing.request import TestRequest
+from wsbuild.testing.test_run import run_tests
 from wsbuild.verbs.load import LoadRequest, load
 from wsbuild.workspace.selection import SelectionOptions
 from wsbuild.workspace.root import Workspace
@@ -334,7 +335,7 @@ def test_summary_names_every_failing_test_with_its_log(tmp_path: Path) -> None:
 
 
 def test_an_internal_error_in_a_job_is_a_failed_package() -> None:
-    from wsbuild.testing.runners import _final
+    from wsbuild.testing.test_run import _final
 
     result = _final(JobResult("pkg", Outcome.FAILED, message="internal error (a bug)"), None)
     assert (result.status, result.message) == (PackageStatus.FAILED, "internal error (a bug)")

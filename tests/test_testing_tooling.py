@@ -11,8 +11,9 @@ import pytest
 
 from wsbuild.build_types.junit import Case, CaseOutcome, Counts
 from wsbuild.testing.linters import LINTER_MODULES
-from wsbuild.testing.pytest_env import ROS_PYTEST_VAR, ros_pytest_dir, with_ros_pytest
+from wsbuild.build_types.ros_pytest import ROS_PYTEST_VAR, ros_pytest_dir, with_ros_pytest
 from wsbuild.testing.results import PackageStatus, PackageTests, TestRun, summary_lines
+from wsbuild.build_types.pybuild.tests import PYTEST
 from wsbuild.testing.tooling import is_tooling, tooling_failures
 from wsbuild.underlay.lint import LINTERS
 
@@ -32,13 +33,17 @@ def test_a_failing_test_is_not_the_tooling() -> None:
     assert not is_tooling(Case("test_math", outcome=CaseOutcome.FAILURE, message="assert 1 == 2"))
     assert not is_tooling(Case("test_boom", outcome=CaseOutcome.ERROR, message="RuntimeError"))
     assert is_tooling(Case("test_x", outcome=CaseOutcome.ERROR, message="collection failure"))
-    assert is_tooling(Case("pytest.exit_code", outcome=CaseOutcome.ERROR, message="pytest ..."))
+    # a case the runner writes when its tool failed: the runner names them (TestRunner)
+    tool_cases = PYTEST.tool_cases
+    assert is_tooling(Case("pytest.exit_code", outcome=CaseOutcome.ERROR, message="pytest ..."),
+                      tool_cases)
+    assert not is_tooling(Case("pytest.exit_code", outcome=CaseOutcome.ERROR, message="x"))
 
 
 def test_a_plugin_pytest_refuses_names_the_cause_and_the_ros_pytest_as_the_fix() -> None:
     case = Case("pytest.missing_result", "pkg", CaseOutcome.ERROR,
                 message="pytest exited with code 3 without writing results", details=PLUGIN_TAIL)
-    [failure] = tooling_failures([case], "/venv/bin/python")
+    [failure] = tooling_failures([case], "/venv/bin/python", PYTEST.tool_cases)
     assert failure.what == "pytest exited with code 3 without writing results"
     assert failure.cause == ("PluginValidationError: Plugin 'launch_testing' for hook "
                              "'pytest_pycollect_makemodule'")
@@ -79,7 +84,7 @@ def test_the_summary_keeps_failing_tests_and_tooling_apart_and_names_missing_lin
                      (failure,), missing_linters=("ament_copyright",)),
         PackageTests("b", PackageStatus.FAILED, Counts(tests=1, errors=1), (plugin,),
                      log_dir=tmp_path / "log" / "b",
-                     tooling=tooling_failures([plugin], "/venv/bin/python")),
+                     tooling=tooling_failures([plugin], "/venv/bin/python", PYTEST.tool_cases)),
         PackageTests("c", PackageStatus.PASSED, Counts(tests=2, skipped=1),
                      missing_linters=("ament_copyright", "ament_xmllint")),
     ), seconds=1.0)

@@ -50,6 +50,30 @@ def _namespace_parameters(function: ast.FunctionDef) -> set[str]:
             if a.annotation is not None and "Namespace" in ast.unparse(a.annotation)}
 
 
+def _held(function: ast.FunctionDef, boundary: bool) -> set[str]:
+    """The names that hold the namespace in `function`, followed by data flow: its annotated
+    parameters (an entry's first parameter with or without annotation), and every name
+    assigned from one of them."""
+    held = _namespace_parameters(function)
+    every = [*function.args.posonlyargs, *function.args.args]
+    if boundary and every:
+        held.add(every[0].arg)
+    changed = bool(held)
+    while changed:
+        changed = False
+        for node in ast.walk(function):
+            value = node.value if isinstance(node, (ast.Assign, ast.AnnAssign,
+                                                    ast.NamedExpr)) else None
+            if not (isinstance(value, ast.Name) and value.id in held):
+                continue
+            targets = node.targets if isinstance(node, ast.Assign) else [node.target]
+            for target in targets:
+                if isinstance(target, ast.Name) and target.id not in held:
+                    held.add(target.id)
+                    changed = True
+    return held
+
+
 def _called_name(call: ast.Call) -> str:
     func = call.func
     return func.attr if isinstance(func, ast.Attribute) else \
@@ -70,8 +94,8 @@ def boundary_violations(module: str, path: Path, entries: set[tuple[str, str]]) 
         name = node.name
         boundary = (module, name) in entries or name.endswith("_from_args")
         parse_stage = (module, name) in PARSE_STAGE
-        held = _namespace_parameters(node)  # type: ignore[arg-type]
-        if held and not (boundary or parse_stage):
+        held = _held(node, boundary)  # type: ignore[arg-type]
+        if _namespace_parameters(node) and not (boundary or parse_stage):  # type: ignore[arg-type]
             found.append(f"{where}:{node.lineno} {name}() takes argparse's namespace below the "
                          "verb boundary: take a request instead")
         for call in (n for n in ast.walk(node) if isinstance(n, ast.Call)):
@@ -86,7 +110,8 @@ def boundary_violations(module: str, path: Path, entries: set[tuple[str, str]]) 
                              "the verb boundary")
             if parse_stage or not held:
                 continue
-            handed = [a for a in call.args if isinstance(a, ast.Name) and a.id in held]
+            handed = [a for a in [*call.args, *(k.value for k in call.keywords)]
+                      if isinstance(a, ast.Name) and a.id in held]
             if not handed:
                 continue
             if called == "getattr":
@@ -119,14 +144,19 @@ def test_the_boundary_check_finds_a_namespace_below_it(tmp_path: Path) -> None:
         "def work(request: int) -> int:\n"
         "    return request\n"
         "def unannotated(args) -> bool:\n"
-        "    return getattr(args, 'y', False)\n")
+        "    return getattr(args, 'y', False)\n"
+        "def run_other(parsed):\n"
+        "    options = parsed\n"
+        "    return unannotated(args=options)\n")
     found = boundary_violations("wsbuild.verbs.probe", module,
-                                {("wsbuild.verbs.probe", "run_probe")})
+                                {("wsbuild.verbs.probe", "run_probe"),
+                                 ("wsbuild.verbs.probe", "run_other")})
     assert [line.split(" ", 1)[1] for line in found] == [
         "run_probe() hands the namespace to helper(): hand it a request",
         "helper() takes argparse's namespace below the verb boundary: take a request instead",
         "helper() calls probe_from_args: the namespace is converted at the verb's entry only",
         "unannotated() reads options with getattr below the verb boundary",
+        "run_other() hands the namespace to unannotated(): hand it a request",
     ]
 
 

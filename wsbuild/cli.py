@@ -126,9 +126,10 @@ class _Tree:
     """The verbs' subparsers while build_parser() fills them."""
 
     def __init__(self, subparsers: argparse._SubParsersAction,  # type: ignore[type-arg]
-                 pkg_arguments: bool) -> None:
+                 pkg_arguments: bool, plugin_options: bool) -> None:
         self.subparsers = subparsers
         self.pkg_arguments = pkg_arguments
+        self.plugin_options = plugin_options
 
     def verb(self, name: str, func: str, doc: str, *, selection: bool = True,
              operands: str = "") -> argparse.ArgumentParser:
@@ -150,12 +151,13 @@ class _Tree:
         return sub
 
 
-def build_parser(*, pkg_arguments: bool = True,
-                 verbs: Collection[str] | None = None) -> argparse.ArgumentParser:
+def build_parser(*, pkg_arguments: bool = True, verbs: Collection[str] | None = None,
+                 plugin_options: bool = True) -> argparse.ArgumentParser:
     """The argument tree: every verb, or (`verbs`) only those named (a command line needs
     the verb it runs, and those its defaults files set options for; the other verbs'
     modules are not even imported). `pkg_arguments=False` leaves out `pkg create`'s
-    options, whose defaults need the (slow to import) template machinery."""
+    options, whose defaults need the (slow to import) template machinery;
+    `plugin_options=False` the options of third-party build types, whose scan costs."""
     from wsbuild import inputs
     from wsbuild.verbs import colcon
 
@@ -174,7 +176,7 @@ def build_parser(*, pkg_arguments: bool = True,
     # not required: a bare `wsbuild` prints the verbs (main()), not argparse's complaint
     subparsers = parser.add_subparsers(dest="verb", metavar="VERB", title="verbs")
     parser._action_groups.insert(0, parser._action_groups.pop())  # the verbs come first
-    tree = _Tree(subparsers, pkg_arguments)
+    tree = _Tree(subparsers, pkg_arguments, plugin_options)
     for name in VERBS:
         if verbs is None or name in verbs:
             _ADDERS.get(name, _mirrored_parser)(tree, name)
@@ -213,6 +215,9 @@ def _mirrored_parser(tree: _Tree, name: str) -> None:
     sub = tree.verb(name, f"wsbuild.verbs.{module_name}:{run}", getattr(module, doc),
                     operands=operands)
     getattr(module, own_arguments)(sub)
+    type_arguments = getattr(module, "add_type_arguments", None)
+    if type_arguments is not None:  # the build types' own options
+        type_arguments(sub, plugins=tree.plugin_options)
     getattr(colcon, f"add_{name}_arguments")(sub)
 
 
@@ -351,7 +356,7 @@ def _known_long_options(argv: Sequence[str]) -> set[str]:
     `test --ctest-args --verbose` passes `--verbose` on, although test-result has one)."""
     from wsbuild.verbs.defaults import chosen_verb, verb_parsers
 
-    parser = build_parser(pkg_arguments=False, verbs=verbs_named(argv))
+    parser = build_parser(pkg_arguments=False, verbs=verbs_named(argv), plugin_options=False)
     parsers = [parser, verb_parsers(parser).get(chosen_verb(parser, argv), parser)]
     names = {o for p in parsers for a in p._actions for o in a.option_strings  # no public walk
              if o.startswith("--")}
@@ -375,14 +380,18 @@ def parse_command_line(raw: list[str], environ: Mapping[str, str],
     if any(may_pass_through(item) for item in raw):
         raw = collect_passthrough(raw, _known_long_options(raw))
 
-    def make_parser(verbs_in_defaults: set[str]) -> argparse.ArgumentParser:
+    def make_parser(verbs_in_defaults: set[str], plugin_options: bool = False
+                    ) -> argparse.ArgumentParser:
         full = "pkg" in raw or any(v.split(".")[0] == "pkg" for v in verbs_in_defaults)
-        return build_parser(pkg_arguments=full, verbs=verbs_named(raw, verbs_in_defaults))
+        return build_parser(pkg_arguments=full, verbs=verbs_named(raw, verbs_in_defaults),
+                            plugin_options=plugin_options)
 
     def finish(parser: argparse.ArgumentParser, verb: str, args: argparse.Namespace) -> None:
         _finish(parser, verb, args, environ, cwd)
 
-    return parse_with_defaults(raw, environ, cwd, make_parser, finish=finish)
+    return parse_with_defaults(
+        raw, environ, cwd, make_parser, finish=finish,
+        make_full_parser=lambda verbs: make_parser(verbs, plugin_options=True))
 
 
 def main(argv: Sequence[str] | None = None) -> int:

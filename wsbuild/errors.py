@@ -79,13 +79,6 @@ class Interrupted(WsbuildError):
     exit_code = 130
 
 
-class EnvironmentFailure(WsbuildError):
-    """The machine, not wsbuild, failed: a full disk, a read-only or forbidden directory, a
-    program that is not installed (exit code 1, like a failed package)."""
-
-    exit_code = 1
-
-
 #: errno -> (what happened, what to do) for failures of the machine rather than of wsbuild
 _ENVIRONMENT_ERRNOS: dict[int, tuple[str, str]] = {
     errno.ENOSPC: ("no space left on device", "free space and build again"),

@@ -59,11 +59,23 @@ class Session:
     #: the outside files' and listings' digests taken in this run (record/outside.py)
     digests: Digests = field(default_factory=Digests)
     _environment: dict[str, str] | None = field(default=None)
+    _facts: dict[str, object] = field(default_factory=dict)
 
     @property
     def environ(self) -> Mapping[str, str]:
         """The environment every package's build or test starts from (the underlay applied)."""
         return self.underlay.environ
+
+    def facts(self, build_type: str) -> object:
+        """What a build type finds once per run (`BuildType.run_facts`: the tools it runs),
+        resolved when first asked for."""
+        if build_type not in self._facts:
+            from wsbuild.build_types import get_build_type
+
+            kind = get_build_type(build_type)
+            run_facts = getattr(kind, "run_facts", None)
+            self._facts[build_type] = run_facts(self.environ) if run_facts else None
+        return self._facts[build_type]
 
     @property
     def environment(self) -> Mapping[str, str]:

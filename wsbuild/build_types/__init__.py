@@ -11,7 +11,7 @@ asks which build type a package has:
 - `key_options(options)`: the build options that shape its output (they enter the build key);
 - `estimate_base`: the scheduler's guess of its cost before any build was recorded.
 Everything a step touches (paths, environment, options, subprocesses) comes from the
-`BuildContext`, so a unit test can hand in a recording fake; what a step reports back goes into
+`PackageContext`, so a unit test can hand in a recording fake; what a step reports back goes into
 the typed `BuildOutputs`. The built-in types register through the same entry-point group
 (`wsbuild.build_types`, in pyproject.toml) as another distribution's: `BuildTypeBase` gives a
 third-party type the defaults.
@@ -19,9 +19,8 @@ third-party type the defaults.
 
 from __future__ import annotations
 
-from collections.abc import Callable, Collection, Iterable, Iterator, Mapping, Sequence
-from contextlib import AbstractContextManager
-from dataclasses import asdict, dataclass, field
+from collections.abc import Callable, Collection, Iterator, Mapping, Sequence
+from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
 from typing import TYPE_CHECKING, Protocol
 
@@ -30,6 +29,7 @@ if TYPE_CHECKING:
 
     from wsbuild.build_types.test_runner import TestRunner
 
+from wsbuild import inputs
 from wsbuild.errors import ManifestError, WsbuildError
 from wsbuild.prefix.hooks import EnvironmentHooks
 from wsbuild.workspace.model import Package
@@ -47,33 +47,85 @@ BUILTIN_ENTRY_POINTS = {
     "python": "wsbuild.build_types.python:BUILD_TYPE",
 }
 BUILTIN = tuple(BUILTIN_ENTRY_POINTS)
+#: The options the built-in types declare (their `options`, a test holds them equal), named so
+#: that the command line's parser reads them without importing the build types.
+BUILTIN_OPTIONS = {
+    "cmake": "wsbuild.build_types.cmake_options:CMAKE_OPTIONS",
+    "ament_cmake": "wsbuild.build_types.cmake_options:AMENT_CMAKE_OPTIONS",
+}
+
+
+#: the kinds of value a build type's option holds: `switch` (given or not), `value` (one
+#: string; None when not given), `arguments` (a list handed through to a tool, which may begin
+#: with '-': `--cmake-args -DX=1 --`; () when not given)
+OPTION_KINDS = ("switch", "value", "arguments")
+
+
+@dataclass(frozen=True, slots=True)
+class TypeOption:
+    """An option of `wsbuild build` that a build type declares (`BuildType.options`), as
+    colcon's tasks declare theirs (`add_arguments`), but as data: the command line, `--help`,
+    the defaults files and mixins take it from here, its value reaches the packages of the
+    types that declare it (`BuildOptions.value`), and it enters their key when it shapes what
+    they install."""
+
+    #: the long option ("--cmake-args"); "" for a value the run sets (not on the command line)
+    flag: str
+    #: its name in `BuildOptions` and in a package's record (flag without dashes, '_' for '-')
+    dest: str
+    help: str = ""
+    kind: str = "value"
+    metavar: str = ""
+    #: it shapes what the package installs: its value is in the package's record and key
+    in_key: bool = True
+    #: given, it builds every package of the types that declare it (--cmake-force-configure)
+    forces_build: bool = False
+    #: listed by --help-all only
+    secondary: bool = False
+
+    def __post_init__(self) -> None:
+        if self.kind not in OPTION_KINDS:
+            raise ValueError(f"option {self.flag or self.dest}: kind must be one of "
+                             f"{', '.join(OPTION_KINDS)}, not {self.kind!r}")
+
+    @property
+    def default(self) -> object:
+        return {"switch": False, "value": None, "arguments": ()}[self.kind]
 
 
 @dataclass(frozen=True, slots=True)
 class BuildOptions:
-    """The options of `wsbuild build` that reach a package's build."""
+    """The options of `wsbuild build` that reach a package's build: the ones every build type
+    reads, and (`type_values`) those build types declare for their own packages."""
 
     symlink_install: bool = False
     merge_install: bool = False
-    cmake_args: tuple[str, ...] = ()
-    #: CMake arguments for ament_cmake packages only, after `cmake_args` (--ament-cmake-args)
-    ament_cmake_args: tuple[str, ...] = ()
-    cmake_target: str | None = None
-    cmake_clean_cache: bool = False
-    cmake_clean_first: bool = False
-    cmake_force_configure: bool = False
     #: parallel compile jobs this package may use (its share of the CPU budget)
     jobs: int = 1
     python_executable: str = ""
-    #: CMake arguments the underlay needs (e.g. the wheel venv's Python and libpython flags);
-    #: they come before the user's --cmake-args, so the user's win
-    underlay_cmake_args: tuple[str, ...] = ()
     #: compiler cache (sccache/ccache executable) CMake runs compilers through; "" for none
     compiler_launcher: str = ""
+    #: the values of the build types' own options (`TypeOption`), by dest, sorted; lists as
+    #: tuples (the options are hashable: planning works out a type's key options once)
+    type_values: tuple[tuple[str, object], ...] = ()
+
+    def value(self, option: TypeOption) -> object:
+        """The value of a build type's `option`: as given, else its default."""
+        for dest, value in self.type_values:
+            if dest == option.dest:
+                return value
+        return option.default
+
+    def with_values(self, values: Mapping[str, object]) -> BuildOptions:
+        """These options with the type options of `values` (by dest) set; lists as tuples."""
+        merged = dict(self.type_values)
+        merged.update({dest: tuple(value) if isinstance(value, list) else value
+                       for dest, value in values.items()})
+        return replace(self, type_values=tuple(sorted(merged.items())))
 
 
 class StepFailed(Exception):
-    """Raised by `BuildContext.run` (or a step) when a command fails."""
+    """Raised by `PackageContext.run` (or a step) when a command fails."""
 
     def __init__(self, message: str, *, command: Sequence[str] = (), cwd: Path | None = None,
                  env_delta: Mapping[str, str] | None = None, returncode: int | None = None) -> None:
@@ -116,8 +168,10 @@ class BuildOutputs:
 
 
 @dataclass(slots=True)
-class BuildContext:
-    """What a build type gets to work with. `stage_prefix` becomes `install_prefix` on success."""
+class PackageContext:
+    """What a build type gets to work with for one package, made by one function
+    (`package_context`, for the build, `--dry-run` and the by-hand commands alike).
+    `stage_prefix` becomes `install_prefix` on success."""
 
     package: Package
     build_dir: Path
@@ -136,10 +190,34 @@ class BuildContext:
     #: `environ["MAKEFLAGS"]` holds the file-descriptor form GNU make 4.3 understands
     jobserver_fifo: Path | None = None
     outputs: BuildOutputs = field(default_factory=BuildOutputs)
+    #: what its build type found once for the whole run (`BuildType.run_facts`: the tools it
+    #: runs, e.g. Ninja and its version)
+    facts: object = None
+    #: what its build type found in the build directory when the context was made
+    #: (`BuildType.read_state`: e.g. CMake's cache and the last configure's record); the
+    #: steps are decided from it, so `steps()` reads nothing itself
+    state: object = None
 
     @property
     def source_dir(self) -> Path:
         return self.package.path
+
+
+def package_context(build_type: BuildType, *, package: Package, build_dir: Path,
+                    install_prefix: Path, stage_prefix: Path, options: BuildOptions,
+                    environ: Mapping[str, str], run: Runner, warn: Callable[[str], None],
+                    dependency_prefixes: Sequence[Path] = (), jobserver_fifo: Path | None = None,
+                    facts: object = None) -> PackageContext:
+    """The one function that makes a package's context: the build's, `--dry-run`'s and the
+    by-hand command's (builder/context.py works out the environment and options of the first
+    two, by_hand.py takes them from its command line). The build type reads the state of the
+    build directory here, once (`read_state`); `facts` are its run's (`run_facts`)."""
+    read_state = getattr(build_type, "read_state", None)
+    return PackageContext(
+        package=package, build_dir=build_dir, install_prefix=install_prefix,
+        stage_prefix=stage_prefix, options=options, environ=dict(environ), run=run, warn=warn,
+        dependency_prefixes=tuple(dependency_prefixes), jobserver_fifo=jobserver_fifo,
+        facts=facts, state=read_state(build_dir) if read_state is not None else None)
 
 
 @dataclass(frozen=True, slots=True)
@@ -161,21 +239,19 @@ class Command:
 @dataclass(frozen=True, slots=True)
 class Step:
     """One labelled step of a build type's recipe, as data: the engine runs it, `--dry-run`
-    prints it. Either a `command`, or an in-process `action` (`Step(label, action)`, the form
-    a third-party type may keep) with a `description` of what it does; `by_hand`, when known,
-    is the command that does the same from a shell. `before`, `around` and `after` are
-    in-process bookkeeping around the command (the stage, a configure record) that a by-hand
-    run does not need."""
+    prints it. Either a `command`, or work wsbuild does in its own process (an `action`:
+    `Step(label, action)`, with a `description` of it and, where it matters, what it reads
+    and writes); `by_hand`, when known, is the command that does the same from a shell. The
+    bookkeeping around a command (dropping a stale CMake cache, parking the previous install,
+    moving an install into the stage, writing the configure record) is such a step of its
+    own, so `--dry-run` shows it: `(in wsbuild) remove the cache of another generator: …`."""
 
     label: str
-    action: Callable[[BuildContext], None] | None = None
+    action: Callable[[PackageContext], None] | None = None
     command: Command | None = None
     description: str = ""
     by_hand: Command | None = None
-    before: Callable[[BuildContext], None] | None = None
-    around: Callable[[BuildContext], AbstractContextManager[None]] | None = None
-    after: Callable[[BuildContext], None] | None = None
-    #: what it reads and writes, where known (informational: printed by `--dry-run --json`)
+    #: what it reads and writes, where known (printed by `--dry-run`)
     reads: tuple[Path, ...] = ()
     writes: tuple[Path, ...] = ()
 
@@ -198,15 +274,19 @@ class BuildType(Protocol):
     hooks: EnvironmentHooks
     estimate_base: float
 
-    def steps(self, ctx: BuildContext) -> list[Step]:
-        """The labelled steps that build and stage the package."""
+    def steps(self, ctx: PackageContext) -> list[Step]:
+        """The labelled steps that build and stage the package: decided from the context
+        alone (its options, environment, `facts` and `state`), reading and running nothing."""
         ...
+
+    #: the options of `wsbuild build` it declares for its packages (() for none)
+    options: tuple[TypeOption, ...]
 
     def key_options(self, options: BuildOptions) -> dict[str, object]:
         """The options that shape what this build type installs (they enter the build key)."""
         ...
 
-    def external_inputs(self, ctx: BuildContext) -> ReadOutside | list[str] | None:
+    def external_inputs(self, ctx: PackageContext) -> ReadOutside | list[str] | None:
         """After a build: what its build system read outside the package (from the build
         system's own dependency lists), recorded in the package's record so that a change to
         one rebuilds it; None when the build cannot tell (a dependency's rebuild then always
@@ -215,11 +295,15 @@ class BuildType(Protocol):
         ...
 
 
-#: options that change how a build runs, never what it installs
-_RUN_ONLY_OPTIONS = ("jobs", "compiler_launcher")
-#: options only CMake reads
-_CMAKE_OPTIONS = ("cmake_args", "ament_cmake_args", "cmake_target", "cmake_clean_cache",
-                  "cmake_clean_first", "cmake_force_configure", "underlay_cmake_args")
+#: the options every build type reads that change how a build runs, never what it installs
+_RUN_ONLY_OPTIONS = ("jobs", "compiler_launcher", "type_values")
+
+
+def key_options(options: BuildOptions, declared: Sequence[TypeOption]) -> dict[str, object]:
+    """The options that shape a package's output: the shared ones but those that only change
+    how it runs, and the `declared` options of its type that count (`in_key`)."""
+    shared = {k: v for k, v in asdict(options).items() if k not in _RUN_ONLY_OPTIONS}
+    return {**shared, **{o.dest: options.value(o) for o in declared if o.in_key}}
 
 
 class RunnerNamed:
@@ -244,6 +328,16 @@ class BuildTypeBase:
     name: str = ""
     hooks: EnvironmentHooks = EnvironmentHooks()
     estimate_base: float = 0.3
+    #: its own options of `wsbuild build` (TypeOption): none
+    options: tuple[TypeOption, ...] = ()
+
+    def run_facts(self, environ: Mapping[str, str]) -> object:
+        """What the type needs to know once per run (the tools it runs): none."""
+        return None
+
+    def read_state(self, build_dir: Path) -> object:
+        """What the type needs to know of a package's build directory: nothing."""
+        return None
 
     @property
     def test_runner(self) -> TestRunner | None:
@@ -251,22 +345,17 @@ class BuildTypeBase:
         built-ins: a build that runs no test imports no runner)."""
         return None
 
-    def steps(self, ctx: BuildContext) -> list[Step]:
+    def steps(self, ctx: PackageContext) -> list[Step]:
         raise NotImplementedError(f"build type '{self.name}' defines no steps")
 
     def key_options(self, options: BuildOptions) -> dict[str, object]:
-        return {k: v for k, v in asdict(options).items()
-                if k not in _RUN_ONLY_OPTIONS and k not in _CMAKE_OPTIONS}
+        """The shared options that shape the output, and its own that do."""
+        return key_options(options, self.options)
 
-    def external_inputs(self, ctx: BuildContext) -> ReadOutside | list[str] | None:
+    def external_inputs(self, ctx: PackageContext) -> ReadOutside | list[str] | None:
         """What the steps reported reading outside the package (`ctx.outputs.read_outside`:
         the Python builds' setup.py, by an audit hook), else None."""
         return ctx.outputs.read_outside
-
-
-def cmake_key_options(options: BuildOptions) -> dict[str, object]:
-    """The key options of a CMake project: every option but the run-only ones."""
-    return {k: v for k, v in asdict(options).items() if k not in _RUN_ONLY_OPTIONS}
 
 
 _loaded: dict[str, BuildType] = {}
@@ -316,6 +405,33 @@ def _load_entry_point(value: str) -> object:
     return loaded
 
 
+def declared_options(*, plugins: bool) -> list[tuple[str, tuple[TypeOption, ...]]]:
+    """(build type, the options it declares) of each type that declares some: the built-in
+    ones, and (`plugins`) those of every installed third-party type (which scanning the
+    installed distributions costs). An option two types declare must be declared alike."""
+    declared = [(name, tuple(_load_entry_point(value)))  # type: ignore[call-overload]
+                for name, value in BUILTIN_OPTIONS.items()]
+    if plugins:
+        for entry in sorted(_entry_points(), key=lambda ep: ep.name):
+            own = tuple(getattr(get_build_type(entry.name), "options", ()))
+            if own:
+                declared.append((entry.name, own))
+    seen: dict[str, tuple[str, TypeOption]] = {}
+    for name, options in declared:
+        for option in options:
+            for word in (option.flag, option.dest):
+                if not word:
+                    continue
+                first = seen.setdefault(word, (name, option))
+                if first[1] != option:
+                    raise WsbuildError(
+                        f"build type '{name}' declares the option {word} unlike build type "
+                        f"'{first[0]}'",
+                        hint="a build type names its own options (e.g. --<type>-args); "
+                             "uninstall one of the two distributions")
+    return declared
+
+
 _REQUIRED = ("name", "steps", "test_runner", "hooks", "estimate_base", "key_options")
 
 
@@ -338,7 +454,12 @@ def _checked(loaded: object, name: str, value: str) -> BuildType:
 def _entry_points() -> Sequence[EntryPoint]:
     from importlib.metadata import entry_points
 
-    return [ep for ep in entry_points(group=ENTRY_POINT_GROUP) if ep.name not in BUILTIN]
+    found = [ep for ep in entry_points(group=ENTRY_POINT_GROUP) if ep.name not in BUILTIN]
+    for ep in found:  # which types there are, and where from: an input of the plan
+        where = getattr(ep.dist, "_path", None)
+        if where is not None:
+            inputs.declare_file(Path(where) / "entry_points.txt")
+    return found
 
 
 class KnownBuildTypes(Collection[str]):

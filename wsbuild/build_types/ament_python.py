@@ -1,4 +1,5 @@
-"""The `ament_python` build type: the `python` recipe plus the ament index marker and package.xml.
+"""The `ament_python` build type: the `python` recipe plus the ament index marker and package.xml
+(build_types/pybuild/index.py), which it hands the recipe as its extra step.
 
 Like colcon-ros, a package whose setup.py forgets to install the marker
 `share/ament_index/resource_index/packages/<pkg>` or `share/<pkg>/package.xml` still gets
@@ -8,13 +9,10 @@ them, with a warning that says what to add to `data_files`.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from pathlib import PurePosixPath
 
-from wsbuild.build_types import BuildContext, BuildTypeBase, RunnerNamed, Step, StepFailed
+from wsbuild.build_types import PackageContext, BuildTypeBase, RunnerNamed, Step
 from wsbuild.build_types.python import python_steps
 from wsbuild.prefix.hooks import EnvironmentHooks
-
-INDEX_DIR = PurePosixPath("share/ament_index/resource_index/packages")
 
 
 @dataclass(frozen=True, slots=True)
@@ -24,40 +22,15 @@ class AmentPythonBuildType(BuildTypeBase):
 
     test_runner = RunnerNamed("wsbuild.build_types.pybuild.tests:PYTEST")
 
-    def steps(self, ctx: BuildContext) -> list[Step]:
-        return python_steps(ctx, ament=True)
+    def steps(self, ctx: PackageContext) -> list[Step]:
+        return python_steps(ctx, extra={"index": register})
 
 
 BUILD_TYPE = AmentPythonBuildType()
 
 
-def register(ctx: BuildContext) -> None:
-    """Install the ament index marker and package.xml if setup.py did not."""
-    from wsbuild.build_types.pybuild.install import StageWriter
-    from wsbuild.build_types.pybuild.recipe import origin_file
+def register(ctx: PackageContext) -> None:
+    """The `index` step: the ament index marker and package.xml, if setup.py did not."""
+    from wsbuild.build_types.pybuild.index import register as install_index
 
-    name = ctx.package.name
-    writer = StageWriter(ctx.stage_prefix)
-    origin = origin_file(ctx.source_dir).name
-    marker = INDEX_DIR / name
-    if not _installed(ctx, marker):
-        writer.write(marker, b"")
-        ctx.warn(f"{origin} does not install the ament index marker; wsbuild installed "
-                 f"{marker} anyway. Create an empty file resource/{name} and add "
-                 f"('{INDEX_DIR}', ['resource/{name}']) to data_files in {origin}")
-    manifest = PurePosixPath("share", name, "package.xml")
-    if not _installed(ctx, manifest):
-        source = (ctx.package.manifest or ctx.source_dir / "package.xml").absolute()
-        if not source.is_file():
-            raise StepFailed(f"{ctx.source_dir}: no package.xml to install")
-        if ctx.options.symlink_install:
-            writer.symlink(source, manifest)
-        else:
-            writer.copy(source, manifest)
-        ctx.warn(f"{origin} does not install package.xml; wsbuild installed {manifest} "
-                 f"anyway. Add ('share/{name}', ['package.xml']) to data_files in {origin}")
-
-
-def _installed(ctx: BuildContext, relpath: PurePosixPath) -> bool:
-    path = ctx.stage_prefix / relpath
-    return path.is_symlink() or path.exists()
+    install_index(ctx)

@@ -16,37 +16,41 @@ names (`WSBUILD_LOCAL_GATE_CMAKE`, given to CMake as `CMAKE_PROJECT_INCLUDE`).
 
 from __future__ import annotations
 
+import functools
 import json
 import os
-import re
 import shutil
-import subprocess
-import sys
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 from wsbuild.build_types import (
-    BuildContext,
+    PackageContext,
     BuildOptions,
     Command,
     ReadOutside,
     RunnerNamed,
     Step,
-    cmake_key_options,
+    TypeOption,
+    key_options,
 )
+from wsbuild.build_types.cmake_facts import (
+    CONFIGURE_RECORD,
+    CMakeFacts,
+    CMakeState,
+    NinjaTool,
+    find_ninja,
+    read_cmake_state,
+    user_generator,
+)
+from wsbuild.build_types.cmake_options import CMAKE_OPTIONS, CMakeOptions
 from wsbuild.prefix.hooks import EnvironmentHooks
-from wsbuild.prefix.stage import direct_install
 
 
-#: what the last configure used, to know when to configure again
-CONFIGURE_RECORD = Path(".wsbuild") / "cmake_configure.json"
 NINJA = "Ninja"
 #: CMake's default generator on this platform, when nobody chooses one
 DEFAULT_GENERATOR = "Unix Makefiles"
-#: the first Ninja release that is a GNU make jobserver client
-NINJA_JOBSERVER = (1, 13)
 LAUNCHED_LANGUAGES = ("C", "CXX")
 #: the local gate's CMake file of a distributed build (builder/distribute.py)
 LOCAL_GATE_VAR = "WSBUILD_LOCAL_GATE_CMAKE"
@@ -56,69 +60,6 @@ COMPILER_ENVIRONMENT = ("CC", "CXX", "CFLAGS", "CXXFLAGS", "CPPFLAGS", "LDFLAGS"
 #: what wsbuild sets in a build's environment for one run only (the jobserver, the compiler
 #: cache's and distcc's private files): not what a configure depends on
 _RUN_ONLY_ENVIRONMENT = ("MAKEFLAGS", "CCACHE_*", "SCCACHE_*", "DISTCC_*")
-
-
-@dataclass(frozen=True, slots=True)
-class NinjaTool:
-    path: Path
-    version: tuple[int, ...]
-
-    @property
-    def jobserver(self) -> bool:
-        return self.version >= NINJA_JOBSERVER
-
-
-_ninja_found: dict[tuple[str, ...], NinjaTool | None] = {}
-
-
-def _ninja_version(path: Path) -> tuple[int, ...] | None:
-    try:
-        done = subprocess.run([str(path), "--version"], capture_output=True, text=True,
-                              timeout=30, check=False)
-    except (OSError, subprocess.TimeoutExpired):
-        return None
-    match = re.match(r"(\d+(?:\.\d+)*)", done.stdout.strip())
-    if done.returncode != 0 or not match:
-        return None
-    return tuple(int(part) for part in match.group(1).split("."))
-
-
-def find_ninja(environ: Mapping[str, str]) -> NinjaTool | None:
-    """The `ninja` to build with: the first jobserver client (≥ 1.13) among those on PATH and
-    next to wsbuild's interpreter, else the first one found; None when there is none."""
-    candidates: list[Path] = []
-    for directory in [*environ.get("PATH", "").split(os.pathsep), str(Path(sys.executable).parent)]:
-        if directory:
-            path = Path(directory) / "ninja"
-            if path not in candidates and path.is_file() and os.access(path, os.X_OK):
-                candidates.append(path)
-    key = tuple(str(c) for c in candidates)
-    if key not in _ninja_found:
-        tools = [NinjaTool(c, v) for c in candidates if (v := _ninja_version(c)) is not None]
-        _ninja_found[key] = next((t for t in tools if t.jobserver), tools[0] if tools else None)
-    return _ninja_found[key]
-
-
-def user_generator(cmake_args: Sequence[str], environ: Mapping[str, str]) -> str | None:
-    """The generator the user chose: `-G X` / `-GX` in --cmake-args (the last wins), else
-    CMake's own `CMAKE_GENERATOR` variable."""
-    chosen = None
-    for index, arg in enumerate(cmake_args):
-        if arg == "-G" and index + 1 < len(cmake_args):
-            chosen = cmake_args[index + 1]
-        elif arg.startswith("-G") and len(arg) > 2:
-            chosen = arg[2:]
-    return chosen or environ.get("CMAKE_GENERATOR") or None
-
-
-def cached_generator(build_dir: Path) -> str | None:
-    """The generator a build directory was configured with (from its CMakeCache.txt)."""
-    try:
-        text = (build_dir / "CMakeCache.txt").read_text(errors="replace")
-    except OSError:
-        return None
-    match = re.search(r"^CMAKE_GENERATOR:INTERNAL=(.*)$", text, re.MULTILINE)
-    return match.group(1).strip() if match else None
 
 
 def _compiler_digests(environ: Mapping[str, str]) -> dict[str, str | None]:
@@ -133,7 +74,7 @@ def _defines(cmake_args: Sequence[str], name: str) -> bool:
     return any(a.startswith((f"-D{name}=", f"-D{name}:")) for a in cmake_args)
 
 
-def _manifest_files(ctx: BuildContext) -> list[str]:
+def _manifest_files(ctx: PackageContext) -> list[str]:
     files: list[str] = []
     for name in ("install_manifest.txt", "symlink_install_manifest.txt"):
         path = ctx.build_dir / name
@@ -144,6 +85,11 @@ def _manifest_files(ctx: BuildContext) -> list[str]:
     return sorted(set(files))
 
 
+def cmake_options(ctx: PackageContext) -> CMakeOptions:
+    """The package's own CMake options (--cmake-args, …) as its context holds them."""
+    return CMakeOptions.of(ctx.options)
+
+
 @dataclass(frozen=True, slots=True)
 class CMakeBuildType:
     name: str = "cmake"
@@ -152,19 +98,31 @@ class CMakeBuildType:
     estimate_base: float = 1.5
     test_runner = RunnerNamed("wsbuild.build_types.ctest:CTEST")
 
-    def key_options(self, options: BuildOptions) -> dict[str, object]:
-        # --ament-cmake-args reach ament_cmake packages only (AmentCMakeBuildType)
-        return {k: v for k, v in cmake_key_options(options).items() if k != "ament_cmake_args"}
+    #: --cmake-args, --cmake-target, … (cmake_options.py)
+    options: tuple[TypeOption, ...] = CMAKE_OPTIONS
 
-    def steps(self, ctx: BuildContext) -> list[Step]:
+    def key_options(self, options: BuildOptions) -> dict[str, object]:
+        return key_options(options, self.options)
+
+    def run_facts(self, environ: Mapping[str, str]) -> CMakeFacts:
+        return CMakeFacts(find_ninja(environ))
+
+    def read_state(self, build_dir: Path) -> CMakeState:
+        return read_cmake_state(build_dir)
+
+    def steps(self, ctx: PackageContext) -> list[Step]:
+        """Configure when needed (with what must go first and the record after it), build,
+        install: decided from the context's facts and state, reading nothing."""
         steps = []
         if self.needs_configure(ctx):
+            steps += self.prepare_configure_steps(ctx)
             steps.append(self.configure_step(ctx))
+            steps.append(self.configure_record_step(ctx))
         steps.append(self.build_step(ctx))
-        steps.append(self.install_step(ctx))
+        steps += self.install_steps(ctx)
         return steps
 
-    def configure_args(self, ctx: BuildContext) -> list[str]:
+    def configure_args(self, ctx: PackageContext) -> list[str]:
         python = ctx.options.python_executable
         args = [
             # wsbuild passes Python hints every project may ignore: don't warn about them
@@ -174,45 +132,55 @@ class CMakeBuildType:
             "-DCMAKE_EXPORT_COMPILE_COMMANDS=ON",
             f"-DPYTHON_EXECUTABLE={python}",
         ]
-        if not any(a.startswith("-DPython3_EXECUTABLE=") for a in ctx.options.underlay_cmake_args):
+        own = cmake_options(ctx)
+        if not any(a.startswith("-DPython3_EXECUTABLE=") for a in own.underlay_args):
             args.append(f"-DPython3_EXECUTABLE={python}")
         args += self.launcher_args(ctx)
-        return [*args, *ctx.options.underlay_cmake_args, *ctx.options.cmake_args]
+        return [*args, *own.underlay_args, *own.args]
 
-    def generator(self, ctx: BuildContext) -> str:
+    def ninja(self, ctx: PackageContext) -> NinjaTool | None:
+        """The run's Ninja (its facts; found now for a context made without them)."""
+        facts = ctx.facts if isinstance(ctx.facts, CMakeFacts) else self.run_facts(ctx.environ)
+        return facts.ninja
+
+    def state(self, ctx: PackageContext) -> CMakeState:
+        """What the build directory held when the context was made."""
+        return ctx.state if isinstance(ctx.state, CMakeState) else read_cmake_state(ctx.build_dir)
+
+    def generator(self, ctx: PackageContext) -> str:
         """The generator this configure uses (the user's, else Ninja when found, else CMake's
         default)."""
-        chosen = user_generator(ctx.options.cmake_args, ctx.environ)
+        chosen = user_generator(cmake_options(ctx).args, ctx.environ)
         if chosen:
             return chosen
-        return NINJA if find_ninja(ctx.environ) is not None else DEFAULT_GENERATOR
+        return NINJA if self.ninja(ctx) is not None else DEFAULT_GENERATOR
 
-    def generator_args(self, ctx: BuildContext) -> list[str]:
+    def generator_args(self, ctx: PackageContext) -> list[str]:
         args = []
-        user = user_generator(ctx.options.cmake_args, ctx.environ)
-        ninja = find_ninja(ctx.environ)
+        user = user_generator(cmake_options(ctx).args, ctx.environ)
+        ninja = self.ninja(ctx)
         if user is None and ninja is not None:
             args += ["-G", NINJA]
         if ninja is not None and (user or NINJA) == NINJA \
-                and not _defines(ctx.options.cmake_args, "CMAKE_MAKE_PROGRAM"):
+                and not _defines(cmake_options(ctx).args, "CMAKE_MAKE_PROGRAM"):
             # the ninja whose version decided how it shares the CPU budget
             args.append(f"-DCMAKE_MAKE_PROGRAM={ninja.path}")
         return args
 
-    def launcher_args(self, ctx: BuildContext) -> list[str]:
+    def launcher_args(self, ctx: PackageContext) -> list[str]:
         """The compiler cache as C/C++ compiler launcher; without one, a launcher an earlier
         configure left in the cache is removed (the user's own --cmake-args always win)."""
         args = []
         for language in LAUNCHED_LANGUAGES:
             name = f"CMAKE_{language}_COMPILER_LAUNCHER"
-            if _defines(ctx.options.cmake_args, name):
+            if _defines(cmake_options(ctx).args, name):
                 continue
             if ctx.options.compiler_launcher:
                 args.append(f"-D{name}={ctx.options.compiler_launcher}")
             else:
                 args.append(f"-U{name}")
         gate = ctx.environ.get(LOCAL_GATE_VAR, "")
-        if gate and not _defines(ctx.options.cmake_args, "CMAKE_PROJECT_INCLUDE"):
+        if gate and not _defines(cmake_options(ctx).args, "CMAKE_PROJECT_INCLUDE"):
             args.append(f"-DCMAKE_PROJECT_INCLUDE={gate}")
         elif not gate and self._gate_configured(ctx):
             # a distributed build's gate goes away; kept in later records, so that a local
@@ -220,14 +188,14 @@ class CMakeBuildType:
             args.append("-UCMAKE_PROJECT_INCLUDE")
         return args
 
-    def _gate_configured(self, ctx: BuildContext) -> bool:
-        record = self._read_record(ctx)
-        previous = record.get("args", []) if isinstance(record, dict) else []
+    def _gate_configured(self, ctx: PackageContext) -> bool:
+        record = self.state(ctx).record
+        previous = record.get("args", []) if record is not None else []
         return any(a == "-UCMAKE_PROJECT_INCLUDE" or (
             a.startswith("-DCMAKE_PROJECT_INCLUDE=") and a.endswith("local_gate.cmake"))
             for a in previous if isinstance(a, str))
 
-    def build_environ(self, ctx: BuildContext) -> dict[str, str]:
+    def build_environ(self, ctx: PackageContext) -> dict[str, str]:
         """The package environment for configure and build, plus: Ninja ≥ 1.13 joins the
         jobserver through its FIFO (it does not take the descriptor form make uses); and
         Python's string hashing is fixed unless the user chose a seed, so code generators that
@@ -239,36 +207,35 @@ class CMakeBuildType:
             env["MAKEFLAGS"] = f"-j --jobserver-auth=fifo:{ctx.jobserver_fifo}"
         return env
 
-    def _ninja_joins_jobserver(self, ctx: BuildContext) -> bool:
+    def _ninja_joins_jobserver(self, ctx: PackageContext) -> bool:
         if self.generator(ctx) != NINJA or ctx.jobserver_fifo is None:
             return False
-        ninja = find_ninja(ctx.environ)
+        ninja = self.ninja(ctx)
         return ninja is not None and ninja.jobserver
 
-    def parallel_args(self, ctx: BuildContext) -> list[str]:
+    def parallel_args(self, ctx: PackageContext) -> list[str]:
         """A Ninja that cannot join the jobserver gets a fixed share of the CPU budget."""
         if self.generator(ctx) != NINJA or self._ninja_joins_jobserver(ctx):
             return []
         return ["--parallel", str(max(1, ctx.options.jobs))]
 
-    def external_inputs(self, ctx: BuildContext) -> ReadOutside:
+    def external_inputs(self, ctx: PackageContext) -> ReadOutside:
         """What CMake's regeneration list, the build rules, the depfiles, the compiler's
         dependency lists, the verified globs and the install script name outside the package,
         and the programs the build ran (build_types/cmake_inputs.py)."""
         from wsbuild.build_types.cmake_inputs import external_inputs
 
-        ninja = find_ninja(ctx.environ)
+        ninja = self.ninja(ctx)
         return external_inputs(ctx.build_dir, ctx.source_dir, ninja.path if ninja else None)
 
-    def needs_configure(self, ctx: BuildContext) -> bool:
-        cache = ctx.build_dir / "CMakeCache.txt"
-        if ctx.options.cmake_clean_cache or ctx.options.cmake_force_configure:
+    def needs_configure(self, ctx: PackageContext) -> bool:
+        own = cmake_options(ctx)
+        if own.clean_cache or own.force_configure:
             return True
-        if not cache.exists():
-            return True
-        return self._record(ctx) != self._read_record(ctx)
+        state = self.state(ctx)
+        return not state.cache or self._record(ctx) != state.record
 
-    def _record(self, ctx: BuildContext) -> dict[str, Any]:
+    def _record(self, ctx: PackageContext) -> dict[str, Any]:
         """What decides whether to configure again: the source, the arguments, the compilers'
         variables (a change configures from scratch) and every other variable a
         CMakeLists.txt may read with $ENV{} (a change configures again: CMake does not
@@ -279,71 +246,91 @@ class CMakeBuildType:
                 "environment": _compiler_digests(ctx.environ),
                 "variables": environment_digests(ctx.environ, not_inputs=_RUN_ONLY_ENVIRONMENT)}
 
-    def _read_record(self, ctx: BuildContext) -> object:
-        try:
-            return json.loads((ctx.build_dir / CONFIGURE_RECORD).read_text())
-        except (OSError, ValueError):
-            return None
-
-    def configure_step(self, ctx: BuildContext) -> Step:
-        """`cmake SOURCE ARGS` in the build directory; before it, a cache of another generator
-        (or --cmake-clean-cache) goes and the configure record is dropped (a failed configure
-        is retried next time); after it, the record of these arguments is written."""
-        # the arguments (and the record) are decided before the old record goes
-        now = self._record(ctx)
-        args = now["args"]
-        env, run_env = self._build_env(ctx)
-        return Step("configure", command=Command(
-            ("cmake", str(ctx.source_dir), *args), ctx.build_dir, env=env, run_env=run_env,
-            problems=configure_problems),
-            description="drop a cache of another generator and the configure record first; "
-            "write the record after",
-            before=self._prepare_configure,
-            after=lambda context: _write_configure_record(context, now),
-            reads=(ctx.source_dir,), writes=(ctx.build_dir,))
-
-    def _prepare_configure(self, ctx: BuildContext) -> None:
-        cache = ctx.build_dir / "CMakeCache.txt"
-        previous = cached_generator(ctx.build_dir)
-        wanted = self.generator(ctx)
-        if previous is not None and previous != wanted and not ctx.options.cmake_clean_cache:
-            ctx.warn(f"{ctx.build_dir} was configured with the '{previous}' generator, this "
-                     f"build uses '{wanted}': configuring it from scratch")
-        before = self._read_record(ctx)
-        toolchain = _compiler_digests(ctx.environ)
-        changed = [name for name, digest in toolchain.items() if isinstance(before, dict)
-                   and isinstance(before.get("environment"), dict)
-                   and before["environment"].get(name) != digest]
-        if cache.exists() and changed:
-            ctx.warn(f"{', '.join(changed)} changed since {ctx.build_dir} was configured: "
-                     "configuring it from scratch (CMake reads them at the first configure)")
-        if cache.exists() and (ctx.options.cmake_clean_cache or changed
-                               or (previous is not None and previous != wanted)):
-            cache.unlink()
-            shutil.rmtree(ctx.build_dir / "CMakeFiles", ignore_errors=True)
-        (ctx.build_dir / CONFIGURE_RECORD).unlink(missing_ok=True)
+    def prepare_configure_steps(self, ctx: PackageContext) -> list[Step]:
+        """What goes before a configure: a cache CMake cannot configure again (made with
+        another generator, with other compilers, or --cmake-clean-cache), a build directory
+        built for the other install mode, and always the last configure's record (a configure
+        that fails is tried again next time: the record of the last one goes first)."""
+        steps = []
+        state = self.state(ctx)
+        build_dir = ctx.build_dir
+        why = self._from_scratch(ctx, state)
+        if state.cache and why:
+            description, warning = why
+            steps.append(Step(
+                "clean cache", functools.partial(_remove_cache, warning=warning),
+                description=f"remove the cache {description}",
+                by_hand=Command(("rm", "-rf", "--", "CMakeCache.txt", "CMakeFiles"), build_dir),
+                writes=(build_dir / "CMakeCache.txt", build_dir / "CMakeFiles")))
         switched = self.install_mode_switched(ctx)
         if switched:
-            ctx.warn(f"{ctx.build_dir} was built {switched}: building it from scratch")
-            empty_build_directory(ctx.build_dir)
+            steps.append(Step(
+                "empty build directory", functools.partial(_empty, why=switched),
+                description=f"empty the build directory (but wsbuild's records): it was built "
+                            f"{switched}", writes=(build_dir,)))
+        record = build_dir / CONFIGURE_RECORD
+        if state.record is not None:
+            steps.append(Step(
+                "forget configure", _forget_configure_record,
+                description="drop the last configure's record (a failed configure is tried "
+                            "again)",
+                by_hand=Command(("rm", "-f", "--", str(record)), build_dir), writes=(record,)))
+        return steps
 
-    def install_mode_switched(self, ctx: BuildContext) -> str:
+    def _from_scratch(self, ctx: PackageContext, state: CMakeState) -> tuple[str, str] | None:
+        """Why the cache must go before the configure, for the dry run and as the warning the
+        build shows (None when it need not)."""
+        if cmake_options(ctx).clean_cache:
+            return "(--cmake-clean-cache)", ""
+        wanted = self.generator(ctx)
+        if state.generator is not None and state.generator != wanted:
+            return (f"of another generator ({state.generator})",
+                    f"{ctx.build_dir} was configured with the '{state.generator}' generator, "
+                    f"this build uses '{wanted}': configuring it from scratch")
+        before = state.record.get("environment") if state.record is not None else None
+        if isinstance(before, dict):
+            changed = [name for name, digest in _compiler_digests(ctx.environ).items()
+                       if before.get(name) != digest]
+            if changed:
+                return (f"of other compilers ({', '.join(changed)} changed)",
+                        f"{', '.join(changed)} changed since {ctx.build_dir} was configured: "
+                        "configuring it from scratch (CMake reads them at the first configure)")
+        return None
+
+    def configure_step(self, ctx: PackageContext) -> Step:
+        """`cmake SOURCE ARGS` in the build directory."""
+        env, run_env = self._build_env(ctx)
+        return Step("configure", command=Command(
+            ("cmake", str(ctx.source_dir), *self.configure_args(ctx)), ctx.build_dir, env=env,
+            run_env=run_env, problems=configure_problems),
+            reads=(ctx.source_dir,), writes=(ctx.build_dir,))
+
+    def configure_record_step(self, ctx: PackageContext) -> Step:
+        """After a configure: the record of what it used, which decides the next one."""
+        record = ctx.build_dir / CONFIGURE_RECORD
+        return Step("configure record",
+                    functools.partial(_write_configure_record, record=self._record(ctx)),
+                    description="write what this configure used (its arguments, digests of "
+                                "the environment)", writes=(record,))
+
+    def install_mode_switched(self, ctx: PackageContext) -> str:
         """How the build directory was built, when it was for another install mode, whose
         leftovers break this build ("" when not): plain CMake has only one."""
         return ""
 
-    def build_step(self, ctx: BuildContext) -> Step:
+    def build_step(self, ctx: PackageContext) -> Step:
         command = ["cmake", "--build", str(ctx.build_dir), *self.parallel_args(ctx)]
-        if ctx.options.cmake_target:
-            command += ["--target", ctx.options.cmake_target]
-        if ctx.options.cmake_clean_first:
+        own = cmake_options(ctx)
+        if own.target:
+            command += ["--target", own.target]
+        if own.clean_first:
             command.append("--clean-first")
         env, run_env = self._build_env(ctx)
         return Step("build", command=Command(tuple(command), ctx.build_dir, env=env,
                                              run_env=run_env),
                     reads=(ctx.source_dir, ctx.build_dir), writes=(ctx.build_dir,))
 
-    def _build_env(self, ctx: BuildContext) -> tuple[dict[str, str], dict[str, str]]:
+    def _build_env(self, ctx: PackageContext) -> tuple[dict[str, str], dict[str, str]]:
         """What configure and build set on top of the package environment (kept in reproduce
         lines), and what only this run has (Ninja's jobserver FIFO)."""
         full = self.build_environ(ctx)
@@ -351,39 +338,48 @@ class CMakeBuildType:
         run_env = {k: changed.pop(k) for k in ("MAKEFLAGS",) if k in changed}
         return changed, run_env
 
-    def installs_in_place(self, ctx: BuildContext) -> bool:
+    def installs_in_place(self, ctx: PackageContext) -> bool:
         """Whether `cmake --install` ignores DESTDIR (ament's symlink install); plain CMake
         has no symlink install and always stages."""
         return False
 
-    def install_step(self, ctx: BuildContext) -> Step:
-        """`cmake --install`: into the prefix CMake was configured with. Isolated, wsbuild
-        parks the previous install and moves the new one into the stage afterwards; merged,
-        it stages through DESTDIR (this run's only: pasted by hand, it installs in place), or
-        (a symlink install, which ignores DESTDIR) keeps the manifests' list of what it wrote.
-        """
+    def install_steps(self, ctx: PackageContext) -> list[Step]:
+        """`cmake --install`: into the prefix CMake was configured with. Isolated, the previous
+        install is parked first and the new one moved into the stage after it (a failure puts
+        the previous one back); merged, it stages through DESTDIR (this run's only: pasted by
+        hand, it installs in place), or (a symlink install, which ignores DESTDIR) keeps the
+        manifests' list of what it wrote."""
         command = ("cmake", "--install", str(ctx.build_dir))
-        writes = (ctx.install_prefix,)
+        prefix = ctx.install_prefix
+        install = Step("install", command=Command(command, ctx.build_dir),
+                       reads=(ctx.build_dir,), writes=(prefix,))
         if ctx.options.merge_install and not self.installs_in_place(ctx):
             # the shared prefix cannot be swapped: stage through DESTDIR instead
             destdir = ctx.build_dir / ".wsbuild" / "destdir"
-            return Step("install", command=Command(command, ctx.build_dir,
-                                                   run_env={"DESTDIR": str(destdir)}),
-                        description="install through DESTDIR, then move it into the stage",
-                        before=lambda context: _remove_tree(destdir),
-                        after=lambda context: _take_destdir(context, destdir),
-                        reads=(ctx.build_dir,), writes=writes)
+            return [
+                Step("clear destdir", functools.partial(_remove_tree, path=destdir),
+                     description="remove what an earlier install left in DESTDIR",
+                     writes=(destdir,)),
+                Step("install", command=Command(command, ctx.build_dir,
+                                                run_env={"DESTDIR": str(destdir)}),
+                     reads=(ctx.build_dir,), writes=(destdir,)),
+                Step("stage", functools.partial(_take_destdir, destdir=destdir),
+                     description="move what the install put into DESTDIR into the stage",
+                     reads=(destdir,))]
         if ctx.options.merge_install:
             # symlink install into a merged prefix writes in place, as with colcon; the
             # manifests say what it wrote, so the merged record keeps (and later prunes) it
-            return Step("install", command=Command(command, ctx.build_dir),
-                        description="install in place; keep the manifests' list of files",
-                        after=_keep_installed_in_place, reads=(ctx.build_dir,), writes=writes)
-        return Step("install", command=Command(command, ctx.build_dir),
-                    description="park the previous install; move the new one into the stage",
-                    around=lambda context: direct_install(context.install_prefix,
-                                                          context.stage_prefix),
-                    reads=(ctx.build_dir,), writes=writes)
+            return [install, Step("keep manifest", _keep_installed_in_place,
+                                  description="keep the install manifests' list of files",
+                                  reads=(ctx.build_dir,))]
+        return [
+            Step("park install", park_install,
+                 description="park the previous install aside (a failure puts it back)",
+                 writes=(prefix,)),
+            install,
+            Step("stage", stage_direct_install,
+                 description="move the new install into the stage, put the previous one back",
+                 reads=(prefix,), writes=(prefix,))]
 
 
 #: what stays when a build directory is emptied: wsbuild's own records and markers
@@ -401,18 +397,36 @@ def empty_build_directory(build_dir: Path) -> None:
             os.unlink(entry.path)
 
 
-def _write_configure_record(ctx: BuildContext, record: Mapping[str, object]) -> None:
+def _remove_cache(ctx: PackageContext, *, warning: str) -> None:
+    if warning:
+        ctx.warn(warning)
+    (ctx.build_dir / "CMakeCache.txt").unlink(missing_ok=True)
+    shutil.rmtree(ctx.build_dir / "CMakeFiles", ignore_errors=True)
+
+
+def _empty(ctx: PackageContext, *, why: str) -> None:
+    ctx.warn(f"{ctx.build_dir} was built {why}: building it from scratch")
+    empty_build_directory(ctx.build_dir)
+
+
+def _forget_configure_record(ctx: PackageContext) -> None:
+    (ctx.build_dir / CONFIGURE_RECORD).unlink(missing_ok=True)
+
+
+def _write_configure_record(ctx: PackageContext, *, record: Mapping[str, object]) -> None:
+    from wsbuild.files import atomic_write, private_directory
+
     path = ctx.build_dir / CONFIGURE_RECORD
-    path.parent.mkdir(parents=True, exist_ok=True)
-    path.write_text(json.dumps(record, indent=1) + "\n")
+    private_directory(path.parent)
+    atomic_write(path, json.dumps(record, indent=1) + "\n", mode=0o600)
 
 
-def _remove_tree(path: Path) -> None:
+def _remove_tree(ctx: PackageContext, *, path: Path) -> None:
     if path.exists():
         shutil.rmtree(path)
 
 
-def _take_destdir(ctx: BuildContext, destdir: Path) -> None:
+def _take_destdir(ctx: PackageContext, *, destdir: Path) -> None:
     staged = destdir / str(ctx.install_prefix).lstrip(os.sep)
     if staged.exists():
         shutil.rmtree(ctx.stage_prefix)
@@ -420,8 +434,23 @@ def _take_destdir(ctx: BuildContext, destdir: Path) -> None:
     shutil.rmtree(destdir, ignore_errors=True)
 
 
-def _keep_installed_in_place(ctx: BuildContext) -> None:
+def _keep_installed_in_place(ctx: PackageContext) -> None:
     ctx.outputs.installed_in_place = tuple(_manifest_files(ctx))
+
+
+def park_install(ctx: PackageContext) -> None:
+    """Before an install that writes straight into the final prefix: the previous install
+    aside, a fresh prefix (prefix/stage.py)."""
+    from wsbuild.prefix.stage import park_previous_install
+
+    park_previous_install(ctx.install_prefix, ctx.stage_prefix)
+
+
+def stage_direct_install(ctx: PackageContext) -> None:
+    """After it: the new install into the stage, the previous one back."""
+    from wsbuild.prefix.stage import stage_direct_install as stage
+
+    stage(ctx.install_prefix, ctx.stage_prefix)
 
 
 def configure_problems(lines: list[str]) -> list[str]:

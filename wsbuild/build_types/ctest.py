@@ -9,7 +9,7 @@ import os
 import re
 import shlex
 import shutil
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, replace
 from pathlib import Path
 
@@ -57,6 +57,17 @@ class CTestRunner(TestRunnerBase):
 
         record = read_record(build_dir)
         return record is not None and not record.test_tree
+
+    @property
+    def tool_cases(self) -> frozenset[str]:
+        return frozenset({"ctest.exit_code", "ctest.result"})
+
+    def environment(self, env: Mapping[str, str], python_executable: str) -> dict[str, str]:
+        """The package's test environment, with the ROS tests' pytest first on PYTHONPATH for
+        the pytest tests CTest runs (ament_cmake_pytest)."""
+        from wsbuild.build_types.ros_pytest import with_ros_pytest
+
+        return with_ros_pytest(env, python_executable)
 
     def tests_in_build_tree(self, build_dir: Path) -> bool:
         """Whether a CTestTestfile.cmake of the tree declares a test (ament_cmake enables

@@ -6,10 +6,11 @@ that a package is up to date loads nothing of the Python packaging machinery.
 
 from __future__ import annotations
 
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
-from wsbuild.build_types import BuildContext, BuildTypeBase, RunnerNamed, Step
+from wsbuild.build_types import PackageContext, BuildTypeBase, RunnerNamed, Step
 
 if TYPE_CHECKING:
     from wsbuild.build_types.pybuild.recipe import PythonBuildPlan
@@ -21,7 +22,7 @@ class PythonBuildType(BuildTypeBase):
 
     test_runner = RunnerNamed("wsbuild.build_types.pybuild.tests:PYTEST")
 
-    def steps(self, ctx: BuildContext) -> list[Step]:
+    def steps(self, ctx: PackageContext) -> list[Step]:
         return python_steps(ctx)
 
 
@@ -34,12 +35,12 @@ class PythonBuild:
 
     plan: PythonBuildPlan | None = None
 
-    def configure(self, ctx: BuildContext) -> None:
+    def configure(self, ctx: PackageContext) -> None:
         from wsbuild.build_types.pybuild.recipe import configure
 
         self.plan = configure(ctx)
 
-    def install(self, ctx: BuildContext) -> None:
+    def install(self, ctx: PackageContext) -> None:
         from wsbuild.build_types.pybuild.recipe import install
 
         install(ctx, self.plan)
@@ -55,28 +56,30 @@ DESCRIPTIONS = {
 }
 
 
-def python_steps(ctx: BuildContext, *, ament: bool = False) -> list[Step]:
+def python_steps(ctx: PackageContext, *,
+                 extra: Mapping[str, Callable[[PackageContext], None]] | None = None) -> list[Step]:
     """The recipe's steps: in-process, because the helper stays warm across packages and the
-    files go straight into the stage; each with the by-hand command that does the same."""
-    from wsbuild.build_types.ament_python import register
+    files go straight into the stage; each with the by-hand command that does the same.
+    `extra`: a build type's own steps after `install` (ament_python's `index`)."""
+    from wsbuild.build_types.pybuild.by_hand import STEPS as BY_HAND_STEPS
     from wsbuild.build_types.pybuild.by_hand import by_hand_command
 
     build = PythonBuild()
-    actions = {"configure": build.configure, "install": build.install}
-    if ament:
-        actions["index"] = register
+    actions: dict[str, Callable[[PackageContext], None]] = {
+        "configure": build.configure, "install": build.install, **(extra or {})}
     actions["record"] = record
     source = ctx.source_dir.absolute()
     reads = {"configure": (source,), "install": (source, ctx.build_dir), "index": (source,),
              "record": (ctx.stage_prefix,)}
     writes = {"configure": (ctx.build_dir,), "install": (ctx.install_prefix,),
               "index": (ctx.install_prefix,), "record": (ctx.build_dir,)}
-    return [Step(label, action, description=DESCRIPTIONS[label],
-                 by_hand=by_hand_command(label, ctx), reads=reads[label], writes=writes[label])
+    return [Step(label, action, description=DESCRIPTIONS.get(label, label),
+                 by_hand=by_hand_command(label, ctx) if label in BY_HAND_STEPS else None,
+                 reads=reads.get(label, ()), writes=writes.get(label, ()))
             for label, action in actions.items()]
 
 
-def record(ctx: BuildContext) -> None:
+def record(ctx: PackageContext) -> None:
     """Keep the list of installed files in the build directory."""
     from wsbuild.build_types.pybuild.recipe import record as record_files
 

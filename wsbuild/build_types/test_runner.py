@@ -108,6 +108,18 @@ class TestRunner(Protocol):
         """What its tests observe beyond what every test run does (for the cached result)."""
         ...
 
+    def environment(self, env: Mapping[str, str], python_executable: str) -> dict[str, str]:
+        """The environment its tool runs in: the package's test environment (its install and
+        its dependencies' applied) and what the tool itself needs (pytest's runner: the ROS
+        tests' pytest first on PYTHONPATH)."""
+        ...
+
+    @property
+    def tool_cases(self) -> frozenset[str]:
+        """The names of the cases it writes when its tool itself failed (`tool_error`): the
+        summary tells them apart from failing tests (testing/tooling.py)."""
+        ...
+
     def command(self, ctx: TestContext) -> Command:
         """The command that runs the package's tests, as data (logged as a reproduce line)."""
         ...
@@ -135,6 +147,13 @@ class TestRunnerBase:
 
     def key_inputs(self, ctx: TestContext) -> KeyInputs:
         return KeyInputs()
+
+    def environment(self, env: Mapping[str, str], python_executable: str) -> dict[str, str]:
+        return dict(env)
+
+    @property
+    def tool_cases(self) -> frozenset[str]:
+        return frozenset()
 
     def command(self, ctx: TestContext) -> Command:
         raise NotImplementedError(f"test runner '{self.name}' defines no command")

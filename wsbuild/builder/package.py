@@ -7,15 +7,13 @@ from __future__ import annotations
 
 import os
 import shlex
-import signal
 import time
 from collections.abc import Mapping, Sequence
-from contextlib import nullcontext
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 from wsbuild.build_types import (
-    BuildContext,
+    PackageContext,
     BuildOptions,
     Problems,
     Step,
@@ -23,9 +21,11 @@ from wsbuild.build_types import (
     get_build_type,
 )
 from wsbuild.builder.compiler_cache import CompilerCache
+from wsbuild.builder.context import RUN_JOBSERVER
 from wsbuild.builder.step_trace import StepTraces
 from wsbuild.builder.distribute import Distribution
 from wsbuild.builder.plan import BUILDING_MARKER, Decision, PackagePlan
+from wsbuild.builder.failure import exit_text, interesting, log_tail
 from wsbuild.builder.reproduce import write_reproduce_script
 from wsbuild.engine.jobs import JobResult, Outcome, StepStarted
 from wsbuild.engine.jobserver import Jobserver
@@ -68,7 +68,7 @@ class PackageBuild:
     #: the wall clock at the start: an outside file changed since may have changed unseen
     started_ns: int = field(default_factory=time.time_ns)
     stage_prefix: Path | None = None
-    context: BuildContext | None = None
+    context: PackageContext | None = None
     warnings: list[str] = field(default_factory=list)
     #: the step running now, and the suite's build-step oracle (off: traces nothing)
     step: str = ""
@@ -142,7 +142,7 @@ class PackageBuild:
                           outputs=(self.build_dir, self.prefix, self._ctx().stage_prefix))
         self.store(record)
         return JobResult(self.name, Outcome.FINISHED, self._seconds(), log_dir=self.log_dir,
-                         message=reason, warnings=tuple(_interesting(self.warnings)))
+                         message=reason, warnings=tuple(interesting(self.warnings)))
 
     # ------------------------------------------------------------------------------ phases
 
@@ -178,41 +178,42 @@ class PackageBuild:
                          message=f"restored from cache{where}")
 
     def stage(self) -> None:
-        """Mark the build unfinished, make a fresh stage and the package's build context."""
-        from wsbuild.prefix import environment_for
+        """Mark the build unfinished, make a fresh stage and the package's context (the one
+        the plan decided its steps from, with the run's own resources: builder/context.py)."""
+        from wsbuild.builder.context import make_context
         from wsbuild.prefix import stage as staging
 
         self._mark_unfinished()
-        workspace = self.run.selection.workspace
-        self.stage_prefix = staging.new_stage(workspace.install_base, self.name)
-        closure = self.run.selection.graph.build_closure(self.name)
-        # the dependencies' prefixes, applied in dependency order (what sourcing them would do)
-        from wsbuild.prefix.layout import package_prefix
-
-        dependencies = [(package_prefix(workspace.install_base, dep, merged=self.run.session.merged),
-                         dep) for dep in self.run.order if dep in closure]
-        environ = environment_for(dependencies, self.run.session.environ)
-        environ["MAKEFLAGS"] = self.run.jobserver.makeflags
+        self.stage_prefix = staging.new_stage(self.run.selection.workspace.install_base,
+                                              self.name)
+        run_environ = {"MAKEFLAGS": self.run.jobserver.makeflags}
         if self.run.compilers is not None:
-            environ.update(self.run.compilers.environ)
-            environ.update(self.run.compilers.package_environ(self.name))
+            run_environ.update(self.run.compilers.environ)
+            run_environ.update(self.run.compilers.package_environ(self.name))
         if self.run.distribution is not None:
-            environ.update(self.run.distribution.environ)
-        self.context = BuildContext(
-            package=self.run.selection.packages[self.name],
-            build_dir=self.build_dir,
-            install_prefix=self.prefix,
-            stage_prefix=self.stage_prefix,
+            run_environ.update(self.run.distribution.environ)
+        self.context = make_context(
+            self.run.selection, self.run.session, self.name, prefix=self.prefix,
             options=self.planned.options.applied_to(self.run.options),
-            environ=environ,
-            run=self._run_command,
-            warn=self.warnings.append,
-            dependency_prefixes=tuple(prefix for prefix, _ in dependencies),
-            jobserver_fifo=self.run.jobserver.fifo,
-        )
+            stage_prefix=self.stage_prefix, run_environ=run_environ, run=self._run_command,
+            warn=self.warnings.append, jobserver_fifo=self.run.jobserver.fifo)
+
+    def steps(self) -> Sequence[Step]:
+        """The steps the plan decided; the build type is asked again with the build's context,
+        and when it decides otherwise (a dependency built in this run changed what the
+        package's environment holds, another compiler launcher), its answer is run and said
+        in the package's log."""
+        ctx = self._ctx()
+        now = get_build_type(ctx.package.build_type).steps(ctx)
+        if [_shape(step) for step in now] == [_shape(step) for step in self.planned.steps]:
+            return self.planned.steps
+        self._log("The steps differ from the plan's (what the package's build sees changed "
+                  "since): running " + ", ".join(step.label for step in now))
+        return now
 
     def run_steps(self) -> None:
-        """The build type's labelled steps, into the stage."""
+        """The package's labelled steps, into the stage: commands run as processes, the rest
+        in wsbuild's own process."""
         ctx = self._ctx()
         if self.run.compilers is not None:
             try:
@@ -220,25 +221,22 @@ class PackageBuild:
             except WsbuildError as exc:
                 raise StepFailed(f"{exc}") from None
         self._advance_changed_files()
-        for step in get_build_type(ctx.package.build_type).steps(ctx):
+        fifo = str(ctx.jobserver_fifo or "")
+        for step in self.steps():
             self.step = step.label
             self.run.emit(StepStarted(self.name, step.label))
-            if step.before is not None:
-                step.before(ctx)
-            with step.around(ctx) if step.around is not None else nullcontext():
-                if step.command is not None:
-                    command = step.command
-                    self._run_command(command.argv, cwd=command.cwd,
-                                      env={**ctx.environ, **command.env, **command.run_env},
-                                      problems=command.problems,
-                                      shown_env={**ctx.environ, **command.env})
-                else:
-                    assert step.action is not None
-                    self._run_action(step, ctx)
-            if step.after is not None:
-                step.after(ctx)
+            if step.command is not None:
+                command = step.command
+                run_env = {k: v.replace(str(RUN_JOBSERVER), fifo)
+                           for k, v in command.run_env.items()}
+                self._run_command(command.argv, cwd=command.cwd,
+                                  env={**ctx.environ, **command.env, **run_env},
+                                  problems=command.problems,
+                                  shown_env={**ctx.environ, **command.env})
+            else:
+                self._run_action(step, ctx)
 
-    def _run_action(self, step: Step, ctx: BuildContext) -> None:
+    def _run_action(self, step: Step, ctx: PackageContext) -> None:
         """An in-process step; when it fails without a command of its own, its by-hand
         command is what reproduces the failure."""
         assert step.action is not None
@@ -369,9 +367,11 @@ class PackageBuild:
             self._log(f"Build cache: {not_stored}")
 
     def discard(self) -> None:
+        """After a failure: the stage goes; an install parked by an install step goes back."""
         from wsbuild.prefix import stage as staging
 
         if self.stage_prefix is not None:
+            staging.recover_direct_install(self.prefix, self.stage_prefix)
             staging.discard_stage(self.stage_prefix)
 
     # ----------------------------------------------------------------------------- helpers
@@ -384,7 +384,7 @@ class PackageBuild:
         private_directory(marker.parent)
         marker.touch(mode=0o600)
 
-    def _ctx(self) -> BuildContext:
+    def _ctx(self) -> PackageContext:
         assert self.context is not None, "stage() makes the build context"
         return self.context
 
@@ -433,7 +433,7 @@ class PackageBuild:
             reproduce = format_command(failure.command, cwd, failure.env_delta)
             script = write_reproduce_script(self.build_dir, self.name, failure.command, cwd,
                                             failure.env_delta)
-        tail = _log_tail(self.log_dir)
+        tail = log_tail(self.log_dir)
         message = str(failure) + ("\n" + "\n".join(tail) if tail else "")
         # the log tail in the message already shows stderr: no separate warnings block
         return JobResult(self.name, Outcome.FAILED, self._seconds(), message=message,
@@ -469,29 +469,6 @@ class PackageBuild:
         return time.monotonic() - self.started
 
 
-def exit_text(program: str, returncode: int, tail: Sequence[str]) -> str:
-    """What a failed command's exit status means, in the words a user needs."""
-    if returncode == 127 and tail and tail[0].startswith(f"cannot run {program}"):
-        return (f"'{program}' is not installed or not on PATH: install it, or put the "
-                "directory holding it on PATH, and build again")
-    if returncode < 0:
-        try:
-            name = signal.Signals(-returncode).name
-        except ValueError:
-            name = f"signal {-returncode}"
-        cause = " (out of memory, or stopped from outside)" if name == "SIGKILL" else ""
-        return f"'{program}' was killed by {name}{cause}"
-    return f"'{program}' exited with code {returncode}"
-
-
-def _log_tail(log_dir: Path, lines: int = 15) -> list[str]:
-    path = log_dir / "stdout_stderr.log"
-    if not path.exists():
-        return []
-    text = path.read_text(errors="replace").splitlines()
-    return [f"    {line}" for line in text[-lines:]]
-
-
-def _interesting(lines: list[str]) -> list[str]:
-    """stderr lines worth showing; CMake's message() chatter and blank lines are not problems."""
-    return [line for line in lines if line.strip() and not line.startswith("-- ")]
+def _shape(step: Step) -> tuple[object, ...]:
+    """What makes two decisions of a step the same: its label and the command it runs."""
+    return (step.label, step.command.argv if step.command is not None else None)

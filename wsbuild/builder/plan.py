@@ -18,13 +18,13 @@ from enum import Enum
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from wsbuild.build_types import BuildOptions, get_build_type
+from wsbuild.build_types import BuildOptions, Step, get_build_type
 from wsbuild.builder.overrides import Override
 from wsbuild.builder.request import BuildRequest, PackageOptions
 from wsbuild.engine.ready_queue import JobGraph, start_order
 from wsbuild.errors import DependencyError
-from wsbuild.record.dirty import PackageNow, Reason, cutoff_note, dirty_reason
-from wsbuild.record.model import PackageRecord, inputs_key, read_record
+from wsbuild.record.dirty import Dirty, PackageNow, Reason, cutoff_note, dirty_reason
+from wsbuild.record.model import PENDING, PackageRecord, inputs_key, read_record
 from wsbuild.record.outside import OutsideReads, own_entries, refreshed
 from wsbuild.record.own_files import OwnFiles, own_files
 from wsbuild.session import Session
@@ -37,8 +37,6 @@ if TYPE_CHECKING:
 
 #: created when a package build starts, removed when it finished: an interrupted build is redone
 BUILDING_MARKER = Path(".wsbuild") / "building"
-#: what a package's key is in the plan until its build (or restore) in this run says it
-PENDING = "pending:"
 
 
 class Decision(Enum):
@@ -85,6 +83,11 @@ class PackagePlan:
     #: what its build gets beyond the run's options (colcon.meta's); only these of all
     #: packages' own options enter its key
     options: PackageOptions = PackageOptions()
+    #: a package to build or restore: its build type's steps, decided from the context the
+    #: builder makes for it (builder/context.py), and the environment they start from; the
+    #: build runs these, `--dry-run` prints them
+    steps: tuple[Step, ...] = ()
+    step_environ: Mapping[str, str] = field(default_factory=dict)
 
     @property
     def own(self) -> OwnFiles:
@@ -162,6 +165,9 @@ class _Planning:
     pending: set[str] = field(default_factory=set)
     #: each build type's key options of each set of options, as JSON values
     key_options: dict[tuple[str, BuildOptions], object] = field(default_factory=dict)
+    #: the C/C++ compiler launcher the build will use (--compiler-cache), decided when a
+    #: package first needs building
+    launcher: str | None = None
 
 
 def make_plan(selection: Selection, request: BuildRequest, session: Session) -> BuildPlan:
@@ -170,7 +176,9 @@ def make_plan(selection: Selection, request: BuildRequest, session: Session) -> 
     from wsbuild.builder.weights import package_weights
 
     ws = selection.workspace
-    options = replace(request.build, underlay_cmake_args=session.underlay.cmake_args)
+    # the arguments the underlay needs (its Python, libpython's link flags, the linters'
+    # stand-ins) reach the build types that declare them (build_types/cmake_options.py)
+    options = request.build.with_values({"underlay_cmake_args": session.underlay.cmake_args})
     selected = set(selection.selected)
     not_built = unbuilt_dependencies(selection, session.merged)
     unresolved = _unresolved(selection, request, session)
@@ -227,8 +235,7 @@ def plan_package(planning: _Planning, name: str) -> PackagePlan:
                      {dep: planning.keys[dep] for dep in sorted(closure)})
     dependency_inputs = {dep: planning.inputs_keys[dep] for dep in sorted(closure)}
     request = planning.request
-    forced = request.force or request.build.cmake_force_configure \
-        or request.build.cmake_clean_cache or request.build.cmake_clean_first
+    forced = request.force or _forced_by_option(package.build_type, request.build)
     reason = dirty_reason(old, now, install_base=selection.workspace.install_base,
                           digests=session.digests,
                           unfinished=declared.exists(build_dir / BUILDING_MARKER),
@@ -259,9 +266,10 @@ def plan_package(planning: _Planning, name: str) -> PackagePlan:
     common["previous"] = old
     cache_key = session.cache.key(name, package.build_type, before, prefix, session.environ)
     found = None
-    if cache_key is not None and reason.kind != "forced":
+    if cache_key is not None and reason.kind is not Dirty.FORCED:
         found = session.cache.lookup(cache_key, before, now.dependencies, session.digests,
                                      waiting=bool(closure & planning.pending))
+    common["steps"], common["step_environ"] = _steps(planning, name, prefix, own_options)
     if found is not None:
         known = all(not key.startswith(PENDING) for key in now.dependencies.values())
         key = found.record.key if known else PENDING + before
@@ -269,6 +277,49 @@ def plan_package(planning: _Planning, name: str) -> PackagePlan:
                            cache_key=cache_key, cache_entry=found, **common)
     return PackagePlan(decision=Decision.BUILD, reason=reason, key=PENDING + before,
                        cache_key=cache_key, **common)
+
+
+def _steps(planning: _Planning, name: str, prefix: Path, own_options: PackageOptions
+           ) -> tuple[tuple[Step, ...], Mapping[str, str]]:
+    """The steps of a package to build (or to restore: a refused entry builds it), decided as
+    the build decides them, from the context the builder makes (builder/context.py) with the
+    compiler launcher the build will use; and the environment they start from."""
+    from wsbuild.builder.context import make_context
+
+    if planning.launcher is None:
+        planning.launcher = planned_launcher(planning.request, planning.session)
+    options = replace(own_options.applied_to(planning.options),
+                      compiler_launcher=planning.launcher)
+    ctx = make_context(planning.selection, planning.session, name, prefix=prefix,
+                       options=options, stage_prefix=_stage(planning.selection, name))
+    return tuple(get_build_type(ctx.package.build_type).steps(ctx)), ctx.environ
+
+
+def _forced_by_option(build_type: str, options: BuildOptions) -> bool:
+    """Whether an option of its build type given on the command line builds every package of
+    it (--cmake-force-configure, --cmake-clean-cache, …)."""
+    declared = getattr(get_build_type(build_type), "options", ())
+    return any(option.forces_build and options.value(option) for option in declared)
+
+
+def _stage(selection: Selection, name: str) -> Path:
+    from wsbuild.prefix.stage import stage_path
+
+    return stage_path(selection.workspace.install_base, name)
+
+
+def planned_launcher(request: BuildRequest, session: Session) -> str:
+    """The compiler cache the build will use as the compilers' launcher (--compiler-cache); ""
+    when none (the build says why when it cannot have the one asked for)."""
+    from wsbuild.builder.compiler_cache import choose_tool
+    from wsbuild.errors import WsbuildError
+
+    try:
+        chosen = choose_tool(request.compiler_cache, session.environ,
+                             distributing=request.distribute is not None)
+    except WsbuildError:
+        return ""
+    return str(chosen[1]) if chosen is not None else ""
 
 
 def _read_dependencies(planning: _Planning, closure: set[str]) -> None:

@@ -7,22 +7,16 @@ from __future__ import annotations
 import os
 import shlex
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 from pathlib import Path
 
-from wsbuild.build_types import BuildContext, Problems, Step, StepFailed, get_build_type
+from wsbuild.build_types import Step
 from wsbuild.builder.overrides import override_warning
 from wsbuild.builder.plan import BuildPlan, Decision, PackagePlan
 from wsbuild.engine.process import env_delta, format_command
 from wsbuild.session import Session
 from wsbuild.words import plural
 from wsbuild.workspace.selection import Selection
-
-
-#: stands for the jobserver every build has (engine/jobserver.py), so that the steps are
-#: decided as the build decides them (a Ninja that joins it gets no fixed `--parallel`); what
-#: names it is run-only and never printed
-RUN_JOBSERVER = Path("<the run's jobserver FIFO>")
 
 
 @dataclass(frozen=True, slots=True)
@@ -67,7 +61,10 @@ class PlannedCommands:
         for step in planned.steps:
             command = step.shown
             if step.command is None:
-                lines.append(f"# {step.label}: {step.description or 'runs inside wsbuild'}"
+                # what wsbuild does in its own process, and where
+                where = ", ".join(_shown_path(path) for path in step.writes)
+                lines.append(f"# (in wsbuild) {step.description or step.label}"
+                             + (f": {where}" if where else "")
                              + ("" if command is not None else " (no command to show)"))
             if command is not None:
                 lines.append(format_command(command.argv, command.cwd,
@@ -81,54 +78,25 @@ class PlannedCommands:
 
 
 def planned_commands(build_plan: BuildPlan, selection: Selection, session: Session, *,
-                     compiler_cache: str) -> PlannedCommands:
-    """The steps of every package the plan builds (a restore has none), decided as the build
-    decides them but without touching anything: the build type reads the build directory
-    (whether CMake must configure), nothing is written. The compiler cache the build would
-    choose (`--compiler-cache`) is the compilers' launcher; the run's own resources
-    (jobserver, the compiler cache's private directory, stage) are not there, so neither are
-    they in the commands. Distributed compiles (`--distribute`) are not foreseen: the build
-    probes its hosts first."""
-    from wsbuild.builder.compiler_cache import choose_tool
-    from wsbuild.errors import WsbuildError
-    from wsbuild.prefix import environment_for
-    from wsbuild.prefix.layout import package_prefix
-
-    try:
-        chosen = choose_tool(compiler_cache, session.environ)
-    except WsbuildError:
-        chosen = None  # the build says why; the dry run shows the commands without
-    options = build_plan.options
-    if chosen is not None:
-        options = replace(options, compiler_launcher=str(chosen[1]))
-    workspace = selection.workspace
-    order = selection.graph.topological_order()
-    found: dict[str, PlannedSteps] = {}
-    for planned in build_plan.to_do():
-        if planned.decision is not Decision.BUILD:
-            continue
-        closure = selection.graph.build_closure(planned.name)
-        dependencies = [(prefix, dep) for dep in order if dep in closure
-                        if (prefix := package_prefix(workspace.install_base, dep,
-                                                     merged=session.merged)).is_dir()]
-        environ = environment_for(dependencies, session.environ)
-        build_dir = workspace.build_base / planned.name
-        ctx = BuildContext(
-            package=selection.packages[planned.name], build_dir=build_dir,
-            install_prefix=planned.prefix, stage_prefix=planned.prefix,
-            options=planned.options.applied_to(options), environ=environ, run=_not_run,
-            warn=lambda _text: None,
-            dependency_prefixes=tuple(prefix for prefix, _ in dependencies),
-            jobserver_fifo=RUN_JOBSERVER)
-        steps = tuple(get_build_type(planned.build_type).steps(ctx))
-        found[planned.name] = PlannedSteps(build_dir, steps, environ)
+                     compiler_cache: str = "") -> PlannedCommands:
+    """The steps of every package the plan builds (a restore has none), as the plan decided
+    them (builder/plan.py, from the context builder/context.py makes, with the compiler cache
+    the build would choose as the compilers' launcher); the run's own resources (jobserver,
+    the compiler cache's private directory, stage) are not there, so neither are they in the
+    commands. Distributed compiles (`--distribute`) are not foreseen: the build probes its
+    hosts first."""
+    found = {planned.name: PlannedSteps(selection.workspace.build_base / planned.name,
+                                        planned.steps, planned.step_environ)
+             for planned in build_plan.to_do() if planned.decision is Decision.BUILD}
     return PlannedCommands(env_delta(session.environ, os.environ), dict(session.environ), found)
 
 
-def _not_run(command: Sequence[str], *, cwd: Path, env: Mapping[str, str] | None = None,
-             problems: Problems | None = None) -> None:
-    """A dry run's `BuildContext.run`: deciding the steps runs no command."""
-    raise StepFailed("a dry run runs nothing", command=command, cwd=cwd)
+def _shown_path(path: Path) -> str:
+    """A path as the dry run shows it: relative to the working directory when inside it."""
+    try:
+        return str(path.relative_to(Path.cwd()))
+    except ValueError:
+        return str(path)
 
 
 def _export_line(env: Mapping[str, str]) -> str:
@@ -198,7 +166,7 @@ def plan_json(build_plan: BuildPlan,
                 "decision": p.decision.value,
                 "note": p.note or None,
                 "reason": None if p.reason is None else {
-                    "kind": p.reason.kind, "text": p.reason.text,
+                    "kind": p.reason.kind.value, "text": p.reason.text,
                     "details": list(p.reason.details),
                     # built only if what it read of those dependencies changes (cutoff)
                     "cutoff": p.reason.cutoff,

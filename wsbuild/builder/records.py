@@ -11,9 +11,10 @@ from dataclasses import replace
 from pathlib import Path
 
 from wsbuild.build_types import ReadOutside
-from wsbuild.builder.plan import PENDING, PackagePlan
-from wsbuild.record.model import PackageRecord, read_record
-from wsbuild.record.outside import Digests, first_change, own_entries, refreshed, take
+from wsbuild.builder.plan import PackagePlan
+from wsbuild.record.dirty import changed_read
+from wsbuild.record.model import PENDING, PackageRecord, read_record
+from wsbuild.record.outside import Digests, own_entries, refreshed, take
 
 
 def dependency_keys(planned: PackagePlan, build_base: Path) -> dict[str, str]:
@@ -73,9 +74,10 @@ def cut_off_record(planned: PackagePlan, dependencies: Mapping[str, str], *,
     previous = planned.previous
     if previous is None:
         return None
-    own = own_entries(str(install_base), previous.installed)
-    if first_change(previous.outside, digests, own=own) is not None:
+    if changed_read(previous, digests=digests, install_base=install_base,
+                    planning=False) is not None:
         return None
+    own = own_entries(str(install_base), previous.installed)
     return replace(previous, dependencies=dict(dependencies),
                    dependency_inputs=dict(planned.dependency_inputs),
                    outside=refreshed(previous.outside, digests, own=own)).sealed()

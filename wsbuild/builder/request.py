@@ -21,26 +21,26 @@ class RunOptions:
     """How packages are scheduled and reported (shared by build and test)."""
 
     workers: int
-    sequential: bool
     continue_on_error: bool
     wait_for_lock: bool
 
 
 @dataclass(frozen=True, slots=True)
 class PackageOptions:
-    """What one package's build gets beyond the run's options (colcon.meta's `cmake-args` and
-    `ament-cmake-args` for it): they extend the run's lists, as colcon extends a list option
-    with a package's metadata values."""
+    """What one package's build gets beyond the run's options (colcon.meta's `cmake-args`,
+    `ament-cmake-args`, … for it): the values of list options of the build types (by dest),
+    which extend the run's lists, as colcon extends a list option with a package's metadata
+    values."""
 
-    cmake_args: tuple[str, ...] = ()
-    ament_cmake_args: tuple[str, ...] = ()
+    arguments: tuple[tuple[str, tuple[str, ...]], ...] = ()
 
     def applied_to(self, options: BuildOptions) -> BuildOptions:
         """The run's `options` with this package's own added after them."""
-        if not self.cmake_args and not self.ament_cmake_args:
+        if not self.arguments:
             return options
-        return replace(options, cmake_args=(*options.cmake_args, *self.cmake_args),
-                       ament_cmake_args=(*options.ament_cmake_args, *self.ament_cmake_args))
+        run = dict(options.type_values)
+        return options.with_values({dest: (*run.get(dest, ()), *arguments)  # type: ignore[misc]
+                                    for dest, arguments in self.arguments})
 
 
 @dataclass(frozen=True, slots=True)
@@ -76,7 +76,9 @@ def options_of_record(options: Mapping[str, object]) -> BuildOptions:
     output), as the options of a build that makes the same output again."""
     from dataclasses import fields
 
-    known = {f.name for f in fields(BuildOptions)}
+    shared = {f.name for f in fields(BuildOptions)}
     values = {name: tuple(value) if isinstance(value, list) else value
-              for name, value in options.items() if name in known}
-    return replace(BuildOptions(**values), jobs=cpu_count())  # type: ignore[arg-type]
+              for name, value in options.items()}
+    return replace(BuildOptions(**{k: v for k, v in values.items() if k in shared}),
+                   jobs=cpu_count()).with_values(  # type: ignore[arg-type]
+        {k: v for k, v in values.items() if k not in shared})

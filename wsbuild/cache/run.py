@@ -11,7 +11,6 @@ signatures and environment, so later edits are seen."""
 
 from __future__ import annotations
 
-import os
 import threading
 import time
 from collections.abc import Mapping
@@ -29,8 +28,6 @@ if TYPE_CHECKING:
     from wsbuild.record.model import PackageRecord
     from wsbuild.record.outside import Digests
 
-#: a dependency's key before its build in this run says it (builder/plan.py's PENDING)
-PENDING = "pending:"
 
 
 @dataclass(frozen=True, slots=True)
@@ -49,8 +46,8 @@ def disproof(found: Found, inputs_key: str, dependencies: Mapping[str, str], dig
     compared: its build in this run decides, and the restore asks again); `waiting`: some
     dependency is yet to be built or restored in this run, so what the entry read in the
     install base is compared at the restore only."""
+    from wsbuild.record.dirty import changed_read
     from wsbuild.record.model import decode
-    from wsbuild.record.outside import first_change, own_entries
 
     if found.package_record is None:
         return None, "the entry carries no package record"
@@ -64,16 +61,10 @@ def disproof(found: Found, inputs_key: str, dependencies: Mapping[str, str], dig
         return None, "the entry's package record cannot be read"
     if record.inputs_key != inputs_key:
         return None, "the entry's package record is not of these inputs"
-    for dep, key in sorted(dependencies.items()):
-        if not key.startswith(PENDING) and record.dependencies.get(dep) != key:
-            return None, f"built against another build of {dep}"
-    if set(record.dependencies) != set(dependencies):
-        return None, "built against other dependencies"
-    changed = first_change(record.outside, digests, planning=planning,
-                           own=own_entries(str(install_base), record.installed),
-                           skip=str(install_base) + os.sep if waiting else "")
+    changed = changed_read(record, digests=digests, install_base=install_base,
+                           planning=planning, dependencies=dependencies, waiting=waiting)
     if changed is not None:
-        return None, f"read {changed}, which differs here"
+        return None, changed.text
     return record, ""
 
 

@@ -159,7 +159,7 @@ class ReplayRecorder:
                         "run_log": str(run_log), "seconds": f"{seconds:.2f}"}
 
     def shown(self, kind: str, data: object) -> None:
-        """What the reporter showed (report.py): a build's replay shows it again through the
+        """What the reporter showed (reporter.py): a build's replay shows it again through the
         reporter (`kind`: reporter, event, package_list, warnings, notes)."""
         if self.active:
             self._shown.append([kind, data])

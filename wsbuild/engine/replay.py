@@ -11,7 +11,7 @@ wrote to its log directory: `build/.wsbuild/noop/<verb>.json`, readable by its o
 The next run of the same command line, in the same directory, environment and terminal, stats
 those paths again (`replay`, here; a build first takes the workspace lock). When every one is
 as recorded, the full run would read the same files and so show the same: a build's reporter
-(report.py) draws the events the recorded one drew, with this run's time, and the run writes a
+(reporter.py) draws the events the recorded one drew, with this run's time, and the run writes a
 log directory with the same files and its own times; `list`, `graph` and `info` print what the
 recorded run printed — without parsing, scanning or planning anything. Anything else (a path
 changed, another build holding the lock, no record) goes down the full path, which records
@@ -32,7 +32,7 @@ if TYPE_CHECKING:
     from typing import Any, Protocol
 
     class Drawing(Protocol):
-        """How a build's recorded reporter calls are shown again (report.py: `ReplayDrawing`)."""
+        """How a build's recorded reporter calls are shown again (reporter.py: `ReplayDrawing`)."""
 
         def decode(self, shown: Any) -> Any:
             """The calls, their events decoded (ValueError: not a record this version wrote)."""
@@ -155,7 +155,7 @@ def record_path(verb: str) -> Path:
 
 def replay(argv: Sequence[str], drawing: Callable[[], Drawing]) -> int | None:
     """Answer `wsbuild <argv>` from its record, or None: run it in full. `drawing` makes what
-    shows a build's recorded reporter calls again (report.py's, handed down by launch.py:
+    shows a build's recorded reporter calls again (reporter.py's, handed down by launch.py:
     this room imports nothing above it)."""
     record = _read_record(argv)
     if record is None:

@@ -8,9 +8,8 @@ Same data, same text: no clock, no randomness, numbers rounded to a fixed precis
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
+from collections.abc import Sequence
 from dataclasses import dataclass
-from pathlib import Path
 from html import escape
 
 #: phase -> (colour, legend text), in legend order
@@ -57,18 +56,6 @@ class Timeline:
     title: str
     bars: tuple[Bar, ...]
     wall: float
-
-
-def timeline_from_timings(data: Mapping[str, object], title: str) -> Timeline:
-    """A timeline from wsbuild's `timings.json` content: waiting, then each step's phase."""
-    bars = []
-    for p in data["packages"]:  # type: ignore[attr-defined]
-        spans: list[tuple[str, float, float]] = []
-        if p["started"] > p["ready"]:
-            spans.append(("waiting", p["ready"], p["started"]))
-        spans += [(phase_of(label), start, end) for label, start, end in p["phases"]]
-        bars.append(Bar(p["package"], tuple(spans)))
-    return Timeline(title, tuple(bars), float(data["wall_seconds"]))  # type: ignore[arg-type]
 
 
 def _fmt(value: float) -> str:
@@ -209,17 +196,3 @@ def render_cpu_svg(points: Sequence[tuple[float, float]], cores: int, wall: floa
             f'height="{height}" viewBox="0 0 {width} {height}" font-family="sans-serif" '
             f'font-size="11">\n<rect width="{width}" height="{height}" fill="white"/>\n'
             + "\n".join(parts) + "\n</svg>\n")
-
-
-def write_svg(path: Path, timelines: Sequence[Timeline]) -> None:
-    path.parent.mkdir(parents=True, exist_ok=True)
-    path.write_text(render_svg(timelines), encoding="utf-8")
-
-
-def phase_totals(timeline: Timeline) -> Mapping[str, float]:
-    """Seconds per phase summed over packages."""
-    totals: dict[str, float] = {}
-    for bar in timeline.bars:
-        for phase, start, end in bar.spans:
-            totals[phase] = totals.get(phase, 0.0) + max(0.0, end - start)
-    return totals

@@ -49,11 +49,6 @@ def environment_for(prefixes: Sequence[tuple[Path, str]], base: Mapping[str, str
     return env.result()
 
 
-def clear_cache() -> None:
-    with _cache_lock:
-        _cache.clear()
-
-
 def _package_environment(prefix: Path, package: str) -> PackageEnvironment:
     key = (str(prefix), package)
     with _cache_lock:

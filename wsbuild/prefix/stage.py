@@ -20,8 +20,13 @@ STAGE_DIR = ".wsbuild-stage"
 MERGED_RECORD = ".wsbuild/merged_files.txt"
 
 
+def stage_path(install_base: Path, package: str) -> Path:
+    """Where a package's stage is (`new_stage` makes it)."""
+    return install_base / STAGE_DIR / package
+
+
 def new_stage(install_base: Path, package: str) -> Path:
-    stage = install_base / STAGE_DIR / package
+    stage = stage_path(install_base, package)
     if stage.exists() or stage.is_symlink():
         shutil.rmtree(stage)
     stage.mkdir(parents=True)
@@ -89,31 +94,45 @@ def direct_install(prefix: Path, stage: Path) -> Iterator[None]:
     """For installers that must write straight into the final `prefix` (ament's symlink install
     ignores DESTDIR): park the previous install aside, let the installer fill a fresh `prefix`,
     move the result into `stage`, and put the previous install back — also on failure or Ctrl-C.
-    """
+    (The build runs the two halves as steps of their own, `park_previous_install` and
+    `stage_direct_install`, and puts the previous install back on failure with
+    `recover_direct_install`.)"""
+    park_previous_install(prefix, stage)
+    try:
+        yield
+        stage_direct_install(prefix, stage)
+    except BaseException:
+        recover_direct_install(prefix, stage)
+        raise
+
+
+def park_previous_install(prefix: Path, stage: Path) -> None:
+    """Move the previous install at `prefix` aside (beside the stage) and make `prefix` anew."""
     previous = stage.with_name(stage.name + ".previous")
     recover_direct_install(prefix, stage)
     if prefix.exists() or prefix.is_symlink():
         os.rename(prefix, previous)
     prefix.mkdir(parents=True)
-    try:
-        yield
-        if stage.exists():
-            shutil.rmtree(stage)
-        os.rename(prefix, stage)
-    except BaseException:
-        # leave no half-installed package behind
-        shutil.rmtree(prefix, ignore_errors=True)
-        raise
-    finally:
-        if previous.exists() or previous.is_symlink():
-            os.rename(previous, prefix)
+
+
+def stage_direct_install(prefix: Path, stage: Path) -> None:
+    """Move what the installer wrote into `prefix` into `stage`, and the previous install back."""
+    previous = stage.with_name(stage.name + ".previous")
+    if stage.exists():
+        shutil.rmtree(stage)
+    os.rename(prefix, stage)
+    if previous.exists() or previous.is_symlink():
+        os.rename(previous, prefix)
 
 
 def recover_direct_install(prefix: Path, stage: Path) -> None:
-    """Undo a `direct_install` that was killed before it could restore the previous install."""
+    """Undo a parked install (a failed, interrupted or killed install step): no half-installed
+    package stays behind, the previous install goes back."""
     previous = stage.with_name(stage.name + ".previous")
-    if previous.exists():
-        if prefix.exists():
+    if previous.exists() or previous.is_symlink():
+        if prefix.is_symlink():
+            prefix.unlink()
+        elif prefix.exists():
             shutil.rmtree(prefix)
         os.rename(previous, prefix)
 

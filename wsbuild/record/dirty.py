@@ -8,13 +8,41 @@ import json
 import os
 from collections.abc import Collection, Mapping
 from dataclasses import dataclass
+from enum import Enum
 from pathlib import Path
 
 from wsbuild import inputs
 from wsbuild.record.environment import changed_names
-from wsbuild.record.model import PackageRecord
+from wsbuild.record.model import PENDING, PackageRecord
 from wsbuild.record.outside import Digests, first_change, own_entries
 from wsbuild.record.own_files import OwnFiles, files_digest
+
+
+class Dirty(str, Enum):
+    """What kind of change makes a package build, in the order the check looks for them (the
+    value is what `--dry-run --json` writes)."""
+
+    #: its last build was cut short (the record says nothing then)
+    UNFINISHED = "unfinished"
+    #: the command line asks for it (--force, --cmake-force-configure, …)
+    FORCED = "forced"
+    #: it has no record: never built here, or built by another tool
+    NEW = "new"
+    #: the options it is built with (its build type's, --cmake-args, a mixin, a meta file)
+    OPTIONS = "options"
+    #: a variable of the environment its build sees
+    ENVIRONMENT = "environment"
+    #: one of its own files (by content)
+    SOURCE = "source"
+    #: a workspace dependency was rebuilt, and this build read what changed of it
+    DEPENDENCY = "dependency"
+    #: a file outside the package its build read (a header of the underlay, a tool)
+    EXTERNAL = "external"
+    #: what it installed is missing or changed under install/
+    INSTALL = "install"
+
+    def __str__(self) -> str:
+        return self.value
 
 
 @dataclass(frozen=True, slots=True)
@@ -22,9 +50,7 @@ class Reason:
     """Why a package is built: `kind` for tools, `text` for people, `details` the files,
     options, variables or dependencies that changed."""
 
-    #: "new", "unfinished", "forced", "options", "environment", "source", "dependency",
-    #: "external", "install"
-    kind: str
+    kind: Dirty
     text: str
     details: tuple[str, ...] = ()
     #: decided once the dependencies in `details` are built in this run: built only if what
@@ -50,22 +76,22 @@ def dirty_reason(old: PackageRecord | None, now: PackageNow, *, install_base: Pa
     dependencies this run builds or restores before the package; `unfinished`: its last
     build was cut short; `forced`: the command line asks for a build."""
     if unfinished:
-        return Reason("unfinished", "the previous build did not finish")
+        return Reason(Dirty.UNFINISHED, "the previous build did not finish")
     if forced:
-        return Reason("forced", "forced")
+        return Reason(Dirty.FORCED, "forced")
     if old is None:
-        return Reason("new", "no previous build")
+        return Reason(Dirty.NEW, "no previous build")
     if old.settings != now.settings:
         changed = tuple(settings_changes(old.settings, now.settings))
-        return Reason("options", "build options changed: " + "; ".join(changed), changed)
+        return Reason(Dirty.OPTIONS, "build options changed: " + "; ".join(changed), changed)
     if old.environment != now.environment:
         names = tuple(changed_names(old.environment, now.environment))
         shown = ", ".join(names[:5]) + (" …" if len(names) > 5 else "")
-        return Reason("environment", f"environment variable changed: {shown}", names)
+        return Reason(Dirty.ENVIRONMENT, f"environment variable changed: {shown}", names)
     if (old.own_digest or files_digest(old.own)) != now.own.digest:  # by content, not stat
         changed = now.own.changed or sorted(set(old.own) ^ set(now.own.files))
         shown = ", ".join(changed[:3]) + (" …" if len(changed) > 3 else "")
-        return Reason("source", f"source changed: {shown}" if shown else "source changed",
+        return Reason(Dirty.SOURCE, f"source changed: {shown}" if shown else "source changed",
                       tuple(changed))
     changed_deps = sorted(n for n in set(old.dependencies) | set(now.dependencies)
                           if old.dependencies.get(n) != now.dependencies.get(n))
@@ -73,22 +99,46 @@ def dirty_reason(old: PackageRecord | None, now: PackageNow, *, install_base: Pa
     # the build system said all it read
     cutoff = old.complete and set(old.dependencies) == set(now.dependencies)
     if changed_deps and not cutoff:
-        return Reason("dependency", "dependency rebuilt: " + ", ".join(changed_deps),
+        return Reason(Dirty.DEPENDENCY, "dependency rebuilt: " + ", ".join(changed_deps),
                       tuple(changed_deps))
     waiting = [n for n in changed_deps if n in pending]
     if waiting:
-        return Reason("dependency", f"dependency {', '.join(waiting)} is built first; this "
+        return Reason(Dirty.DEPENDENCY, f"dependency {', '.join(waiting)} is built first; this "
                       "package only if what it read of it changes", tuple(waiting), cutoff=True)
     outside = first_change(old.outside, digests, planning=True,
                            own=own_entries(str(install_base), old.installed))
     if outside is not None and changed_deps:
-        return Reason("dependency", "dependency rebuilt: " + ", ".join(changed_deps)
+        return Reason(Dirty.DEPENDENCY, "dependency rebuilt: " + ", ".join(changed_deps)
                       + f" (read while building: {outside})", tuple(changed_deps))
     if outside is not None:
-        return Reason("external", f"file outside the package changed: {outside}", (outside,))
+        return Reason(Dirty.EXTERNAL, f"file outside the package changed: {outside}", (outside,))
     damaged = damaged_install(install_base, old.installed)
     if damaged is not None:
-        return Reason("install", f"install damaged: {damaged} missing or changed", (damaged,))
+        return Reason(Dirty.INSTALL, f"install damaged: {damaged} missing or changed", (damaged,))
+    return None
+
+
+def changed_read(record: PackageRecord, *, digests: Digests, install_base: Path,
+                 planning: bool, dependencies: Mapping[str, str] | None = None,
+                 waiting: bool = False) -> Reason | None:
+    """What a record's build read that is not so here, None when all is (the part of the check
+    an entry of the build cache and early cutoff ask, their own files and settings being
+    proved by the inputs key): with `dependencies`, the keys the package's dependencies have
+    here (a PENDING one is not compared: its build in this run decides); then the files and
+    listings it read outside the package (`waiting`: some dependency is yet to be built or
+    restored in this run, so what it read in the install base is compared later)."""
+    if dependencies is not None:
+        for dep, key in sorted(dependencies.items()):
+            if not key.startswith(PENDING) and record.dependencies.get(dep) != key:
+                return Reason(Dirty.DEPENDENCY, f"built against another build of {dep}", (dep,))
+        if set(record.dependencies) != set(dependencies):
+            return Reason(Dirty.DEPENDENCY, "built against other dependencies",
+                          tuple(sorted(set(record.dependencies) ^ set(dependencies))))
+    changed = first_change(record.outside, digests, planning=planning,
+                           own=own_entries(str(install_base), record.installed),
+                           skip=str(install_base) + os.sep if waiting else "")
+    if changed is not None:
+        return Reason(Dirty.EXTERNAL, f"read {changed}, which differs here", (changed,))
     return None
 
 

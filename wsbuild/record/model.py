@@ -38,6 +38,9 @@ from wsbuild.record.own_files import OwnFile, files_digest
 RECORD_FILE = Path(".wsbuild") / "record.json"
 #: bumped whenever the record's shape or meaning changes: an older record reads as none
 FORMAT = 1
+#: what a package's key is in a plan until its build (or restore) in this run says it,
+#: followed by its inputs key
+PENDING = "pending:"
 
 
 def digest_of(value: object) -> str:

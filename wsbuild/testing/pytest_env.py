@@ -9,16 +9,14 @@ package's tests, and the pytest tests CTest runs, get `<prefix>/ros-pytest` (a `
 where it lives: underlay/constraints.py) first on PYTHONPATH: the
 ROS packages stay the interpreter's, only pytest and its own dependencies are Jazzy's. Without
 that directory the interpreter's own pytest runs, and a plugin it refuses is reported as the
-test tooling failing to start, with this fix (tooling.py). `$WSBUILD_ROS_PYTEST` names another
+test tooling failing to start, with this fix (tooling.py). The runners that run pytest put
+it on PYTHONPATH themselves (`TestRunner.environment`, build_types/ros_pytest.py). `$WSBUILD_ROS_PYTEST` names another
 directory (one shared by several virtualenvs, say).
 """
 
 from __future__ import annotations
 
-import os
-from collections.abc import Mapping
-
-from wsbuild.underlay.constraints import (
+from wsbuild.build_types.ros_pytest import (
     ROS_PYTEST_DIR,
     ROS_PYTEST_VAR,
     ROS_PYTEST_VERSION,
@@ -26,17 +24,7 @@ from wsbuild.underlay.constraints import (
 )
 
 __all__ = ["ROS_PYTEST_DIR", "ROS_PYTEST_VAR", "ROS_PYTEST_VERSION", "install_hint",
-           "ros_pytest_dir", "with_ros_pytest"]
-
-
-def with_ros_pytest(env: Mapping[str, str], python_executable: str) -> dict[str, str]:
-    """`env` with the ROS tests' pytest first on PYTHONPATH, when it is installed."""
-    result = dict(env)
-    folder = ros_pytest_dir(python_executable)
-    if (folder / "pytest").is_dir():
-        rest = result.get("PYTHONPATH", "")
-        result["PYTHONPATH"] = str(folder) + (os.pathsep + rest if rest else "")
-    return result
+           "ros_pytest_dir"]
 
 
 def install_hint(python_executable: str) -> str:

@@ -11,7 +11,7 @@ from typing import TYPE_CHECKING
 
 from wsbuild.build_types.junit import Case, CaseOutcome, Counts
 from wsbuild.testing.junit import display_path
-from wsbuild.testing.tooling import ToolingFailure, is_tooling
+from wsbuild.testing.tooling import ToolingFailure
 from wsbuild.words import plural
 
 if TYPE_CHECKING:
@@ -120,12 +120,12 @@ def summary_lines(run: TestRun, *, shown: Path) -> list[str]:
     lines += _missing_linter_lines(run.results)
     failed = [r for r in run.results if r.status is PackageStatus.FAILED]
     tested_failed = [r for r in failed
-                     if any(not is_tooling(c) for c in r.problems) or not r.tooling]
+                     if any(not _tooling(r, c) for c in r.problems) or not r.tooling]
     if tested_failed:
         lines.append("Failed tests:")
     for result in tested_failed:
         lines.append(f"  {result.package}: {result.counts.describe()}{_log_of(result, shown)}")
-        problems = [c for c in result.problems if not (result.tooling and is_tooling(c))]
+        problems = [c for c in result.problems if not _tooling(result, c)]
         for case in problems[:SHOWN_PROBLEMS]:
             verdict = "ERROR" if case.outcome is CaseOutcome.ERROR else "FAILED"
             lines.append(f"    {verdict} {case.full_name} - {case.headline}")
@@ -173,3 +173,8 @@ def _missing_linter_lines(results: Sequence[PackageTests]) -> list[str]:
     listed = ", ".join(f"{linter} ({plural(len(packages), 'package')})"
                        for linter, packages in sorted(users.items()))
     return [f"  not installed, not run: {listed}: counted as skipped"]
+
+
+def _tooling(result: PackageTests, case: Case) -> bool:
+    """Whether a failing case of the package stands for its test tooling failing to start."""
+    return any(failure.case == case.full_name for failure in result.tooling)

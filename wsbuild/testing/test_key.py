@@ -18,7 +18,7 @@ from wsbuild.testing.pytest_env import ros_pytest_dir
 from wsbuild.testing.underlays import UnderlayPackages
 
 if TYPE_CHECKING:
-    from wsbuild.testing.runners import TestRequest
+    from wsbuild.testing.request import TestRequest
     from wsbuild.workspace.selection import Selection
 
 

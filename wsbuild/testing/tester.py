@@ -28,14 +28,13 @@ from wsbuild.testing.cached_result import (
 )
 from wsbuild.testing.closure import closure_under_test
 from wsbuild.testing.linters import MISSING_LINTER_PREFIX
-from wsbuild.testing.pytest_env import with_ros_pytest
 from wsbuild.testing.results import PackageStatus, PackageTests, results_dir
 from wsbuild.testing.test_key import TestKeys
 from wsbuild.testing.tooling import tooling_failures
 from wsbuild.redaction import redact
 
 if TYPE_CHECKING:
-    from wsbuild.testing.runners import TestRequest
+    from wsbuild.testing.request import TestRequest
     from wsbuild.workspace.selection import Selection
 
 
@@ -61,7 +60,7 @@ class PackageTester:
     def context(self, name: str, runner: TestRunner, log_dir: Path | None) -> TestContext:
         """What the package's runner works with; without a log directory it may run nothing
         (the key of a run that only plans)."""
-        env = with_ros_pytest(self.environment(name), self.request.python_executable)
+        env = runner.environment(self.environment(name), self.request.python_executable)
         arguments = (*self.request.tool_arguments.get(runner.name, ()),
                      *self.request.package_arguments.get(name, {}).get(runner.name, ()))
 
@@ -151,7 +150,8 @@ class PackageTester:
                 _log(log_dir, f"--- attempt {attempt} of {attempts} ---")
             label = runner.name if attempt == 1 else f"{runner.name} {attempt}/{attempts}"
             emit(StepStarted(ctx.name, label))
-            report = package_result(ctx.name, runner.run(ctx), self.request.python_executable)
+            report = package_result(ctx.name, runner.run(ctx), self.request.python_executable,
+                                    getattr(runner, "tool_cases", frozenset()))
             if REGISTRY.cancelled.is_set():
                 report = replace(report, status=PackageStatus.INTERRUPTED)
                 break
@@ -166,9 +166,11 @@ class PackageTester:
         return replace(report, attempts=attempt, max_attempts=attempts, flaky=flaky)
 
 
-def package_result(name: str, outcome: TestOutcome, python_executable: str) -> PackageTests:
+def package_result(name: str, outcome: TestOutcome, python_executable: str,
+                   tool_cases: frozenset[str] = frozenset()) -> PackageTests:
     """A package's result from what its runner found: failed when any test failed or erred;
-    the tests skipped for a missing linter and the tooling failures named."""
+    the tests skipped for a missing linter and the tooling failures named (`tool_cases`: the
+    cases its runner writes when its tool failed)."""
     files: Sequence[ResultFile] = outcome.files
     counts = Counts.total(result.counts for result in files)
     if outcome.no_tests:
@@ -182,7 +184,7 @@ def package_result(name: str, outcome: TestOutcome, python_executable: str) -> P
     return PackageTests(name, status, counts, tuple(problems),
                         tuple(result.path for result in files),
                         missing_linters=_missing_linters(files),
-                        tooling=tooling_failures(problems, python_executable))
+                        tooling=tooling_failures(problems, python_executable, tool_cases))
 
 
 def _missing_linters(files: Sequence[ResultFile]) -> tuple[str, ...]:

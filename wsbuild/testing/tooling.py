@@ -13,10 +13,6 @@ from wsbuild.testing.linters import LINTER_MODULES, STRICT_MESSAGE
 from wsbuild.testing.pytest_env import ROS_PYTEST_VERSION, install_hint
 from wsbuild.underlay.lint_programs import missing_program
 
-#: the cases the built-in test runners write when the tool itself failed
-#: (build_types/test_runner.py's `tool_error`, `read_or_error`)
-TOOL_CASES = frozenset({"pytest.exit_code", "pytest.missing_result", "pytest.result",
-                        "ctest.exit_code", "ctest.result"})
 #: the message pytest gives a module it could not collect
 COLLECTION_FAILURE = "collection failure"
 
@@ -28,38 +24,42 @@ class ToolingFailure:
     what: str
     cause: str
     fix: str
+    #: the case that stands for it
+    case: str = ""
 
 
-def is_tooling(case: Case) -> bool:
-    """Whether a failing case stands for the tooling failing rather than a test (a linter
-    whose program is not installed, too)."""
+def is_tooling(case: Case, tool_cases: frozenset[str] = frozenset()) -> bool:
+    """Whether a failing case stands for the tooling failing rather than a test: a case the
+    package's runner writes when its tool failed (`tool_cases`, TestRunner's), a module that
+    could not be collected, a linter whose program is not installed."""
     if case.outcome is not CaseOutcome.ERROR:
         return False
-    return (case.name in TOOL_CASES or case.message.strip().lower() == COLLECTION_FAILURE
+    return (case.name in tool_cases or case.message.strip().lower() == COLLECTION_FAILURE
             or missing_program(f"{case.message}\n{case.details}") is not None)
 
 
-def tooling_failures(cases: Iterable[Case], python_executable: str) -> tuple[ToolingFailure, ...]:
-    """The tooling failures among a package's failing cases."""
+def tooling_failures(cases: Iterable[Case], python_executable: str,
+                     tool_cases: frozenset[str] = frozenset()) -> tuple[ToolingFailure, ...]:
+    """The tooling failures among a package's failing cases (`tool_cases`: its runner's)."""
     found = []
     for case in cases:
-        if not is_tooling(case):
+        if not is_tooling(case, tool_cases):
             continue
         program = missing_program(f"{case.message}\n{case.details}")
         if program is not None:
             found.append(ToolingFailure(
                 f"{case.full_name} wrote no result", f"{program.name} is not installed",
                 f"{program.install_command()} (wsbuild deps install -y installs the programs "
-                "the linters run)"))
+                "the linters run)", case.full_name))
             continue
-        if case.name in TOOL_CASES:
+        if case.name in tool_cases:
             cause = _cause(case.details) or case.message
             what = case.message  # "pytest exited with code 3 without writing results"
         else:
             cause = _cause(case.details) or case.headline
             what = f"{case.full_name.rstrip('.') or case.classname} could not be collected"
         found.append(ToolingFailure(what, cause, _fix(f"{cause}\n{case.details}",
-                                                      python_executable)))
+                                                      python_executable), case.full_name))
     return tuple(found)
 
 

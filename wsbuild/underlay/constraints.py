@@ -4,23 +4,13 @@ wheel of the underlay pinned) and the pytest that distro's test plugins need."""
 
 from __future__ import annotations
 
-import os
 import re
-import sys
 from pathlib import Path
 
 #: a ROS distro's name (`jazzy`): the only text that goes into a file name here
 _DISTRO = re.compile(r"^[a-z]+$")
 #: the pytest for ROS packages' tests (testing/pytest_env.py)
 ROS_PYTEST_FILE = "ros-pytest.txt"
-#: the directory, under the interpreter's prefix, holding the pytest for ROS packages' tests
-ROS_PYTEST_DIR = "ros-pytest"
-#: names the directory instead
-ROS_PYTEST_VAR = "WSBUILD_ROS_PYTEST"
-#: the version Jazzy's platform (Ubuntu 24.04) ships and its plugins are tested with
-ROS_PYTEST_VERSION = "7.4.4"
-
-
 def requirements_dir() -> Path | None:
     """Where the shipped requirement files are: beside the package in a wheel, the top-level
     `requirements/` of a source checkout or editable install; None when neither is there."""
@@ -44,21 +34,3 @@ def ros_pytest_requirements() -> Path | None:
     """The requirements of the ROS tests' pytest (pinned, with its own dependencies)."""
     folder = requirements_dir()
     return folder / ROS_PYTEST_FILE if folder is not None else None
-
-
-def ros_pytest_dir(python_executable: str) -> Path:
-    """Where the ROS tests' pytest lives for this interpreter (it may not exist):
-    `$WSBUILD_ROS_PYTEST`, else `<prefix>/ros-pytest`."""
-    if os.environ.get(ROS_PYTEST_VAR):
-        return Path(os.environ[ROS_PYTEST_VAR])
-    if Path(python_executable) == Path(sys.executable):
-        prefix = Path(sys.prefix)
-    else:  # a virtualenv's bin/python
-        prefix = Path(python_executable).absolute().parent.parent
-    return prefix / ROS_PYTEST_DIR
-
-
-def ros_pytest_installed(python_executable: str) -> bool:
-    """Whether the ROS tests' pytest, in its version, is installed for this interpreter."""
-    folder = ros_pytest_dir(python_executable)
-    return (folder / f"pytest-{ROS_PYTEST_VERSION}.dist-info").is_dir()

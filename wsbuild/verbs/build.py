@@ -21,6 +21,7 @@ from wsbuild.verbs.arguments import (
 )
 
 if TYPE_CHECKING:  # the modules of the work are imported when the verb runs, not to parse
+    from wsbuild.build_types import TypeOption
     from wsbuild.builder.request import BuildRequest
     from wsbuild.cache.settings import CacheSettings
     from wsbuild.reporter import Console
@@ -70,23 +71,51 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                      help="after the summary: where the time went, the report's path")
     secondary(how.add_argument("--no-report", action="store_true",
                                help="write no log/<run>/report.html (timeline, CPU use)"))
-    _cmake_arguments(parser.add_argument_group("CMake packages"))
+    # the compilers of CMake packages: their group is the one the cmake type's options join
+    _compiler_arguments(parser.add_argument_group("CMake packages"))
     _cache_arguments(parser.add_argument_group("build cache (always local: ~/.cache/wsbuild)"))
 
 
-def _cmake_arguments(cmake: argparse._ArgumentGroup) -> None:
-    cmake.add_argument("--cmake-args", action="append", metavar="ARG",
-                       help="every configure, e.g. -DCMAKE_BUILD_TYPE=Release; end with --")
-    secondary(cmake.add_argument("--ament-cmake-args", action="append", metavar="ARG",
-                                 help="CMake arguments for ament_cmake packages only"))
-    secondary(cmake.add_argument("--cmake-target", metavar="TARGET",
-                                 help="build this target instead of the default one"))
-    secondary(cmake.add_argument("--cmake-clean-cache", action="store_true",
-                                 help="remove CMakeCache.txt before configuring"))
-    secondary(cmake.add_argument("--cmake-clean-first", action="store_true",
-                                 help="build the 'clean' target first"))
-    cmake.add_argument("--cmake-force-configure", action="store_true",
-                       help="configure even when nothing changed")
+def add_type_arguments(parser: argparse.ArgumentParser, *, plugins: bool) -> None:
+    """The options the build types declare (`TypeOption`), a group for each type in the
+    order they come (an option two types share is in the first one's): the built-in types',
+    and (`plugins`) those of the installed third-party types, whose scan costs; the parse
+    asks for them when the command line, --help or a defaults file needs them (cli.py)."""
+    from wsbuild.build_types import declared_options
+
+    added: set[str] = set()
+    chosen: list[TypeOption] = []
+    for name, options in declared_options(plugins=plugins):
+        group = None
+        for option in options:
+            if not option.flag or option.flag in added:
+                continue
+            if group is None:  # the verb's own group of that title, if it has one
+                title = f"{name} packages"
+                group = next((g for g in parser._action_groups
+                              if (g.title or "").lower() == title), None) \
+                    or parser.add_argument_group(title)
+            added.add(option.flag)
+            chosen.append(option)
+            kind = {"switch": {"action": "store_true"},
+                    "value": {"metavar": option.metavar or "VALUE"},
+                    "arguments": {"action": "extend", "nargs": "*",
+                                  "metavar": option.metavar or "ARG"}}[option.kind]
+            try:
+                action = group.add_argument(option.flag, dest=option.dest, help=option.help,
+                                            **kind)  # type: ignore[arg-type]
+            except argparse.ArgumentError as exc:
+                raise WsbuildError(f"build type '{name}' declares {option.flag}, which "
+                                   f"`wsbuild build` has already: {exc}",
+                                   hint="a build type names its own options (e.g. "
+                                        "--<type>-args)") from None
+            if option.secondary:
+                secondary(action)
+    # what the verb's request takes the values of (request_from_args)
+    parser.set_defaults(type_options=tuple(chosen))
+
+
+def _compiler_arguments(cmake: argparse._ArgumentGroup) -> None:
     cmake.add_argument("--compiler-cache", choices=("auto", "sccache", "ccache", "none"),
                        default="auto", metavar="TOOL",
                        help="auto (ccache, else sccache), sccache, ccache or none")
@@ -117,6 +146,19 @@ def _split_args(values: list[str] | None) -> tuple[str, ...]:
     return tuple(result)
 
 
+def type_values_from_args(args: argparse.Namespace) -> dict[str, object]:
+    """The values of the build types' options the command line (or a defaults file, a
+    mixin) gives, by dest; those left out keep their defaults."""
+    values: dict[str, object] = {}
+    for option in getattr(args, "type_options", ()):
+        value = getattr(args, option.dest, None)
+        if option.kind == "arguments":
+            value = _split_args(value)
+        if value != option.default and value is not None:
+            values[option.dest] = value
+    return values
+
+
 def request_from_args(args: argparse.Namespace) -> BuildRequest:
     """The BuildRequest the options of `args` ask for (checked)."""
     from wsbuild.build_types import BuildOptions
@@ -131,18 +173,11 @@ def request_from_args(args: argparse.Namespace) -> BuildRequest:
         build=BuildOptions(
             symlink_install=args.symlink_install,
             merge_install=args.merge_install,
-            cmake_args=_split_args(args.cmake_args),
-            ament_cmake_args=_split_args(args.ament_cmake_args),
-            cmake_target=args.cmake_target,
-            cmake_clean_cache=args.cmake_clean_cache,
-            cmake_clean_first=args.cmake_clean_first,
-            cmake_force_configure=args.cmake_force_configure,
             jobs=cpu_count(),
             python_executable=sys.executable,
-        ),
+        ).with_values(type_values_from_args(args)),
         run=RunOptions(
             workers=1 if sequential else workers,
-            sequential=sequential,
             continue_on_error=args.continue_on_error,
             wait_for_lock=not args.no_wait,
         ),

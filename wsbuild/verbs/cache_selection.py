@@ -23,7 +23,7 @@ from wsbuild.verbs.arguments import secondary
 
 if TYPE_CHECKING:  # imported when the options are given, not to parse them
     from wsbuild.builder.request import BuildRequest
-    from wsbuild.testing.runners import TestRequest
+    from wsbuild.testing.request import TestRequest
     from wsbuild.verbs.metas import MetadataRequest
     from wsbuild.workspace.selection import Selection
 
@@ -64,7 +64,7 @@ def cache_selection_from_args(args: argparse.Namespace, *, build: BuildRequest |
     if not (getattr(args, "packages_select_cache_invalid", False)
             or getattr(args, "packages_skip_cache_valid", False)):
         return None
-    from wsbuild.testing.runners import TestRequest
+    from wsbuild.testing.request import TestRequest
     from wsbuild.verbs.metas import metadata_from_args
 
     key = getattr(args, "packages_select_cache_key", None) or ("test" if test else "build")
@@ -80,7 +80,7 @@ def select_by_cache(selection_by: CacheSelection, selection: Selection) -> list[
     from wsbuild.builder.pipeline import plan_build
     from wsbuild.builder.plan import Decision
     from wsbuild.engine.recording import replay_recorder
-    from wsbuild.testing.runners import reusable_results
+    from wsbuild.testing.test_run import reusable_results
     from wsbuild.verbs.metas import with_build_arguments, with_test_arguments
 
     watcher = replay_recorder()
@@ -110,5 +110,5 @@ def _plain_build() -> BuildRequest:
 
     return BuildRequest(
         build=BuildOptions(jobs=cpu_count(), python_executable=sys.executable),
-        run=RunOptions(workers=cpu_count(), sequential=False, continue_on_error=False,
+        run=RunOptions(workers=cpu_count(), continue_on_error=False,
                        wait_for_lock=True))

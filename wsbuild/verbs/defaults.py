@@ -405,6 +405,28 @@ def _root_for(workspace: str | None, cwd: Path) -> Path:
     return (cwd / workspace).absolute() if workspace else find_workspace_root(cwd)
 
 
+def _needs_more(parser: argparse.ArgumentParser, argv: Sequence[str],
+                entries: Sequence[FileEntry]) -> bool:
+    """Whether `parser` lacks what `argv` or the files' `entries` ask for: --help (which
+    lists every option), an option it does not know."""
+    if any(item in _HELP for item in argv):
+        return True
+    try:
+        check_entries(entries, parser)
+    except DefaultsError:
+        return True
+    import contextlib
+    import io
+
+    # argparse reports a bad value (and --version) by exiting: the real parse's to do
+    with contextlib.redirect_stderr(io.StringIO()), contextlib.redirect_stdout(io.StringIO()):
+        try:
+            _args, extra = parser.parse_known_args(argv)
+        except SystemExit:
+            return False
+    return bool(extra)
+
+
 def _parse(parser: argparse.ArgumentParser, argv: Sequence[str]) -> argparse.Namespace:
     """parse_args, but an unknown argument is reported with the usage of the verb it follows
     (argparse names the top-level usage)."""
@@ -415,25 +437,36 @@ def _parse(parser: argparse.ArgumentParser, argv: Sequence[str]) -> argparse.Nam
     return args
 
 
+_HELP = ("-h", "--help", "--help-all")
+
+
 def parse_with_defaults(
     argv: Sequence[str],
     environ: Mapping[str, str],
     cwd: Path,
     make_parser: Callable[[set[str]], argparse.ArgumentParser],
     finish: Callable[[argparse.ArgumentParser, str, argparse.Namespace], None] | None = None,
+    *,
+    make_full_parser: Callable[[set[str]], argparse.ArgumentParser] | None = None,
 ) -> argparse.Namespace:
     """Parse `argv` with the defaults files' values as defaults: the command line wins.
 
     `make_parser(verbs)` builds the argument tree; `verbs` are those the files set options
-    for (so a lazily built part of the tree can be included when a file needs it). The
-    workspace root (for `wsbuild.yaml`) comes from -C/--workspace or the current directory.
-    `finish(parser, verb, args)` completes the arguments of the verb that runs (mixins).
+    for (so a lazily built part of the tree can be included when a file needs it).
+    `make_full_parser(verbs)`, when given, builds it with the options that cost to find (the
+    third-party build types'): used for --help, and when the command line or a file holds an
+    option the first tree does not know. The workspace root (for `wsbuild.yaml`) comes from
+    -C/--workspace or the current directory. `finish(parser, verb, args)` completes the
+    arguments of the verb that runs (mixins).
     """
     root = _root_for(workspace_option(argv), cwd)
     for _attempt in range(2):
         files = defaults_files(environ, root)
         entries = [entry for path in files for entry in read_entries(path)]
-        parser = make_parser({entry.verb for entry in entries})
+        verbs = {entry.verb for entry in entries}
+        parser = make_parser(verbs)
+        if make_full_parser is not None and _needs_more(parser, argv, entries):
+            parser = make_full_parser(verbs)
         defaults = check_entries(entries, parser)
         apply_defaults(parser, chosen_verb(parser, argv), defaults)
         args = _parse(parser, argv)

@@ -332,7 +332,7 @@ def plan_lines(found: Survey, *, constraint: Path | None, dry_run: bool) -> list
 
 
 def _ros_pytest_dir(found: Survey) -> Path:
-    from wsbuild.underlay.constraints import ros_pytest_dir
+    from wsbuild.build_types.ros_pytest import ros_pytest_dir
 
     return ros_pytest_dir(str(found.python))
 

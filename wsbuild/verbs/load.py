@@ -1,7 +1,7 @@
 """Shared front half of every verb: find the workspace, discover, build the graph, select.
 
 Prints nothing: the warnings of discovery come back in `Loaded.warnings` for the verb's one
-output point (report.print_warnings).
+output point (reporter.print_warnings).
 """
 
 from __future__ import annotations

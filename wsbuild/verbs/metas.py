@@ -19,12 +19,13 @@ from wsbuild import inputs
 
 if TYPE_CHECKING:  # imported when a verb applies the metadata
     from wsbuild.builder.request import BuildRequest
-    from wsbuild.testing.runners import TestRequest
+    from wsbuild.testing.request import TestRequest
     from wsbuild.workspace.model import Package
 
 META_FILE = "colcon.meta"
 USER_DIR = "metadata"
-#: the metadata keys `wsbuild build` applies per package
+#: the metadata keys `wsbuild build` applies per package: the list options the built-in build
+#: types declare (build_types/cmake_options.py; a test holds the two equal), spelled as keys
 BUILD_KEYS = ("cmake-args", "ament-cmake-args")
 #: the metadata keys `wsbuild test` applies per package: a test tool's name → its key
 TEST_KEYS = {"pytest": "pytest-args", "ctest": "ctest-args"}
@@ -190,8 +191,8 @@ def with_build_arguments(request: BuildRequest, metadata: MetadataRequest,
 
     found = read_metadata(metadata_files(metadata, os.environ, Path.cwd()))
     wanted = package_arguments(found, _paths(packages), selected, BUILD_KEYS)
-    own = {name: PackageOptions(cmake_args=given.get("cmake-args", ()),
-                                ament_cmake_args=given.get("ament-cmake-args", ()))
+    own = {name: PackageOptions(tuple(sorted((key.replace("-", "_"), arguments)
+                                             for key, arguments in given.items())))
            for name, given in wanted.by_package.items()}
     return (replace(request, packages=own) if own else request), wanted.notes
 

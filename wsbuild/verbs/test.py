@@ -1,5 +1,5 @@
 """`wsbuild test` and `wsbuild test-result`: their arguments, the TestRequest made of them,
-and the runs around testing/runners.py and testing/junit.py."""
+and the runs around testing/test_run.py and testing/junit.py."""
 
 from __future__ import annotations
 
@@ -24,7 +24,7 @@ from wsbuild.workspace.root import BUILD_BASE
 if TYPE_CHECKING:  # the modules of the work are imported when the verb runs, not to parse
     from wsbuild.reporter import Console, Reporter
     from wsbuild.workspace.selection import Selection
-    from wsbuild.testing.runners import TestRequest
+    from wsbuild.testing.request import TestRequest
     from wsbuild.verbs.load import Loaded, LoadRequest
     from wsbuild.verbs.metas import MetadataRequest
 
@@ -112,7 +112,7 @@ def add_result_arguments(parser: argparse.ArgumentParser) -> None:
 def request_from_args(args: argparse.Namespace, root: Path) -> TestRequest:
     """Validate the options of `wsbuild test`; relative paths are relative to the workspace."""
     from wsbuild.builder.request import cpu_count
-    from wsbuild.testing.runners import TestRequest
+    from wsbuild.testing.request import TestRequest
 
     workers = args.parallel_workers
     workers = cpu_count() if workers is None else workers
@@ -182,7 +182,7 @@ def run_test_verb(args: argparse.Namespace) -> int:
     from wsbuild.reporter import Reporter
     from wsbuild.runreport.write import progress_of
     from wsbuild.testing.results import summary_lines
-    from wsbuild.testing.runners import run_tests
+    from wsbuild.testing.test_run import run_tests
     from wsbuild.reporter import print_notes
     from wsbuild.verbs import metas
     from wsbuild.verbs.load import load
@@ -243,7 +243,7 @@ def _build_test_trees(selection: Selection, request: TestRequest, reporter: Repo
                         "not the build directory CTest runs the tests from"))
         run_build(Selection(selection.workspace, selection.packages, selection.graph, names),
                   BuildRequest(build=options_of_record(json.loads(options)),
-                               run=RunOptions(workers=request.workers, sequential=False,
+                               run=RunOptions(workers=request.workers,
                                               continue_on_error=False,
                                               wait_for_lock=request.wait_for_lock),
                                force=True, report=False), reporter)
@@ -255,7 +255,7 @@ def _missing_ros_pytest(loaded: Loaded, python_executable: str) -> str:
     from wsbuild.build_types import get_build_type
     from wsbuild.build_types.pybuild.tests import PYTEST
     from wsbuild.testing.pytest_env import ROS_PYTEST_VERSION, install_hint
-    from wsbuild.underlay.constraints import ros_pytest_dir, ros_pytest_installed
+    from wsbuild.build_types.ros_pytest import ros_pytest_dir, ros_pytest_installed
 
     if ros_pytest_installed(python_executable) or not any(
             get_build_type(loaded.packages[n].build_type).test_runner is PYTEST

@@ -16,14 +16,14 @@ import sys
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 
-from wsbuild.build_types import BuildContext, BuildOptions, Command, Problems, StepFailed
+from wsbuild.build_types import PackageContext, BuildOptions, Command, Problems, StepFailed
 from wsbuild.workspace.names import is_valid_dependency_name
 
 MODULE = "wsbuild.build_types.pybuild.by_hand"
 STEPS = ("configure", "install", "index", "record")
 
 
-def by_hand_command(step: str, ctx: BuildContext) -> Command:
+def by_hand_command(step: str, ctx: PackageContext) -> Command:
     """The command that runs `step` of `ctx`'s package from a shell, in the workspace."""
     assert step in STEPS, step
     argv = [sys.executable, "-m", MODULE, step, "--name", ctx.package.name,
@@ -78,9 +78,14 @@ def _parse(argv: Sequence[str]) -> tuple[str, dict[str, str], bool] | None:
     return argv[0], values, symlink
 
 
-def _context(values: Mapping[str, str], symlink: bool, warnings: list[str]) -> BuildContext:
+def _context(values: Mapping[str, str], symlink: bool, warnings: list[str]) -> PackageContext:
+    """The step's context, made by the function every context is made by
+    (`build_types.package_context`), from the command line: the shell's environment is the
+    package's (`--dry-run` prints the export line that sets it), the install goes straight
+    into the prefix."""
     import os
 
+    from wsbuild.build_types import get_build_type, package_context
     from wsbuild.workspace.model import Package
 
     source = Path(values["source"]).absolute()
@@ -89,18 +94,18 @@ def _context(values: Mapping[str, str], symlink: bool, warnings: list[str]) -> B
     build.mkdir(parents=True, exist_ok=True)
     prefix.mkdir(parents=True, exist_ok=True)
     manifest = Path(values["manifest"]).absolute() if "manifest" in values else None
-    package = Package(values["name"], source, "", manifest=manifest)
+    package = Package(values["name"], source, "python", manifest=manifest)
     options = BuildOptions(symlink_install=symlink,
                            python_executable=values.get("python") or sys.executable)
-    return BuildContext(package=package, build_dir=build, install_prefix=prefix,
-                        stage_prefix=prefix, options=options, environ=dict(os.environ),
-                        run=_run, warn=warnings.append)
+    return package_context(get_build_type("python"), package=package, build_dir=build,
+                           install_prefix=prefix, stage_prefix=prefix, options=options,
+                           environ=os.environ, run=_run, warn=warnings.append)
 
 
-def run_step(step: str, ctx: BuildContext) -> None:
+def run_step(step: str, ctx: PackageContext) -> None:
     """One step of the recipe, into `ctx.stage_prefix`."""
-    from wsbuild.build_types.ament_python import register
     from wsbuild.build_types.pybuild import recipe
+    from wsbuild.build_types.pybuild.index import register
 
     if step == "configure":
         recipe.configure(ctx)

@@ -17,7 +17,7 @@ import sys
 from dataclasses import dataclass
 from pathlib import Path
 
-from wsbuild.build_types import BuildContext, ReadOutside, StepFailed
+from wsbuild.build_types import PackageContext, ReadOutside, StepFailed
 from wsbuild.build_types.pybuild.install import (
     InstallTarget,
     install_plan,
@@ -55,7 +55,7 @@ class PythonBuildPlan:
         return self.setup is not None and not self.fallback_reasons and self.setup.fast
 
 
-def python_executable(ctx: BuildContext) -> str:
+def python_executable(ctx: PackageContext) -> str:
     return ctx.options.python_executable or sys.executable
 
 
@@ -67,7 +67,7 @@ def origin_file(source_dir: Path) -> Path:
     return source_dir / "setup.py"
 
 
-def configure(ctx: BuildContext) -> PythonBuildPlan:
+def configure(ctx: PackageContext) -> PythonBuildPlan:
     """Learn the backend and setup()'s arguments; decide between fast path and fallback."""
     source = ctx.source_dir.absolute()
     if not any((source / name).is_file() for name in _PROJECT_FILES):
@@ -108,7 +108,7 @@ def _check_syntax(setup_py: Path, executable: str) -> None:
                          + (f"\n    {shown.strip()}" if shown.strip() else "")) from None
 
 
-def install(ctx: BuildContext, plan: PythonBuildPlan | None) -> None:
+def install(ctx: PackageContext, plan: PythonBuildPlan | None) -> None:
     """Install into the stage prefix: the fast path, or a PEP 517 wheel."""
     if plan is None:
         raise StepFailed("install needs the configure step to run first")
@@ -130,7 +130,7 @@ def install(ctx: BuildContext, plan: PythonBuildPlan | None) -> None:
             ctx.warn(f"byte-compiling failed: {error}")
 
 
-def _read_outside(ctx: BuildContext, setup: SetupPlan) -> ReadOutside:
+def _read_outside(ctx: PackageContext, setup: SetupPlan) -> ReadOutside:
     """What the fast path read outside the package: what setup.py opened (its imports of a
     dependency included) and stat'ed, the directories it listed (a glob over a dependency's
     share directory), and the files it installs from outside the package directory."""
@@ -150,12 +150,12 @@ def _read_outside(ctx: BuildContext, setup: SetupPlan) -> ReadOutside:
     return ReadOutside(files=outside(read), listings=outside(set(setup.listed)))
 
 
-def record(ctx: BuildContext) -> None:
+def record(ctx: PackageContext) -> None:
     """Keep the list of installed files in the build directory."""
     record_installed_files(ctx.stage_prefix, ctx.build_dir)
 
 
-def install_target(ctx: BuildContext, plan: PythonBuildPlan) -> InstallTarget:
+def install_target(ctx: PackageContext, plan: PythonBuildPlan) -> InstallTarget:
     executable = python_executable(ctx)
     site = site_packages_relpath(ctx.options.python_executable or None)
     symlink = ctx.options.symlink_install
@@ -179,7 +179,7 @@ def install_target(ctx: BuildContext, plan: PythonBuildPlan) -> InstallTarget:
                          symlink=symlink)
 
 
-def _install_built_wheel(ctx: BuildContext, plan: PythonBuildPlan, target: InstallTarget,
+def _install_built_wheel(ctx: PackageContext, plan: PythonBuildPlan, target: InstallTarget,
                          origin: Path) -> list[Path]:
     from installer.utils import parse_wheel_filename
 

@@ -4,7 +4,7 @@ pytest step runs it, its JUnit file read back."""
 from __future__ import annotations
 
 import shlex
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 
 from wsbuild.build_types import Command
@@ -31,6 +31,15 @@ class PytestRunner(TestRunnerBase):
     parses `sys.argv` sees only `python -m pytest`."""
 
     name: str = "pytest"
+
+    @property
+    def tool_cases(self) -> frozenset[str]:
+        return frozenset({"pytest.exit_code", "pytest.missing_result", "pytest.result"})
+
+    def environment(self, env: Mapping[str, str], python_executable: str) -> dict[str, str]:
+        from wsbuild.build_types.ros_pytest import with_ros_pytest
+
+        return with_ros_pytest(env, python_executable)
 
     def command(self, ctx: TestContext) -> Command:
         junit = ctx.results_dir / "pytest.xml"
