@@ -82,9 +82,11 @@ def run_build(selection: Selection, request: BuildRequest, emit: Emit) -> list[J
     with open_session(selection.workspace, session_options(request), emit) as session:
         plan = make_plan(selection, request, session)
         watcher = recording.replay_recorder()
-        if watcher is not None and (plan.refusal is not None or plan.to_do()
-                                    or plan.shard is not None):  # a shard asks the server
+        if watcher is not None and (plan.refusal is not None or plan.to_do()):
             watcher.drop()
+        if watcher is not None and plan.shard is not None:  # it asks a server: never replayed
+            watcher.drop()
+            watcher = None
         if plan.refusal is not None:
             raise plan.refusal.error
         _warn(plan, emit)

@@ -24,7 +24,7 @@ from __future__ import annotations
 import bisect
 import hashlib
 import json
-from collections.abc import Iterable, Mapping, Sequence
+from collections.abc import Collection, Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 
 from wsbuild.engine.ready_queue import JobGraph
@@ -193,6 +193,17 @@ class Split:
             waits[name] = round(max(0.0, min(arrival + margin, latest)), 3)
         return waits
 
+    def priorities(self, needed: Sequence[str]) -> dict[str, float]:
+        """Weights under which a shard's scheduler, over its `needed` packages only, ranks each
+        by its remaining work in the whole split (engine/ready_queue.py ranks by the work left
+        behind a package among the jobs it is given): a package whose dependents are built by
+        other shards still comes first when they wait for it."""
+        remaining = self.jobs.remaining_work(self.weights)
+        subset = self.jobs.subset(needed)
+        return {name: remaining[name] - max((remaining[user] for user in subset.dependents[name]),
+                                            default=0.0)
+                for name in subset.order}
+
     def matrix(self) -> dict[str, object]:
         """The split as JSON for a CI system (`wsbuild plan --shards N --json`): each shard's
         packages and predicted time, under `matrix.include` as GitHub Actions' matrix takes it."""
@@ -219,9 +230,15 @@ def split_packages(jobs: JobGraph, weights: Mapping[str, float], count: int, wor
     docstring); with `assignment`, that split's schedule instead (a split taken from another
     shard: builder/shard_run.py)."""
     workers = max(1, workers)
-    placed, start, finish = _schedule(jobs, weights, count, workers, transfer, assignment)
-    one = finish if count == 1 else _schedule(jobs, weights, 1, workers, transfer, None)[2]
     path = jobs.critical_path(weights)
+    if assignment is not None or count == 1:
+        placed, start, finish = _schedule(jobs, weights, count, workers, transfer, assignment)
+    else:  # the better of two: each package where it starts first, or so with the critical
+        # path kept on the first shard (ties: the first)
+        tries = [_schedule(jobs, weights, count, workers, transfer, None),
+                 _schedule(jobs, weights, count, workers, transfer, None, pinned=set(path))]
+        placed, start, finish = min(tries, key=lambda t: max(t[2].values(), default=0.0))
+    one = finish if count == 1 else _schedule(jobs, weights, 1, workers, transfer, None)[2]
     return Split(count=count, workers=workers, assignment=placed, start=start, finish=finish,
                  weights=dict(weights), estimated=estimated, jobs=jobs,
                  one_machine=max(one.values(), default=0.0), critical_path=tuple(path),
@@ -234,11 +251,14 @@ class _Machine:
     timelines: list[list[tuple[float, float]]]
     work: float = 0.0
 
-    def earliest(self, ready: float, length: float) -> tuple[float, int]:
-        """The earliest start at or after `ready` of a gap of `length` on some worker, and
-        that worker."""
+    def earliest(self, ready: float, length: float,
+                 workers: Collection[int] | None = None) -> tuple[float, int]:
+        """The earliest start at or after `ready` of a gap of `length` on some worker (of
+        `workers`, when given), and that worker."""
         best = (float("inf"), 0)
         for number, timeline in enumerate(self.timelines):
+            if workers is not None and number not in workers:
+                continue
             begin = ready
             for busy_from, busy_to in timeline:
                 if begin + length <= busy_from:
@@ -260,10 +280,12 @@ class _Placement:
 
 
 def _schedule(jobs: JobGraph, weights: Mapping[str, float], count: int, workers: int,
-              transfer: float, fixed: Mapping[str, int] | None
+              transfer: float, fixed: Mapping[str, int] | None,
+              pinned: Collection[str] = ()
               ) -> tuple[dict[str, int], dict[str, float], dict[str, float]]:
     """(shard of each package, its start, its finish): the list schedule of the module's
-    docstring, or with `fixed` the schedule of that assignment."""
+    docstring, or with `fixed` the schedule of that assignment; `pinned` packages all go to
+    the first machine."""
     remaining = jobs.remaining_work(weights)
     position = {name: index for index, name in enumerate(jobs.order)}
     # the ready queue's order; a dependency always comes before its dependents in it (its
@@ -273,12 +295,15 @@ def _schedule(jobs: JobGraph, weights: Mapping[str, float], count: int, workers:
     start: dict[str, float] = {}
     for name in order:
         length = max(0.0, float(weights.get(name, 0.0)))
-        choices = [fixed[name] - 1] if fixed is not None else range(count)
+        choices = [fixed[name] - 1] if fixed is not None else [0] if name in pinned \
+            else range(count)
         best: tuple[float, float, float, int, int] | None = None
         for machine in choices:
             ready = max((state.finish[dep] + (0.0 if state.placed[dep] == machine else transfer)
                          for dep in jobs.dependencies[name]), default=0.0)
-            begin, worker = state.machines[machine].earliest(ready, length)
+            begin, worker = state.machines[machine].earliest(ready, length, (
+                None if not pinned or machine else {0} if name in pinned
+                else set(range(1, workers)) or None))
             together = sum(weights.get(dep, 0.0) for dep in jobs.dependencies[name]
                            if state.placed[dep] == machine)
             candidate = (begin, -together, state.machines[machine].work, machine, worker)
