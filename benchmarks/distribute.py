@@ -458,20 +458,24 @@ class ShardRun:
 
 
 def simulate_shards(times: PackageTimes, shards: int, *, transfer: float | None = None,
-                    delay: Mapping[int, float] | None = None) -> ShardRun:
+                    delay: Mapping[int, float] | None = None,
+                    split_weights: Mapping[str, float] | None = None) -> ShardRun:
     """N shards as wsbuild runs them: the split of wsbuild/builder/shards.py; on each machine
     its workers take the ready packages, the most remaining work first (engine/schedule.py);
     a package of another shard takes no worker while it is waited for, and is there a
     `transfer` after the first machine that built it finished it, unless its wait
     (`Split.waits`) ran out first: then it is built here (beside the workers, as wsbuild
-    does). `delay`: shard → seconds it starts late (a CI queue)."""
+    does). `delay`: shard → seconds it starts late (a CI queue); `split_weights`: what the
+    split, the priorities and the waits are made of, when not the recorded times (a cold
+    cache: estimates), while the packages take their recorded times."""
     from wsbuild.builder.shards import TRANSFER_SECONDS, split_packages
 
     transfer = TRANSFER_SECONDS if transfer is None else transfer
     jobs = JobGraph.of(times.order, times.depends)
-    split = split_packages(jobs, times.seconds, shards, times.workers, transfer=transfer)
+    split = split_packages(jobs, split_weights or times.seconds, shards, times.workers,
+                           transfer=transfer)
     closure = times.closure()
-    machines = [_ShardMachine.of(split, k, closure, (delay or {}).get(k, 0.0))
+    machines = [_ShardMachine.of(split, k, closure, (delay or {}).get(k, 0.0), times.seconds)
                 for k in range(1, shards + 1)]
     events: list[tuple[float, int, str, int, str]] = []
     available: dict[str, float] = {}
@@ -482,7 +486,7 @@ def simulate_shards(times: PackageTimes, shards: int, *, transfer: float | None 
         heapq.heappush(events, (when, counter[0], kind, machine, name))
 
     for machine in machines:
-        machine.start_ready(machine.delay, push, available)
+        push(machine.delay, "started", machine.index, "")
     while events:
         now, _, kind, number, name = heapq.heappop(events)
         machine = machines[number - 1]
@@ -491,6 +495,9 @@ def simulate_shards(times: PackageTimes, shards: int, *, transfer: float | None 
                 machine.waiting.discard(name)
                 machine.built_again.add(name)
                 push(now + times.seconds[name], "built", number, name)
+            continue
+        if kind == "started":
+            machine.start_ready(now, push, available)
             continue
         if kind == "built":
             if available.get(name, float("inf")) > now + transfer:
@@ -533,12 +540,12 @@ class _ShardMachine:
 
     @classmethod
     def of(cls, split: Split, index: int, closure: Mapping[str, set[str]],
-           delay: float) -> _ShardMachine:
+           delay: float, seconds: Mapping[str, float]) -> _ShardMachine:
         needed = split.needed(index, closure)
         jobs = split.jobs.subset(needed)
         remaining = jobs.remaining_work(split.priorities(needed))
         machine = cls(index, frozenset(split.packages(index)), split.waits(index, needed),
-                      split.weights, jobs, {n: len(jobs.dependencies[n]) for n in jobs.order},
+                      seconds, jobs, {n: len(jobs.dependencies[n]) for n in jobs.order},
                       {n: (-remaining[n], i) for i, n in enumerate(jobs.order)},
                       split.workers, delay)
         for name in jobs.order:

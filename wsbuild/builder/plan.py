@@ -188,7 +188,7 @@ def make_plan(selection: Selection, request: BuildRequest, session: Session) -> 
     jobs = JobGraph.of(selection.selected,
                        {n: selection.graph.direct(n) & selected for n in selection.selected})
     weights = package_weights(selection.packages, selection.selected, ws.build_base) \
-        if shard is None else shard.split.weights
+        if shard is None else shard.priorities
     path = jobs.critical_path(weights)
     planning = _Planning(selection, request, options, session,
                          underlay_paths(str(ws.install_base), session.environ),

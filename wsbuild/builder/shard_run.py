@@ -82,6 +82,9 @@ class ShardPlan:
     own: tuple[str, ...]
     #: packages of other shards this one needs → seconds from its start it waits for each
     waits: Mapping[str, float]
+    #: the weights its scheduler ranks its packages by (`Split.priorities`): their work in
+    #: the whole split
+    priorities: Mapping[str, float]
     #: the graph digest of this shard's selection (notes compare it)
     workspace: str
     #: peers (shard numbers) whose note showed another workspace: nothing is waited for
@@ -160,7 +163,8 @@ def shard_selection(selection: Selection, spec: ShardSpec, workers: int,
     waits = {name: (0.0 if split.assignment[name] in strangers else seconds)
              for name, seconds in split.waits(spec.index, needed).items()}
     notices.insert(0, (_plan_line(spec, split, own, waits), False))
-    shard = ShardPlan(spec, split, own, waits, workspace, frozenset(strangers), tuple(notices))
+    shard = ShardPlan(spec, split, own, waits, split.priorities(needed), workspace,
+                      frozenset(strangers), tuple(notices))
     return Selected(selection.workspace, selection.packages, selection.graph,
                     list(needed)), shard
 
