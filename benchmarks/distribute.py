@@ -42,12 +42,18 @@ import socket
 import subprocess
 import sys
 import time
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 if __package__ in (None, ""):
     sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
+
+from wsbuild.engine.ready_queue import JobGraph
+
+if TYPE_CHECKING:
+    from wsbuild.builder.shards import Split
 
 from benchmarks.compile_heavy import CompileHeavySpec, generate_compile_heavy, plan_workspace
 from benchmarks.measure import CommandFailed, Sample, clean_outputs, empty_discarded, run_timed
@@ -396,6 +402,191 @@ def predict(recording: Recording, machines: Sequence[int] = MACHINES
     rows = [Prediction(m, fixed + simulate(jobs, m, recording.cores, recording.cores))
             for m in machines]
     return rows, fixed + critical_path(jobs), fixed
+
+
+# ----------------------------------------------------------------------------- shards (issue 39)
+
+@dataclass(frozen=True, slots=True)
+class PackageTimes:
+    """A cold build as the shard model reads it (benchmarks/shards.py's recording): each
+    package's seconds from start to finish and its dependencies, in topological order."""
+
+    order: tuple[str, ...]
+    seconds: Mapping[str, float]
+    depends: Mapping[str, tuple[str, ...]]
+    workers: int
+    wall: float
+    #: wsbuild's own time before the first package and after the last
+    fixed: float
+
+    @classmethod
+    def load(cls, path: Path) -> PackageTimes:
+        data = json.loads(path.read_text())
+        rows = data["packages"]
+        return cls(tuple(row["name"] for row in rows),
+                   {row["name"]: float(row["seconds"]) for row in rows},
+                   {row["name"]: tuple(row["depends"]) for row in rows},
+                   int(data["workers"]), float(data["wall_seconds"]),
+                   float(data["before_packages"]) + float(data["after_packages"]))
+
+    def closure(self) -> dict[str, set[str]]:
+        """Each package's dependencies, recursively (what its build needs installed)."""
+        result: dict[str, set[str]] = {}
+        for name in self.order:
+            needed = set(self.depends[name])
+            for dep in self.depends[name]:
+                needed |= result[dep]
+            result[name] = needed
+        return result
+
+
+@dataclass(frozen=True, slots=True)
+class ShardRun:
+    """What the model predicts for N shards."""
+
+    shards: int
+    #: the slowest shard's time for its packages (wsbuild's fixed time not included)
+    seconds: float
+    per_shard: tuple[float, ...]
+    #: what the split itself predicted (builder/shards.py's list schedule)
+    split_predicted: float
+    bound: float
+    critical_path: float
+    #: packages of other shards restored after waiting, and built again after a wait ran out
+    restored: int
+    built_again: int
+
+
+def simulate_shards(times: PackageTimes, shards: int, *, transfer: float | None = None,
+                    delay: Mapping[int, float] | None = None,
+                    split_weights: Mapping[str, float] | None = None) -> ShardRun:
+    """N shards as wsbuild runs them: the split of wsbuild/builder/shards.py; on each machine
+    its workers take the ready packages, the most remaining work first (engine/schedule.py);
+    a package of another shard takes no worker while it is waited for, and is there a
+    `transfer` after the first machine that built it finished it, unless its wait
+    (`Split.waits`) ran out first: then it is built here (beside the workers, as wsbuild
+    does). `delay`: shard → seconds it starts late (a CI queue); `split_weights`: what the
+    split, the priorities and the waits are made of, when not the recorded times (a cold
+    cache: estimates), while the packages take their recorded times."""
+    from wsbuild.builder.shards import TRANSFER_SECONDS, split_packages
+
+    transfer = TRANSFER_SECONDS if transfer is None else transfer
+    jobs = JobGraph.of(times.order, times.depends)
+    split = split_packages(jobs, split_weights or times.seconds, shards, times.workers,
+                           transfer=transfer)
+    closure = times.closure()
+    machines = [_ShardMachine.of(split, k, closure, (delay or {}).get(k, 0.0), times.seconds)
+                for k in range(1, shards + 1)]
+    events: list[tuple[float, int, str, int, str]] = []
+    available: dict[str, float] = {}
+    counter = [0]
+
+    def push(when: float, kind: str, machine: int, name: str) -> None:
+        counter[0] += 1
+        heapq.heappush(events, (when, counter[0], kind, machine, name))
+
+    for machine in machines:
+        push(machine.delay, "started", machine.index, "")
+    while events:
+        now, _, kind, number, name = heapq.heappop(events)
+        machine = machines[number - 1]
+        if kind == "deadline":
+            if name in machine.waiting:  # its wait ran out: built here
+                machine.waiting.discard(name)
+                machine.built_again.add(name)
+                push(now + times.seconds[name], "built", number, name)
+            continue
+        if kind == "started":
+            machine.start_ready(now, push, available)
+            continue
+        if kind == "built":
+            if available.get(name, float("inf")) > now + transfer:
+                available[name] = now + transfer
+                for other in machines:  # those waiting for it restore it
+                    if name in other.waiting and now + transfer <= other.deadline(name):
+                        other.waiting.discard(name)
+                        other.restored.add(name)
+                        push(now + transfer, "restored", other.index, name)
+            if name in machine.own:
+                machine.busy -= 1
+        machine.finish(name, now)
+        machine.start_ready(now, push, available)
+    per_shard = tuple(m.last for m in machines)
+    return ShardRun(shards, max(per_shard), per_shard, split.predicted, split.bound,
+                    split.critical_seconds, sum(len(m.restored) for m in machines),
+                    sum(len(m.built_again) for m in machines))
+
+
+Push = Callable[[float, str, int, str], None]
+
+
+@dataclass(slots=True)
+class _ShardMachine:
+    index: int
+    own: frozenset[str]
+    waits: Mapping[str, float]
+    seconds: Mapping[str, float]
+    jobs: JobGraph
+    pending: dict[str, int]
+    priority: dict[str, tuple[float, int]]
+    workers: int
+    delay: float
+    ready: list[tuple[tuple[float, int], str]] = field(default_factory=list)
+    waiting: set[str] = field(default_factory=set)
+    restored: set[str] = field(default_factory=set)
+    built_again: set[str] = field(default_factory=set)
+    busy: int = 0
+    last: float = 0.0
+
+    @classmethod
+    def of(cls, split: Split, index: int, closure: Mapping[str, set[str]],
+           delay: float, seconds: Mapping[str, float]) -> _ShardMachine:
+        needed = split.needed(index, closure)
+        jobs = split.jobs.subset(needed)
+        remaining = jobs.remaining_work(split.priorities(needed))
+        machine = cls(index, frozenset(split.packages(index)), split.waits(index, needed),
+                      seconds, jobs, {n: len(jobs.dependencies[n]) for n in jobs.order},
+                      {n: (-remaining[n], i) for i, n in enumerate(jobs.order)},
+                      split.workers, delay)
+        for name in jobs.order:
+            if not machine.pending[name]:
+                heapq.heappush(machine.ready, (machine.priority[name], name))
+        return machine
+
+    def deadline(self, name: str) -> float:
+        return self.delay + self.waits[name]
+
+    def start_ready(self, now: float, push: Push, available: Mapping[str, float]) -> None:
+        """Start what the engine would: any ready package while a worker is free, then the
+        waited-for ones (they take no worker)."""
+        held = []
+        while self.ready:
+            entry = heapq.heappop(self.ready)
+            name = entry[1]
+            if name in self.own:
+                if self.busy >= self.workers:
+                    held.append(entry)
+                    continue
+                self.busy += 1
+                push(now + self.seconds[name], "built", self.index, name)
+            elif available.get(name, float("inf")) <= self.deadline(name):
+                self.restored.add(name)
+                push(max(now, available[name]), "restored", self.index, name)
+            elif now >= self.deadline(name):
+                self.built_again.add(name)
+                push(now + self.seconds[name], "built", self.index, name)
+            else:
+                self.waiting.add(name)
+                push(self.deadline(name), "deadline", self.index, name)
+        for entry in held:
+            heapq.heappush(self.ready, entry)
+
+    def finish(self, name: str, now: float) -> None:
+        self.last = max(self.last, now)
+        for user in self.jobs.dependents[name]:
+            self.pending[user] -= 1
+            if not self.pending[user]:
+                heapq.heappush(self.ready, (self.priority[user], user))
 
 
 # ----------------------------------------------------------------------------- recording a build

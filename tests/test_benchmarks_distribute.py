@@ -7,12 +7,14 @@ import json
 from pathlib import Path
 
 from benchmarks.distribute import (
+    PackageTimes,
     job_graph,
     load_recording,
     ninja_jobs,
     predict,
     read_ninja_log,
     simulate,
+    simulate_shards,
 )
 
 #: `ninja -t graph` of a library of two sources and a generated header (shortened ids)
@@ -117,3 +119,33 @@ def test_local_work_stays_on_the_first_machine(tmp_path: Path) -> None:
     many = simulate(jobs, machines=16, cores=1, workers=1)
     assert one == 3 * 12.0
     assert many == 3 * 8.0
+
+
+def _leaves(tmp_path: Path) -> PackageTimes:
+    """tests/test_shard_build.py's workspace as a recording: base (2 s) and four leaves on it
+    (10 s each), two workers."""
+    rows = [{"name": "base", "seconds": 2.0, "depends": []}] + [
+        {"name": leaf, "seconds": 10.0, "depends": ["base"]}
+        for leaf in ("leaf_a", "leaf_b", "leaf_c", "leaf_d")]
+    path = tmp_path / "leaves.json"
+    path.write_text(json.dumps({"packages": rows, "workers": 2, "wall_seconds": 23.0,
+                                "before_packages": 0.5, "after_packages": 0.5}))
+    return PackageTimes.load(path)
+
+
+def test_shards_are_played_out_as_wsbuild_runs_them(tmp_path: Path) -> None:
+    times = _leaves(tmp_path)
+    assert times.fixed == 1.0
+    one = simulate_shards(times, 1)
+    assert one.seconds == 22.0 and one.restored == 0  # base, then the leaves two by two
+    two = simulate_shards(times, 2)
+    # shard 1 builds base and two leaves; shard 2 restores base 3 s after it is done
+    assert two.per_shard == (12.0, 15.0) and two.restored == 1 and two.built_again == 0
+    assert two.bound == 12.0 and two.split_predicted == 15.0
+
+
+def test_a_late_shard_costs_the_others_their_bounded_wait_only(tmp_path: Path) -> None:
+    late = simulate_shards(_leaves(tmp_path), 2, delay={1: 60.0})
+    # shard 2 waits 13 s for base, builds it, then its leaves: 13 + 2 + 10 = 25 s, one job
+    # building everything (22 s) give or take a restore (3 s)
+    assert late.per_shard[1] == 25.0 and late.built_again == 1

@@ -12,12 +12,8 @@ from conftest import REPO
 from wsbuild.deps.plan import Source
 from wsbuild.deps.test_tools import has_tests, linter_program_steps, ros_pytest_command
 from wsbuild.deps.test_tools import ros_pytest_step
-from wsbuild.underlay.constraints import (
-    ROS_PYTEST_VAR,
-    distro_constraints,
-    ros_pytest_installed,
-    ros_pytest_requirements,
-)
+from wsbuild.build_types.ros_pytest import ROS_PYTEST_VAR, ros_pytest_installed
+from wsbuild.underlay.constraints import distro_constraints, ros_pytest_requirements
 from wsbuild.workspace.model import DepKind, Dependency, Package
 
 ALL = frozenset(DepKind)

@@ -90,3 +90,24 @@ def test_a_crashing_job_is_a_failure_not_a_hang() -> None:
                        emit=lambda e: None)
     assert results[0].outcome is Outcome.FAILED
     assert "bug in wsbuild" in results[0].message
+
+
+def test_a_job_waiting_for_another_machine_takes_no_worker() -> None:
+    # one worker; "remote" waits until "local" has run (a shard's package of another shard,
+    # waited for while the shard builds its own): were it to take the worker, "local" could
+    # only start after its wait ran out
+    local_ran = threading.Event()
+    seen: dict[str, bool] = {}
+
+    def job(name: str) -> JobResult:
+        if name == "remote":
+            seen["local ran while remote waited"] = local_ran.wait(timeout=30)
+        else:
+            local_ran.set()
+        return JobResult(name, Outcome.FINISHED)
+
+    graph = JobGraph.of(["remote", "local"], {})
+    results = run_jobs(graph, job, workers=1, policy=FailurePolicy.STOP, emit=lambda e: None,
+                       weights={"remote": 10.0, "local": 1.0}, waiting={"remote"})
+    assert seen == {"local ran while remote waited": True}
+    assert all(r.outcome is Outcome.FINISHED for r in results)

@@ -82,6 +82,7 @@ VERBS: dict[str, str] = {
     "graph": "Show the dependency graph of the packages",
     "info": "Show a package's dependencies and where each is found",
     "run": "Run an executable of an installed package",
+    "plan": "Split a build across the jobs of a CI matrix",
     "clean": "Remove what builds left in build/, install/ and log/",
     "deps": "Check or install the dependencies nothing provides",
     "report": "Show an earlier run's summary and its report page",
@@ -342,12 +343,18 @@ def _cache_parser(tree: _Tree, name: str) -> None:
     verify.set_defaults(func="wsbuild.verbs.cache:run_verify")
 
 
+def _plan_parser(tree: _Tree, name: str) -> None:
+    from wsbuild.verbs.plan import PLAN_DOC, add_arguments
+
+    add_arguments(tree.verb(name, "wsbuild.verbs.plan:run_plan_verb", PLAN_DOC))
+
+
 #: the verbs that are not colcon's mirrored ones (_MIRRORED), by name
 _ADDERS: dict[str, Callable[[_Tree, str], None]] = {
     "clean": _clean_parser, "deps": _deps_parser, "completion": _completion_parser,
     "test-result": _test_result_parser, "report": _report_parser, "run": _run_parser,
     "mixin": _mixin_parser, "pkg": _pkg_parser, "underlay": _underlay_parser,
-    "cache": _cache_parser,
+    "cache": _cache_parser, "plan": _plan_parser,
 }
 
 

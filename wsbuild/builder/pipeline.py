@@ -23,7 +23,7 @@
 from __future__ import annotations
 
 import time
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, replace
 
 from typing import TYPE_CHECKING
@@ -84,14 +84,23 @@ def run_build(selection: Selection, request: BuildRequest, emit: Emit) -> list[J
         watcher = recording.replay_recorder()
         if watcher is not None and (plan.refusal is not None or plan.to_do()):
             watcher.drop()
+        if watcher is not None and plan.shard is not None:  # it asks a server: never replayed
+            watcher.drop()
+            watcher = None
         if plan.refusal is not None:
             raise plan.refusal.error
         _warn(plan, emit)
         assert session.run_log is not None
+        if plan.shard is not None:  # its note for the other shards (builder/shard_run.py)
+            from wsbuild.builder import shard_run
+
+            shard_run.start(plan, session, emit)
         run = PackageRun(selection, session.run_log, plan.jobs, report=request.report,
                          sample_cpu=bool(plan.to_do()), started=started, cpu_before=cpu_before)
         results, counts = execute(plan, selection, request, session, emit, run)
         details = _finish(run, request, session, results, counts)
+        if plan.shard is not None:  # what it waited for; the times of what it built
+            details += shard_run.finish(plan, results, session, emit)
     seconds = time.monotonic() - started
     emit(RunFinished(tuple(results), seconds, details=details))
     failed = [r.package for r in results if r.outcome is Outcome.FAILED]
@@ -228,9 +237,16 @@ def _run_packages(plan: BuildPlan, selection: Selection, request: BuildRequest,
     policy = FailurePolicy.SKIP_DEPENDENTS if request.run.continue_on_error \
         else FailurePolicy.STOP
     planned = {p.name: p for p in plan.to_do()}
-    return run.run(jobs, lambda name: PackageBuild(planned[name], resources).execute(),
-                   workers=request.run.workers, policy=policy, emit=emit,
-                   weights=plan.weights)
+    job: Callable[[str], JobResult] = lambda name: PackageBuild(planned[name], resources).execute()
+    waiting: frozenset[str] = frozenset()
+    if plan.shard is not None:  # other shards' packages are waited for (builder/shard_run.py)
+        from wsbuild.builder.shard_run import shard_jobs
+
+        job, waiting = shard_jobs(plan.shard, planned,
+                                  lambda p: PackageBuild(p, resources).execute(), session,
+                                  resources.emit, run.started)
+    return run.run(jobs, job, workers=request.run.workers, policy=policy, emit=emit,
+                   weights=plan.weights, waiting=waiting)
 
 
 def _open_distribution(request: BuildRequest, session: Session,

@@ -7,10 +7,14 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 from dataclasses import dataclass, field, replace
+from typing import TYPE_CHECKING
 
 from wsbuild.build_types import BuildOptions
 from wsbuild.cache.settings import CacheSettings
 from wsbuild.engine.timings import cpu_count
+
+if TYPE_CHECKING:
+    from wsbuild.builder.shards import ShardSpec
 
 #: cpu_count is the engine's (the test run counts the cores too); the verbs find it here
 __all__ = ["BuildRequest", "RunOptions", "cpu_count", "options_of_record"]
@@ -69,6 +73,8 @@ class BuildRequest:
     distribute: str | None = None
     #: --env-ignore: variables that reach no build, beside record/environment.py's own list
     env_ignore: tuple[str, ...] = ()
+    #: --shard K/N: this job's share of a build split across a CI matrix (builder/shards.py)
+    shard: ShardSpec | None = None
 
 
 def options_of_record(options: Mapping[str, object]) -> BuildOptions:

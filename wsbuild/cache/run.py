@@ -147,6 +147,22 @@ class RunCache:
             self._seconds["restore"] += time.perf_counter() - started
         return Proven(found, record)
 
+    def probe(self, key: CacheKey, inputs_key: str, dependencies: Mapping[str, str],
+              digests: Digests) -> Proven | str | None:
+        """The entry for `key` when it is there and this machine proves it; None when it is
+        not there (yet) and the cache can still be asked; else why it will not be restored
+        (another build's entry, the server off for this run). Unlike `lookup` nothing goes
+        into the run's log: cache/waiting.py asks again and again while another job of a CI
+        matrix builds the package."""
+        cache = self._open()
+        found = cache.find(key)
+        if found is None:
+            off = self.settings is not None and self.settings.url and cache.remote is None
+            return "the cache server is off for this run" if off else None
+        record, why_not = disproof(found, inputs_key, dependencies, digests,
+                                   install_base=self.workspace.install_base, planning=False)
+        return Proven(found, record) if record is not None else why_not
+
     def restore(self, key: CacheKey, found: Found, prefix: Path, merged_record: Path | None, *,
                 inputs_key: str, dependencies: Mapping[str, str], digests: Digests
                 ) -> tuple[Restored, PackageRecord, list[tuple[str, int]]] | str:

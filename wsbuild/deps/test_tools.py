@@ -12,12 +12,12 @@ from wsbuild import inputs
 
 from wsbuild.deps.needs import Need
 from wsbuild.deps.plan import Installer, Source, Step
-from wsbuild.underlay.constraints import (
+from wsbuild.build_types.ros_pytest import (
     ROS_PYTEST_VERSION,
     ros_pytest_dir,
     ros_pytest_installed,
-    ros_pytest_requirements,
 )
+from wsbuild.underlay.constraints import ros_pytest_requirements
 from wsbuild.underlay.lint import COMMON_LINTERS, LINTERS
 from wsbuild.underlay.lint_programs import LINT_PROGRAMS, LintProgram
 from wsbuild.workspace.model import DepKind, Package, Resolution

@@ -12,7 +12,7 @@ is deterministic. `JobGraph` holds the jobs with their dependencies and the reve
 from __future__ import annotations
 
 import heapq
-from collections.abc import Collection, Iterable, Mapping
+from collections.abc import Callable, Collection, Iterable, Mapping
 from dataclasses import dataclass
 
 
@@ -99,13 +99,23 @@ class ReadyQueue:
         self._heap = [self._priority[name] for name in jobs.order if not self._waiting[name]]
         heapq.heapify(self._heap)
 
-    def pop(self) -> str | None:
-        """The next job to start (None: none is ready now)."""
+    def pop(self, accept: Callable[[str], bool] | None = None) -> str | None:
+        """The next job to start (None: none is ready now); with `accept`, the first in the
+        queue's order that it accepts (the others stay ready)."""
+        passed = []
+        found = None
         while self._heap:
-            name = self.jobs.order[heapq.heappop(self._heap)[1]]
-            if name not in self._settled:  # a job settled while ready (skipped) never starts
-                return name
-        return None
+            entry = heapq.heappop(self._heap)
+            name = self.jobs.order[entry[1]]
+            if name in self._settled:  # a job settled while ready (skipped) never starts
+                continue
+            if accept is None or accept(name):
+                found = name
+                break
+            passed.append(entry)
+        for entry in passed:
+            heapq.heappush(self._heap, entry)
+        return found
 
     def has_ready(self) -> bool:
         return any(self.jobs.order[entry[1]] not in self._settled for entry in self._heap)

@@ -13,7 +13,7 @@ import queue
 import signal
 import threading
 import time
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Collection, Mapping
 from dataclasses import replace
 from enum import Enum
 
@@ -45,9 +45,12 @@ def run_jobs(
     emit: Callable[[JobEvent], None],
     registry: ProcessRegistry = REGISTRY,
     weights: Mapping[str, float] | None = None,
+    waiting: Collection[str] = (),
 ) -> list[JobResult]:
     """Run `job` for every job of `jobs` once its dependencies finished, in the order of a
-    `ReadyQueue` under `weights` (the most remaining work first).
+    `ReadyQueue` under `weights` (the most remaining work first). The jobs named in `waiting`
+    mostly wait for another machine (a shard's packages of other shards, builder/shard_run.py):
+    they start as soon as they are ready and take no worker.
 
     A failed job (outcome FAILED) affects the others as `policy` says.
     Ctrl-C (KeyboardInterrupt in the calling thread) terminates every child process group and
@@ -110,7 +113,7 @@ def run_jobs(
                         settle(JobResult(name, Outcome.SKIPPED,
                                            message="not started after an earlier failure"))
             else:
-                while len(running) < workers and (name := ready.pop()) is not None:
+                while (name := _next_job(ready, running, workers, waiting)) is not None:
                     running[name] = time.monotonic()
                     emit(JobStarted(name))
                     threading.Thread(target=worker, args=(name,), daemon=True,
@@ -150,6 +153,15 @@ def run_jobs(
                 results[name] = JobResult(name, outcome, message="interrupted")
         raise RunInterrupted([results[n] for n in names]) from None
     return [results[n] for n in names]
+
+
+def _next_job(ready: ReadyQueue, running: Collection[str], workers: int,
+              waiting: Collection[str]) -> str | None:
+    """The next job to start: any ready one while a worker is free, else one that waits for
+    another machine (it takes no worker)."""
+    if sum(1 for name in running if name not in waiting) < workers:
+        return ready.pop()
+    return ready.pop(lambda name: name in waiting) if waiting else None
 
 
 class RunInterrupted(KeyboardInterrupt):

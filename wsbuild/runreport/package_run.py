@@ -7,7 +7,7 @@ log directory."""
 from __future__ import annotations
 
 import time
-from collections.abc import Mapping, Sequence
+from collections.abc import Collection, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -68,11 +68,13 @@ class PackageRun:
         return both
 
     def run(self, jobs: JobGraph, job: Job, *, workers: int, policy: FailurePolicy,
-            emit: Emit, weights: Mapping[str, float] | None = None) -> list[JobResult]:
+            emit: Emit, weights: Mapping[str, float] | None = None,
+            waiting: Collection[str] = ()) -> list[JobResult]:
         """The scheduler over `jobs` (the run's, or those of them that need a worker), its
-        events timed; Ctrl-C comes out as engine/schedule.py's RunInterrupted."""
+        events timed; Ctrl-C comes out as engine/schedule.py's RunInterrupted. `waiting`: the
+        jobs that take no worker while they wait for another machine."""
         return run_jobs(jobs, job, workers=workers, policy=policy, emit=self.timed(emit),
-                        weights=weights)
+                        weights=weights, waiting=waiting)
 
     def finish(self, results: Sequence[JobResult], facts: RunFacts, *,
                extra: Mapping[str, Mapping[str, object]] | None = None,

@@ -23,6 +23,7 @@ from wsbuild.verbs.arguments import (
 if TYPE_CHECKING:  # the modules of the work are imported when the verb runs, not to parse
     from wsbuild.build_types import TypeOption
     from wsbuild.builder.request import BuildRequest
+    from wsbuild.builder.shards import ShardSpec
     from wsbuild.cache.settings import CacheSettings
     from wsbuild.reporter import Console
     from wsbuild.verbs.load import LoadRequest
@@ -131,6 +132,9 @@ def _cache_arguments(cache: argparse._ArgumentGroup) -> None:
                        help="neither restore from nor store into any cache")
     cache.add_argument("--cache-read-only", action="store_true",
                        help="restore, store nothing (untrusted builds, e.g. pull requests)")
+    secondary(cache.add_argument(
+        "--shard", metavar="K/N",
+        help="build the K-th of N jobs' share, meeting the others in the cache (docs/ci.md)"))
 
 
 def _split_args(values: list[str] | None) -> tuple[str, ...]:
@@ -191,7 +195,25 @@ def request_from_args(args: argparse.Namespace) -> BuildRequest:
         allow_overriding=tuple(args.allow_overriding or ()),
         report=not args.no_report,
         distribute=distribute_spec(args.distribute, os.environ),
+        shard=_shard_from_args(args),
     )
+
+
+def _shard_from_args(args: argparse.Namespace) -> ShardSpec | None:
+    """--shard K/N, with the CI run it belongs to (from the environment); it needs a build
+    cache on a server the jobs share."""
+    if args.shard is None:
+        return None
+    from wsbuild.builder.shards import parse_shard, shard_run_id
+
+    spec = parse_shard(args.shard, run=shard_run_id(os.environ))
+    settings = _cache_settings_from_args(args)
+    if settings is None or not settings.url or settings.read_only or args.symlink_install:
+        raise WsbuildError(
+            f"--shard {spec.label} needs a build cache on a server the jobs share, with "
+            "writes and without --symlink-install",
+            hint="give --cache http://cache.example:8080/ or set WSBUILD_CACHE (docs/ci.md)")
+    return spec
 
 
 def _cache_settings_from_args(args: argparse.Namespace) -> CacheSettings | None:

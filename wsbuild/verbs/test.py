@@ -22,6 +22,7 @@ from wsbuild.verbs.arguments import (
 from wsbuild.workspace.root import BUILD_BASE
 
 if TYPE_CHECKING:  # the modules of the work are imported when the verb runs, not to parse
+    from wsbuild.builder.shards import ShardSpec
     from wsbuild.reporter import Console, Reporter
     from wsbuild.workspace.selection import Selection
     from wsbuild.testing.request import TestRequest
@@ -77,6 +78,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help="a test of an ament linter that is not installed fails (default: skip)"))
     how.add_argument("--no-test-cache", action="store_true",
                      help="run every test, even where the last passing result still applies")
+    how.add_argument("--shard", metavar="K/N",
+                     help="test what `build --shard K/N` built here (docs/ci.md)")
     add_env_ignore_argument(how)
     how.add_argument("--abort-on-error", action="store_true",
                      help="start no more packages once one has failing tests")
@@ -162,6 +165,8 @@ class TestVerbRequest:
     test: TestRequest
     metadata: MetadataRequest
     console: Console
+    #: --shard K/N: this job's share of the split (builder/shard_run.py)
+    shard: ShardSpec | None = None
 
 
 def test_verb_request_from_args(args: argparse.Namespace) -> TestVerbRequest:
@@ -171,9 +176,15 @@ def test_verb_request_from_args(args: argparse.Namespace) -> TestVerbRequest:
     from wsbuild.verbs.metas import metadata_from_args
 
     test = request_from_args(args, workspace_root(args.workspace_dir))
+    shard = None
+    if args.shard is not None:
+        from wsbuild.builder.shards import parse_shard
+
+        shard = parse_shard(args.shard)
     return TestVerbRequest(
         load=load_request_from_args(args, cache=cache_selection_from_args(args, test=test)),
-        test=test, metadata=metadata_from_args(args), console=console_from_args(args))
+        test=test, metadata=metadata_from_args(args), console=console_from_args(args),
+        shard=shard)
 
 
 def run_test_verb(args: argparse.Namespace) -> int:
@@ -195,10 +206,19 @@ def run_test_verb(args: argparse.Namespace) -> int:
     print_notes(dict.fromkeys((loaded.chosen_because, *notes) if loaded.chosen_because
                               else notes))
     selection = Selection(loaded.workspace, loaded.packages, loaded.graph, loaded.selected)
+    if verb.shard is not None:  # the packages `build --shard` built here
+        import os
+
+        from wsbuild.builder.shard_run import test_selection
+        from wsbuild.cache.settings import settings_from_environment
+
+        selection, line = test_selection(selection, verb.shard, request.workers,
+                                         settings_from_environment(os.environ))
+        print_notes([line])
     console = verb.console
     reporter = Reporter(verb="test", console=console, log_base=loaded.workspace.log_base,
                         progress=progress_of(selection, request.workers, durations=False))
-    reporter.package_list([(n, loaded.packages[n].build_type) for n in loaded.selected])
+    reporter.package_list([(n, loaded.packages[n].build_type) for n in selection.selected])
     missing = _missing_ros_pytest(loaded, request.python_executable)
     if missing:
         reporter(Notice(missing, warning=True))
