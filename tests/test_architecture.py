@@ -156,6 +156,7 @@ RETIRED: dict[str, str] = {
     r"\bclear_directory\b": "nothing (dead code)",
     r"\bEnvironmentFailure\b": "nothing (dead code)",
     r"\bTestTool\b": "BuildType.test_runner",
+    r"\breplay_recorder\b": "the recorder handed down: cli.main(recorder=), Terminal.recorder",
 }
 
 

@@ -51,9 +51,9 @@ class Runs:
         self.full: list[bool] = []
         real = cli.main
 
-        def counted(argv: list[str] | None = None) -> int:
+        def counted(argv: list[str] | None = None, **kwargs: object) -> int:
             self.full.append(True)
-            return real(argv)
+            return real(argv, **kwargs)  # type: ignore[arg-type]
 
         monkeypatch.setattr(cli, "main", counted)
         monkeypatch.chdir(ws)
@@ -399,3 +399,34 @@ def test_a_replayed_no_op_is_drawn_by_the_reporter_as_the_full_run_showed_it(
     strip = (lambda text: [line for line in text.splitlines()
                            if not line.startswith("Summary:")])
     assert strip(replayed.stdout) == strip(recording.stdout) == strip(full.stdout)
+
+
+def test_a_recorder_that_fails_is_a_warning_and_the_next_run_is_full(
+        recorded: tuple[Path, Runs]) -> None:
+    """Issue 38: the recorder is handed down (no module global, nothing swapped in
+    sys.stdout); when it fails, the run stands, says so in one warning and leaves no record,
+    so the next run is a full one."""
+    from wsbuild.engine import recording
+
+    ws, runs = recorded
+    record = ws / replay.record_path("build")
+    record.unlink()
+    streams = (sys.stdout, sys.stderr)
+
+    def broken(self: object, outcome: object) -> None:
+        raise RuntimeError("the recorder's own bug")
+
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setattr(recording.ReplayRecorder, "_paths", broken)
+        code, out, replayed = runs.build()
+    assert (sys.stdout, sys.stderr) == streams, "the run swapped the process's streams"
+    assert code == 0 and not replayed and "2 packages up to date" in out, out
+    warnings = [line for line in out.splitlines() if line.startswith("wsbuild: warning:")]
+    assert warnings == ["wsbuild: warning: this run was not kept for replaying the next one "
+                        "(RuntimeError: the recorder's own bug); the next run is a full one"]
+    assert not record.exists()
+    time.sleep(SETTLE)
+    code, out, replayed = runs.build()
+    assert code == 0 and not replayed and "2 packages up to date" in out
+    assert record.is_file()
+    assert runs.build()[2] is True

@@ -13,7 +13,7 @@ import os
 import shutil
 import sys
 from collections.abc import Callable, Collection, Mapping, Sequence
-from typing import NoReturn
+from typing import TYPE_CHECKING, NoReturn
 from pathlib import Path
 
 from wsbuild import __version__
@@ -21,6 +21,9 @@ from wsbuild.errors import Interrupted, WsbuildError
 from wsbuild.verbs.arguments import PASSTHROUGH, add_workspace_arguments
 from wsbuild.verbs.arguments import collect_passthrough, may_pass_through
 from wsbuild.words import did_you_mean
+
+if TYPE_CHECKING:
+    from wsbuild.engine.recording import ReplayRecorder
 
 
 class _Formatter(argparse.RawDescriptionHelpFormatter):
@@ -401,7 +404,9 @@ def parse_command_line(raw: list[str], environ: Mapping[str, str],
         make_full_parser=lambda verbs: make_parser(verbs, plugin_options=True))
 
 
-def main(argv: Sequence[str] | None = None) -> int:
+def main(argv: Sequence[str] | None = None, *, recorder: ReplayRecorder | None = None) -> int:
+    """Run one command line. `recorder`: the one launch.py made for a verb that can be
+    replayed; it reaches the verb with the run's terminal (`args.terminal`)."""
     raw = list(sys.argv[1:] if argv is None else argv)
     if "_ARGCOMPLETE" in os.environ:  # the shell asks for completions (wsbuild completion)
         from wsbuild.verbs.completion import complete
@@ -416,10 +421,12 @@ def main(argv: Sequence[str] | None = None) -> int:
         _print_choices(args.verb)
         return 2
     from wsbuild.engine.process import interrupted_exit_code, stop_signals_interrupt
-    from wsbuild.reporter import print_notes
+    from wsbuild.reporter import Terminal
     from wsbuild.verbs.colcon import ignored_notes
 
-    print_notes(ignored_notes(args, args.verb))
+    # where the verb's words go (through the recorder's copies when it is recorded)
+    args.terminal = terminal = Terminal.of(recorder)
+    terminal.notes(ignored_notes(args, args.verb))
     try:
         with stop_signals_interrupt():
             return int(_resolve_func(args.func)(args) or 0)

@@ -43,7 +43,27 @@ class Summary:
     lines: tuple[str, ...]
 
 
-Event = JobStarted | StepStarted | JobFinished | Notice | CacheRestored | RunFinished | Summary
+@dataclass(frozen=True, slots=True)
+class PlanMade:
+    """A build's plan is made: `no_op` when it has nothing to restore or build and no refusal
+    (the reporter tells the run's recorder, engine/recording.py, to keep watching or stop)."""
+
+    no_op: bool
+
+
+@dataclass(frozen=True, slots=True)
+class NoOpFinished:
+    """A build that was a no-op ended well: where its files are, and its time as its summary
+    showed it (the recorder keeps it for the next run's replay)."""
+
+    build_base: Path
+    log_base: Path
+    run_log: Path
+    seconds: float
+
+
+Event = (JobStarted | StepStarted | JobFinished | Notice | CacheRestored | RunFinished | Summary
+         | PlanMade | NoOpFinished)
 Emit = Callable[[Event], None]
 
 #: the event types by name, and what they hold (a replayed run's record keeps its events)

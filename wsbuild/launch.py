@@ -40,11 +40,12 @@ def main() -> int:
     # imported (Modules/Setup): the interpreter's start, whose path and version key the record
     import sysconfig  # noqa: F401
 
-    with recording(argv) as finish:
+    with recording(argv) as recorder:
         from wsbuild.cli import main as run_command_line
 
-        code = run_command_line(argv)
-        finish(code)
+        code = run_command_line(argv, recorder=recorder)
+        if recorder is not None:
+            recorder.finish(code)
     return code
 
 

@@ -14,14 +14,16 @@ import time
 from collections.abc import Iterable, Sequence
 from dataclasses import asdict, dataclass
 from pathlib import Path
-from typing import TextIO
+from typing import TYPE_CHECKING, TextIO
 
 from wsbuild.events import (
     CacheRestored,
     Event,
     JobFinished,
     JobStarted,
+    NoOpFinished,
     Notice,
+    PlanMade,
     RunFinished,
     StepStarted,
     Summary,
@@ -30,19 +32,44 @@ from wsbuild.events import (
 )
 from wsbuild.engine.jobs import JobResult, Outcome
 from wsbuild.engine.progress import Progress
-from wsbuild.engine.recording import replay_recorder
 from wsbuild.words import plural
+
+if TYPE_CHECKING:
+    from wsbuild.engine.recording import ReplayRecorder
 
 #: characters of the status line's progress bar
 BAR_WIDTH = 20
 
 
-def _shown(kind: str, data: object) -> None:
-    """Tell the recorder of this run (if any) what the reporter showed: a no-op's replay
-    (engine/replay.py) shows the same through the same functions."""
-    watcher = replay_recorder()
-    if watcher is not None:
-        watcher.shown(kind, data)
+@dataclass(frozen=True)
+class Terminal:
+    """Where a run's words go: its standard output and error, and (a run of a verb that can be
+    replayed) the recorder that keeps what was shown, so that a no-op's replay
+    (engine/replay.py) shows the same through the same functions. cli.py makes it and hands it
+    to the verb; nothing looks it up."""
+
+    stdout: TextIO
+    stderr: TextIO
+    recorder: ReplayRecorder | None = None
+
+    @classmethod
+    def of(cls, recorder: ReplayRecorder | None) -> Terminal:
+        """The process's streams, through `recorder`'s copies when there is one."""
+        if recorder is None:
+            return cls(sys.stdout, sys.stderr)
+        return cls(recorder.stdout, recorder.stderr, recorder)  # type: ignore[arg-type]
+
+    def warnings(self, warnings: Iterable[str]) -> None:
+        warnings = list(warnings)
+        if warnings and self.recorder is not None:
+            self.recorder.shown("warnings", warnings)
+        print_warnings(warnings, self.stderr)
+
+    def notes(self, notes: Iterable[str]) -> None:
+        notes = list(notes)
+        if notes and self.recorder is not None:
+            self.recorder.shown("notes", notes)
+        print_notes(notes, self.stderr)
 
 
 def _near(path: Path) -> str:
@@ -100,18 +127,12 @@ class ReplayDrawing:
 
 def print_warnings(warnings: Iterable[str], stream: TextIO | None = None) -> None:
     """Warnings found before a run starts (discovery, result files), one line each on stderr."""
-    warnings = list(warnings)
-    if stream is None and warnings:
-        _shown("warnings", warnings)
     for warning in warnings:
         print(f"wsbuild: warning: {warning}", file=stream or sys.stderr)
 
 
 def print_notes(notes: Iterable[str], stream: TextIO | None = None) -> None:
     """Notes on how a command line was understood (an option ignored, and why), on stderr."""
-    notes = list(notes)
-    if stream is None and notes:
-        _shown("notes", notes)
     for note in notes:
         print(f"wsbuild: note: {note}", file=stream or sys.stderr)
 
@@ -160,8 +181,12 @@ class Reporter:
 
     def __init__(self, stream: TextIO | None = None, *, live: bool | None = None,
                  verb: str = "build", console: Console | None = None,
-                 log_base: Path | None = None, progress: Progress | None = None) -> None:
+                 log_base: Path | None = None, progress: Progress | None = None,
+                 recorder: ReplayRecorder | None = None) -> None:
         self.stream = stream or sys.stdout
+        #: the run's recorder (a build that may be replayed): what this reporter shows, and
+        #: whether the run was a no-op
+        self.recorder = recorder
         self.console = console or Console()
         if live is None:
             live = self.stream.isatty() and self.console.status is not False
@@ -183,15 +208,31 @@ class Reporter:
         self._start = time.monotonic()
         self._ticker: threading.Thread | None = None
         self._stop = threading.Event()
-        if stream is None:
-            _shown("reporter", {"verb": verb, "console": asdict(self.console)})
+        if recorder is not None:
+            recorder.shown("reporter", {"verb": verb, "console": asdict(self.console)})
 
     def __call__(self, event: Event) -> None:
-        _shown("event", event_to_data(event))
+        if isinstance(event, (PlanMade, NoOpFinished)):
+            self._tell_recorder(event)
+            return
+        if self.recorder is not None:
+            self.recorder.shown("event", event_to_data(event))
         with self._lock:
             self._clear_status()
             self._handle(event)
             self._draw_status()
+
+    def _tell_recorder(self, event: PlanMade | NoOpFinished) -> None:
+        """What the run was, for its recorder: a plan with work stops it (nothing of this run
+        is kept), a no-op that ended well is kept for the next run's replay."""
+        if self.recorder is None:
+            return
+        if isinstance(event, PlanMade):
+            if not event.no_op:
+                self.recorder.drop()
+        else:
+            self.recorder.no_op(build_base=event.build_base, log_base=event.log_base,
+                                run_log=event.run_log, seconds=event.seconds)
 
     def start_ticker(self) -> None:
         if self.live and self._ticker is None:
@@ -210,7 +251,8 @@ class Reporter:
 
     def package_list(self, packages: Sequence[tuple[str, str]]) -> None:
         """console_package_list+: the packages (name, build type) in the order they run."""
-        _shown("package_list", [list(p) for p in packages])
+        if self.recorder is not None:
+            self.recorder.shown("package_list", [list(p) for p in packages])
         if self.console.package_list and packages:
             with self._lock:
                 self._write("Topological order")

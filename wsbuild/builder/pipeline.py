@@ -34,12 +34,11 @@ from wsbuild.engine.jobs import JobFinished, JobResult, JobStarted, Outcome
 from wsbuild.engine.schedule import FailurePolicy, RunInterrupted
 from wsbuild.engine.timings import CompileJobs, cpu_times, record_durations
 from wsbuild.errors import BuildFailed, Interrupted
-from wsbuild.events import Emit, Notice, RunFinished
+from wsbuild.events import Emit, NoOpFinished, Notice, PlanMade, RunFinished
 from wsbuild.session import Session, SessionOptions, open_session
 from wsbuild.workspace.selection import Selection
 from wsbuild.words import plural
 
-from wsbuild.engine import recording
 from wsbuild.runreport.package_run import PackageRun
 
 if TYPE_CHECKING:  # what only packages to build need: a no-op imports none of it
@@ -81,12 +80,9 @@ def run_build(selection: Selection, request: BuildRequest, emit: Emit) -> list[J
     cpu_before = cpu_times()
     with open_session(selection.workspace, session_options(request), emit) as session:
         plan = make_plan(selection, request, session)
-        watcher = recording.replay_recorder()
-        if watcher is not None and (plan.refusal is not None or plan.to_do()):
-            watcher.drop()
-        if watcher is not None and plan.shard is not None:  # it asks a server: never replayed
-            watcher.drop()
-            watcher = None
+        # a shard's run asks a server (the other shards' packages): never replayed
+        no_op = plan.refusal is None and not plan.to_do() and plan.shard is None
+        emit(PlanMade(no_op=no_op))
         if plan.refusal is not None:
             raise plan.refusal.error
         _warn(plan, emit)
@@ -107,11 +103,10 @@ def run_build(selection: Selection, request: BuildRequest, emit: Emit) -> list[J
     if failed:
         raise BuildFailed(f"{plural(len(failed), 'package')} failed: {', '.join(failed)}",
                           hint=f"logs in {session.run_log}")
-    if watcher is not None and all(r.outcome is Outcome.UP_TO_DATE for r in results):
+    if no_op and all(r.outcome is Outcome.UP_TO_DATE for r in results):
         assert session.run_log is not None
-        watcher.no_op(build_base=selection.workspace.build_base,
-                      log_base=selection.workspace.log_base, run_log=session.run_log,
-                      seconds=seconds)
+        emit(NoOpFinished(selection.workspace.build_base, selection.workspace.log_base,
+                          session.run_log, seconds))
     return results
 
 

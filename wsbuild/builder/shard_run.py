@@ -17,6 +17,10 @@ split of builder/shards.py. The build cache's server is where the shards meet:
 Nothing here decides what an install holds: every entry is restored only when this machine
 proves it (cache/run.py), so a shard that died, a lost entry or a peer with another workspace
 costs time, never a wrong install.
+
+Over 500 lines because a shard's run is one sequence, read top to bottom: its times, its
+split, its peers' notes, its waits and the times it publishes (the split itself, pure logic,
+is shards.py).
 """
 
 from __future__ import annotations

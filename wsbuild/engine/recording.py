@@ -3,9 +3,13 @@
 
 `recording(argv)` holds a whole run of a replayed verb: it hears every input the run declares
 (wsbuild/inputs.py: the paths it stats, the files it reads, the directories it lists, the
-directories a program it starts searches) and keeps a copy of what the run prints. The run
-tells the `replay_recorder()` what it was: a build whose plan is a no-op calls `no_op` (or `drop` as
-soon as its plan has work), a verb that only reads calls `read_only` when it is done. At the
+directories a program it starts searches) and keeps a copy of what the run prints through
+its streams. It is handed down, never looked up: launch.py gives it to cli.py, which gives it
+to the verb with the run's terminal (reporter.py's `Terminal`); a build's reporter tells it
+what the run was (the pipeline's `PlanMade` and `NoOpFinished` events: `drop` as soon as the
+plan has work, `no_op` at the end), a verb that only reads calls `read_only` when it is done.
+Nothing is swapped in `sys.stdout`: a verb that is recorded writes through `stdout`/`stderr`
+here. A recorder that fails says so in one warning, and the next run is a full one. At the
 end of such a run, exiting 0, the record is written: the declared paths and each declared
 directory's entries, each with its signature. Nothing else: a read that was not declared is
 not in the record, which is why the test suite runs every recorded run under the oracle of
@@ -125,8 +129,10 @@ class ReplayRecorder:
         self.active = False
         #: the run met something a record could not describe (a path it could not read)
         self.spoiled = False
+        #: what the recorded verb writes through (the process's streams, copied)
         self.stdout = _Tee(sys.stdout)
         self.stderr = _Tee(sys.stderr)
+        self.finished = False
         #: what the reporter showed, in order (a build's record draws it again)
         self._shown: list[list[object]] = []
         self._unlisten: Callable[[], None] | None = None
@@ -189,7 +195,6 @@ class ReplayRecorder:
 
     def install(self) -> None:
         self._unlisten = inputs.listen(self._declared)
-        sys.stdout, sys.stderr = self.stdout, self.stderr  # type: ignore[assignment]
         self.active = True
         if self.oracle is not None:
             self.oracle.install()
@@ -205,14 +210,14 @@ class ReplayRecorder:
     def finish(self, exit_code: int) -> None:
         """At the end of the run: the record, if the run was a no-op that can be trusted."""
         self._uninstall()
-        if sys.stdout is self.stdout:
-            sys.stdout = self.stdout.stream
-        if sys.stderr is self.stderr:
-            sys.stderr = self.stderr.stream
+        self.finished = True
         try:
             self._write(exit_code)
-        except Exception:  # noqa: BLE001 - a record is never worth failing the run
-            pass  # (a bug here shows as no record: tests/test_noop_replay.py)
+        except Exception as exc:  # noqa: BLE001 - a record is never worth failing the run
+            # said, not swallowed: the run stands, the next one is a full one
+            print(f"wsbuild: warning: this run was not kept for replaying the next one "
+                  f"({type(exc).__name__}: {exc}); the next run is a full one",
+                  file=self.stderr.stream)
         if self.oracle is not None and self.outcome is not None and exit_code == 0 \
                 and not self.spoiled:  # (a spoiled run leaves no record)
             outputs = (self.outcome.get("log_base", ""), str(RECORDS.absolute()),
@@ -246,8 +251,8 @@ class ReplayRecorder:
             private_directory(RECORDS)
             atomic_write(record_path(self.verb).absolute(),
                          json.dumps(record, separators=(",", ":")), mode=0o600)
-        except OSError:
-            pass  # the next run is a full one
+        except OSError as exc:  # a full disk, a read-only build base: the next run is full
+            raise OSError(f"writing {record_path(self.verb)}: {exc.strerror or exc}") from exc
 
     def _paths(self, outcome: dict[str, str]) -> tuple[list[list[object]], int] | None:
         """Every path the run looked at and each listed directory's entries that are not
@@ -323,35 +328,18 @@ def _log_of(run_log: Path, log_base: str) -> dict[str, object] | None:
             "timings": timings, "table": lines[:lines.index("")]}
 
 
-_active: ReplayRecorder | None = None
-
-
-def replay_recorder() -> ReplayRecorder | None:
-    """The recorder watching this run, if any (the build pipeline tells it what the run was)."""
-    return _active
-
-
 @contextmanager
-def recording(argv: Sequence[str]) -> Iterator[Callable[[int], None]]:
-    """Watch the run of `argv` (a replayed verb's); call the yielded function with its exit
-    code."""
-    global _active
+def recording(argv: Sequence[str]) -> Iterator[ReplayRecorder | None]:
+    """Watch the run of `argv` (a replayed verb's): the recorder, to hand down to the run and
+    to `finish` with its exit code (a run that raised is finished as failed); None when such
+    a command line is never recorded."""
     if any(arg.split("=")[0] in NOT_RECORDED for arg in argv):
-        yield lambda code: None
+        yield None
         return
     watcher = ReplayRecorder(argv)
     watcher.install()
-    _active = watcher
-    done = False
-
-    def finish(code: int) -> None:
-        nonlocal done
-        done = True
-        watcher.finish(code)
-
     try:
-        yield finish
+        yield watcher
     finally:
-        _active = None
-        if not done:
+        if not watcher.finished:
             watcher.finish(1)

@@ -13,6 +13,7 @@ from typing import TYPE_CHECKING
 from wsbuild.workspace.root import BUILD_BASE, INSTALL_BASE, LOG_BASE, Workspace
 
 if TYPE_CHECKING:  # imported when a verb runs, not to parse its arguments
+    from wsbuild.reporter import Terminal
     from wsbuild.workspace.selection import SelectionOptions
 
 #: options whose values are handed through to another tool and may start with '-'
@@ -259,3 +260,12 @@ def env_ignore_from_args(args: argparse.Namespace) -> tuple[str, ...]:
             raise WsbuildError(f"--env-ignore: {name!r} is no environment variable name",
                                hint="give names like MY_TOKEN, or patterns like CI_*")
     return names
+
+
+def terminal_from_args(args: argparse.Namespace) -> Terminal:
+    """Where the verb's words go: the terminal cli.py made for this run (through the replay's
+    recorder when the run is recorded), else the process's streams."""
+    from wsbuild.reporter import Terminal
+
+    terminal = getattr(args, "terminal", None)
+    return terminal if isinstance(terminal, Terminal) else Terminal.of(None)

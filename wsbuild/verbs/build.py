@@ -11,7 +11,6 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 from wsbuild.errors import WsbuildError
-from wsbuild.reporter import print_warnings
 from wsbuild.verbs.arguments import (
     add_base_arguments,
     add_env_ignore_argument,
@@ -263,17 +262,18 @@ def run_build_verb(args: argparse.Namespace) -> int:
     from wsbuild.builder.pipeline import run_build
     from wsbuild.reporter import Reporter
     from wsbuild.runreport.write import progress_of
-    from wsbuild.reporter import print_notes
     from wsbuild.verbs import metas
+    from wsbuild.verbs.arguments import terminal_from_args
     from wsbuild.verbs.load import load
     from wsbuild.workspace.selection import Selection
 
     verb = build_verb_request_from_args(args)
-    loaded = load(verb.load, warn=print_warnings, remember=not verb.dry_run)
+    terminal = terminal_from_args(args)
+    loaded = load(verb.load, warn=terminal.warnings, remember=not verb.dry_run)
     request, notes = metas.with_build_arguments(verb.build, verb.metadata, loaded.packages,
                                                 loaded.selected)
-    print_notes(dict.fromkeys((loaded.chosen_because, *notes) if loaded.chosen_because
-                              else notes))
+    terminal.notes(dict.fromkeys((loaded.chosen_because, *notes) if loaded.chosen_because
+                                 else notes))
     selection = Selection(loaded.workspace, loaded.packages, loaded.graph, loaded.selected)
     if verb.dry_run:
         return _dry_run(selection, request, json_output=verb.json)
@@ -282,7 +282,8 @@ def run_build_verb(args: argparse.Namespace) -> int:
 
         install_for_build(loaded)
     reporter = Reporter(console=verb.console, log_base=loaded.workspace.log_base,
-                        progress=progress_of(selection, request.run.workers, durations=True))
+                        progress=progress_of(selection, request.run.workers, durations=True),
+                        recorder=terminal.recorder)
     reporter.package_list([(n, loaded.packages[n].build_type) for n in loaded.selected])
     reporter.start_ticker()
     try:

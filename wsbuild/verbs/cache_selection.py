@@ -79,15 +79,12 @@ def select_by_cache(selection_by: CacheSelection, selection: Selection) -> list[
 
     from wsbuild.builder.pipeline import plan_build
     from wsbuild.builder.plan import Decision
-    from wsbuild.engine.recording import replay_recorder
+    from wsbuild import inputs
     from wsbuild.testing.test_run import reusable_results
     from wsbuild.verbs.metas import with_build_arguments, with_test_arguments
 
-    watcher = replay_recorder()
-    if watcher is not None:
-        # the answer depends on the whole plan, more than a record describes: no replay (a
-        # later read_only() or no_op() of the verb sets an outcome again, so not drop())
-        watcher.spoiled = True
+    # the answer depends on the whole plan, more than a replay's record describes
+    inputs.declare_unrecorded("a selection by the caches' validity")
     packages, selected = selection.packages, selection.selected
     # each package judged with its own options, as the verb would build or test it (the
     # verb says what colcon.meta holds that it does not apply)

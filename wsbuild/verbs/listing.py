@@ -11,9 +11,9 @@ from pathlib import Path
 
 from typing import TYPE_CHECKING
 
-from wsbuild.reporter import print_warnings
 
 if TYPE_CHECKING:  # the modules of the work are imported when a verb runs, not to parse
+    from wsbuild.reporter import Terminal
     from wsbuild.workspace.graph import Graph
     from wsbuild.verbs.load import Loaded
     from wsbuild.workspace.model import Package
@@ -81,28 +81,27 @@ def _relative(path: Path, root: Path) -> str:
         return str(path)
 
 
-def _read_only(loaded: Loaded) -> None:
+def _read_only(terminal: Terminal, loaded: Loaded) -> None:
     """This run only reads and prints: when it ends well, its record lets the same command on
     an unchanged workspace be replayed (engine/replay.py)."""
-    from wsbuild.engine.recording import replay_recorder
-
-    watcher = replay_recorder()
-    if watcher is not None:
-        watcher.read_only(build_base=loaded.workspace.build_base)
+    if terminal.recorder is not None:
+        terminal.recorder.read_only(build_base=loaded.workspace.build_base)
 
 
 def run_list(args: argparse.Namespace) -> int:
     """List the selected packages."""
+    from wsbuild.verbs.arguments import terminal_from_args
     from wsbuild.verbs.load import load, load_request_from_args
 
-    loaded = load(load_request_from_args(args), warn=print_warnings, remember=True)
-    _read_only(loaded)
+    terminal = terminal_from_args(args)
+    loaded = load(load_request_from_args(args), warn=terminal.warnings, remember=True)
+    _read_only(terminal, loaded)
     graph_style = "dot" if getattr(args, "topological_graph_dot", False) else "text" if \
         getattr(args, "topological_graph", False) else None
     if graph_style is not None:  # colcon list -g / --topological-graph-dot
         text = format_graph(loaded.graph, loaded.selected, graph_style)
         if text:
-            print(text)
+            print(text, file=terminal.stdout)
         return 0
     names = loaded.selected if args.topological_order else sorted(loaded.selected)
     root = loaded.workspace.root
@@ -120,7 +119,7 @@ def run_list(args: argparse.Namespace) -> int:
             if lookup is not None:
                 row["dependencies"] = _dependency_rows(package, loaded.packages, lookup)
             rows.append(row)
-        print(json.dumps(rows, indent=2))
+        print(json.dumps(rows, indent=2), file=terminal.stdout)
         return 0
     lines = []
     for name in names:
@@ -136,7 +135,7 @@ def run_list(args: argparse.Namespace) -> int:
                 kinds = ",".join(dep["kinds"])  # type: ignore[arg-type]
                 lines.append(f"  {dep['name']}\t{kinds}\t{dep['resolution']}")
     if lines:
-        print("\n".join(lines))
+        print("\n".join(lines), file=terminal.stdout)
     return 0
 
 
@@ -234,24 +233,28 @@ def format_graph(graph: Graph, names: list[str], style: str) -> str:
 
 def run_graph(args: argparse.Namespace) -> int:
     """Print the dependency graph of the selected packages."""
+    from wsbuild.verbs.arguments import terminal_from_args
     from wsbuild.verbs.load import load, load_request_from_args
 
-    loaded = load(load_request_from_args(args), warn=print_warnings, remember=True)
-    _read_only(loaded)
+    terminal = terminal_from_args(args)
+    loaded = load(load_request_from_args(args), warn=terminal.warnings, remember=True)
+    _read_only(terminal, loaded)
     style = "dot" if args.dot else "mermaid" if args.mermaid else "text"
     text = format_graph(loaded.graph, loaded.selected, style)
     if text:
-        print(text)
+        print(text, file=terminal.stdout)
     return 0
 
 
 def run_info(args: argparse.Namespace) -> int:
     """Describe packages in detail."""
     from wsbuild.errors import SelectionError
+    from wsbuild.verbs.arguments import terminal_from_args
     from wsbuild.verbs.load import load, load_request_from_args
 
-    loaded = load(load_request_from_args(args), warn=print_warnings, remember=True)
-    _read_only(loaded)
+    terminal = terminal_from_args(args)
+    loaded = load(load_request_from_args(args), warn=terminal.warnings, remember=True)
+    _read_only(terminal, loaded)
     lookup = _lookup(loaded.workspace.build_base)
     blocks = []
     records: list[dict[str, object]] = []
@@ -293,7 +296,7 @@ def run_info(args: argparse.Namespace) -> int:
             lines.append("  dependencies: none")
         blocks.append("\n".join(lines))
     if getattr(args, "json", False):
-        print(json.dumps(records, indent=2))
+        print(json.dumps(records, indent=2), file=terminal.stdout)
         return 0
-    print("\n\n".join(blocks))
+    print("\n\n".join(blocks), file=terminal.stdout)
     return 0
