@@ -45,6 +45,7 @@ if TYPE_CHECKING:  # what only packages to build need: a no-op imports none of i
     from wsbuild.builder.compiler_cache import CacheCounts, CompilerCache
     from wsbuild.builder.distribute import Distribution
     from wsbuild.builder.plan_text import PlannedCommands
+    from wsbuild.builder.shard_run import ShardPlan
 
 
 def session_options(request: BuildRequest, *, dry_run: bool = False) -> SessionOptions:
@@ -55,11 +56,24 @@ def session_options(request: BuildRequest, *, dry_run: bool = False) -> SessionO
                           not_inputs=request.env_ignore)
 
 
+def _shard_and_plan(selection: Selection, request: BuildRequest, session: Session
+                    ) -> tuple[Selection, ShardPlan | None, BuildPlan]:
+    """The plan; with `--shard K/N` first the shard's packages and those of other shards they
+    need, ranked by their work in the whole split (builder/shard_run.py)."""
+    if request.shard is None:
+        return selection, None, make_plan(selection, request, session)
+    from wsbuild.builder.shard_run import shard_selection
+
+    selection, shard = shard_selection(selection, request.shard, request.run.workers, session)
+    return selection, shard, make_plan(selection, request, session,
+                                       priorities=shard.priorities)
+
+
 def plan_build(selection: Selection, request: BuildRequest, emit: Emit) -> BuildPlan:
     """`build --dry-run`: the plan the build would execute; nothing is touched."""
     with open_session(selection.workspace, session_options(request, dry_run=True),
                       emit) as session:
-        return make_plan(selection, request, session)
+        return _shard_and_plan(selection, request, session)[2]
 
 
 def dry_run(selection: Selection, request: BuildRequest, emit: Emit
@@ -69,7 +83,7 @@ def dry_run(selection: Selection, request: BuildRequest, emit: Emit
 
     with open_session(selection.workspace, session_options(request, dry_run=True),
                       emit) as session:
-        build_plan = make_plan(selection, request, session)
+        selection, _shard, build_plan = _shard_and_plan(selection, request, session)
         return build_plan, planned_commands(build_plan, selection, session,
                                             compiler_cache=request.compiler_cache)
 
@@ -79,24 +93,24 @@ def run_build(selection: Selection, request: BuildRequest, emit: Emit) -> list[J
     started = time.monotonic()
     cpu_before = cpu_times()
     with open_session(selection.workspace, session_options(request), emit) as session:
-        plan = make_plan(selection, request, session)
+        selection, shard, plan = _shard_and_plan(selection, request, session)
         # a shard's run asks a server (the other shards' packages): never replayed
-        no_op = plan.refusal is None and not plan.to_do() and plan.shard is None
+        no_op = plan.refusal is None and not plan.to_do() and shard is None
         emit(PlanMade(no_op=no_op))
         if plan.refusal is not None:
             raise plan.refusal.error
         _warn(plan, emit)
         assert session.run_log is not None
-        if plan.shard is not None:  # its note for the other shards (builder/shard_run.py)
+        if shard is not None:  # its note for the other shards (builder/shard_run.py)
             from wsbuild.builder import shard_run
 
-            shard_run.start(plan, session, emit)
+            shard_run.start(plan, shard, session, emit)
         run = PackageRun(selection, session.run_log, plan.jobs, report=request.report,
                          sample_cpu=bool(plan.to_do()), started=started, cpu_before=cpu_before)
-        results, counts = execute(plan, selection, request, session, emit, run)
+        results, counts = execute(plan, selection, request, session, emit, run, shard=shard)
         details = _finish(run, request, session, results, counts)
-        if plan.shard is not None:  # what it waited for; the times of what it built
-            details += shard_run.finish(plan, results, session, emit)
+        if shard is not None:  # what it waited for; the times of what it built
+            details += shard_run.finish(plan, shard, results, session, emit)
     seconds = time.monotonic() - started
     emit(RunFinished(tuple(results), seconds, details=details))
     failed = [r.package for r in results if r.outcome is Outcome.FAILED]
@@ -121,7 +135,8 @@ class CompileCounts:
 
 
 def execute(plan: BuildPlan, selection: Selection, request: BuildRequest, session: Session,
-            emit: Emit, run: PackageRun) -> tuple[list[JobResult], CompileCounts]:
+            emit: Emit, run: PackageRun, *, shard: ShardPlan | None = None
+            ) -> tuple[list[JobResult], CompileCounts]:
     """Carry out the plan in `run`: up-to-date packages are settled in this thread, the others
     are restored or built by the scheduler's workers; then install/'s setup scripts."""
     from wsbuild.builder.finish import (
@@ -145,7 +160,7 @@ def execute(plan: BuildPlan, selection: Selection, request: BuildRequest, sessio
                                             distributing=request.distribute is not None)
             distribution = _open_distribution(request, session, emit)
         built = _run_packages(plan, selection, request, session, compilers, distribution,
-                              run, emit)
+                              run, emit, shard)
         session.cache.close()
         counts = _stop_compilers(compilers, distribution, emit)
     except RunInterrupted as interrupt:
@@ -205,7 +220,7 @@ def _settle_up_to_date(plan: BuildPlan, session: Session, emit: Emit) -> dict[st
 def _run_packages(plan: BuildPlan, selection: Selection, request: BuildRequest,
                   session: Session, compilers: CompilerCache | None,
                   distribution: Distribution | None, run: PackageRun,
-                  emit: Emit) -> list[JobResult]:
+                  emit: Emit, shard: ShardPlan | None) -> list[JobResult]:
     """The packages to restore or build, on the scheduler's workers in the plan's start order
     (`BuildPlan.jobs_to_do`, the ready queue the plan ordered them by)."""
     jobs = plan.jobs_to_do()
@@ -234,10 +249,10 @@ def _run_packages(plan: BuildPlan, selection: Selection, request: BuildRequest,
     planned = {p.name: p for p in plan.to_do()}
     job: Callable[[str], JobResult] = lambda name: PackageBuild(planned[name], resources).execute()
     waiting: frozenset[str] = frozenset()
-    if plan.shard is not None:  # other shards' packages are waited for (builder/shard_run.py)
+    if shard is not None:  # other shards' packages are waited for (builder/shard_run.py)
         from wsbuild.builder.shard_run import shard_jobs
 
-        job, waiting = shard_jobs(plan.shard, planned,
+        job, waiting = shard_jobs(shard, planned,
                                   lambda p: PackageBuild(p, resources).execute(), session,
                                   resources.emit, run.started)
     return run.run(jobs, job, workers=request.run.workers, policy=policy, emit=emit,

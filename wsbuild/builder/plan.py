@@ -32,7 +32,6 @@ from wsbuild.workspace.selection import Selection
 from wsbuild import inputs as declared
 
 if TYPE_CHECKING:
-    from wsbuild.builder.shard_run import ShardPlan
     from wsbuild.cache.key import CacheKey
     from wsbuild.cache.run import Proven
 
@@ -137,8 +136,6 @@ class BuildPlan:
     overrides: tuple[Override, ...]
     refusal: Refusal | None
     notices: tuple[str, ...]
-    #: `--shard K/N`: this shard's split, its packages and its waits (builder/shard_run.py)
-    shard: ShardPlan | None = None
 
     def to_do(self) -> list[PackagePlan]:
         """The packages the build restores or builds, in the order it starts them."""
@@ -173,17 +170,14 @@ class _Planning:
     launcher: str | None = None
 
 
-def make_plan(selection: Selection, request: BuildRequest, session: Session) -> BuildPlan:
-    """What `wsbuild build` will do with `selection`, package by package, and why."""
+def make_plan(selection: Selection, request: BuildRequest, session: Session, *,
+              priorities: Mapping[str, float] | None = None) -> BuildPlan:
+    """What `wsbuild build` will do with `selection`, package by package, and why.
+    `priorities`: the weights the scheduler ranks packages by, when not their own recorded
+    times (a shard's: each package's work in the whole split, builder/shard_run.py)."""
     from wsbuild.builder.overrides import overrides_to_warn
     from wsbuild.builder.weights import package_weights
 
-    shard = None
-    if request.shard is not None:  # this shard's packages and those of others they need
-        from wsbuild.builder.shard_run import shard_selection
-
-        selection, shard = shard_selection(selection, request.shard, request.run.workers,
-                                           session)
     ws = selection.workspace
     # the arguments the underlay needs (its Python, libpython's link flags, the linters'
     # stand-ins) reach the build types that declare them (build_types/cmake_options.py)
@@ -196,7 +190,7 @@ def make_plan(selection: Selection, request: BuildRequest, session: Session) -> 
     jobs = JobGraph.of(selection.selected,
                        {n: selection.graph.direct(n) & selected for n in selection.selected})
     weights = package_weights(selection.packages, selection.selected, ws.build_base) \
-        if shard is None else shard.priorities
+        if priorities is None else priorities
     path = jobs.critical_path(weights)
     planning = _Planning(selection, request, options, session,
                          underlay_paths(str(ws.install_base), session.environ),
@@ -223,7 +217,6 @@ def make_plan(selection: Selection, request: BuildRequest, session: Session) -> 
         overrides=tuple(overrides),
         refusal=_refusal(not_built, unresolved, request.strict_dependencies),
         notices=session.notices,
-        shard=shard,
     )
 
 

@@ -269,22 +269,18 @@ def announce(shard: ShardPlan, packages: Sequence[PackagePlan], session: Session
 
 # ----------------------------------------------------------------------------- the run
 
-def start(plan: BuildPlan, session: Session, emit: Emit) -> None:
+def start(plan: BuildPlan, shard: ShardPlan, session: Session, emit: Emit) -> None:
     """Before the packages: what the plan said of the shard, and its note."""
-    shard = plan.shard
-    assert shard is not None
     for text, warning in shard.notices:
         emit(Notice(text, warning=warning))
     for problem in announce(shard, plan.packages, session):
         emit(Notice(f"cache: {problem}", warning=True))
 
 
-def finish(plan: BuildPlan, results: Sequence[JobResult], session: Session,
+def finish(plan: BuildPlan, shard: ShardPlan, results: Sequence[JobResult], session: Session,
            emit: Emit) -> tuple[str, ...]:
     """After the packages: the times of what the shard built into the shared document, and
     the summary's line on what it waited for."""
-    shard = plan.shard
-    assert shard is not None
     times = built_times(shard, {p.name: p for p in plan.packages}, results)
     for problem in publish_times(session.cache.settings, times,
                                  session.workspace.build_base / ".wsbuild"):
