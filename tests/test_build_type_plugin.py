@@ -322,6 +322,12 @@ def test_a_third_party_option_reaches_its_packages_build_dry_run_and_by_hand_ali
         changed.stdout
     assert run_wsbuild("build", "--map-resolution", "0.1", cwd=ws, env=env).returncode == 0
     assert (ws / written).read_text() == "0.1\n"
+    # a defaults file sets it as the command line does
+    defaults = tmp_path / "defaults.yaml"
+    defaults.write_text("build:\n  map-resolution: '0.2'\n")
+    from_file = run_wsbuild("build", cwd=ws, env={**env, "COLCON_DEFAULTS_FILE": str(defaults)})
+    assert from_file.returncode == 0, from_file.stdout + from_file.stderr
+    assert (ws / written).read_text() == "0.2\n"
 
     # a built-in type knows nothing of it: a wsbuild without the distribution refuses it
     unknown = run_wsbuild("build", "--map-resolution", "0.1", cwd=ws)
