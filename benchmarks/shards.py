@@ -40,7 +40,13 @@ from pathlib import Path
 if __package__ in (None, ""):
     sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
-from benchmarks.tools import DEFAULT_PROJECT_VENV, REPO, clean_environ, machine_details, write_section
+from benchmarks.tools import (
+    DEFAULT_PROJECT_VENV,
+    REPO,
+    clean_environ,
+    cpu_model,
+    write_section,
+)
 
 DOCS = REPO / "docs" / "benchmarks.md"
 DATA = REPO / "benchmarks" / "data"
@@ -186,16 +192,6 @@ def generate(root: Path, planned: Sequence[Planned]) -> Path:
 
 # ----------------------------------------------------------------------------- recording
 
-def _cpu_model() -> str:
-    try:
-        for line in Path("/proc/cpuinfo").read_text().splitlines():
-            if line.startswith("model name"):
-                return line.split(":", 1)[1].strip()
-    except OSError:
-        pass
-    return "?"
-
-
 def _stamp() -> str:
     return datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%d %H:%M UTC")
 
@@ -217,7 +213,7 @@ def recording_of(workspace: Path, planned: Sequence[Planned], workers: int,
     return {
         "recorded": _stamp(), "command": " ".join(command), "seed": seed,
         "sleeping": sleeping,
-        "machine": f"{len(__import__('os').sched_getaffinity(0))} × {_cpu_model()}",
+        "machine": f"{len(__import__('os').sched_getaffinity(0))} × {cpu_model()}",
         "workers": workers, "wall_seconds": timings["wall_seconds"],
         "cpu_seconds": timings["cpu_seconds"]["total"],
         "before_packages": round(started, 3),

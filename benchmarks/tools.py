@@ -177,7 +177,7 @@ def _first_line(cmd: Sequence[str], env: Mapping[str, str] | None = None) -> str
     return text.splitlines()[0] if text else "unknown"
 
 
-def _cpu_model() -> str:
+def cpu_model() -> str:
     try:
         for line in Path("/proc/cpuinfo").read_text().splitlines():
             if line.startswith("model name"):
@@ -199,7 +199,7 @@ def machine_details(tools: Tools) -> dict[str, str]:
                                 tools.colcon_env)
     return {
         "CPUs": str(os.cpu_count()),
-        "CPU model": _cpu_model(),
+        "CPU model": cpu_model(),
         "OS": _first_line(["uname", "-srm"]),
         "Python": _first_line([str(tools.project_venv / "bin" / "python"), "--version"],
                               tools.colcon_env),

@@ -14,11 +14,9 @@ to take 22 s, and base with a leaf 12 s, and a restore 3 s."""
 
 from __future__ import annotations
 
-import hashlib
 import json
 import re
 import shutil
-import stat
 import subprocess
 import sys
 import time
@@ -30,6 +28,7 @@ import pytest
 
 from nginx_server import NginxServer, nginx  # noqa: F401 (fixture)
 from one_path import run_at_path, start_at_path, stop
+from test_cache_build import tree
 from test_build_helpers import REQUIRES_ROS, clean_env, output, write_ament_python, write_cmake
 from wsbuild.builder.shard_run import TIMES, note_name
 from wsbuild.cache.action_result import parse_action_result
@@ -72,21 +71,6 @@ def write_template(src: Path) -> None:
     for name in ("leaf_b", "leaf_d"):
         write_ament_python(src, name, modules={"value.py": f"NAME = {name!r}\n"},
                            depend=["base"])
-
-
-def tree(root: Path) -> dict[str, tuple[str, str, int]]:
-    """Every path below root: kind, content digest or link target, permission bits."""
-    result: dict[str, tuple[str, str, int]] = {}
-    for path in sorted(root.rglob("*")):
-        rel = str(path.relative_to(root))
-        mode = stat.S_IMODE(path.lstat().st_mode)
-        if path.is_symlink():
-            result[rel] = ("link", str(path.readlink()), 0)
-        elif path.is_dir():
-            result[rel] = ("dir", "", mode)
-        else:
-            result[rel] = ("file", hashlib.sha256(path.read_bytes()).hexdigest(), mode)
-    return result
 
 
 @dataclass(frozen=True)
