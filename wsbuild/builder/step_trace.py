@@ -125,7 +125,8 @@ def unrecorded(record: PackageRecord, traces: Mapping[str, Path], *, source_dir:
             checked += 1
             if (path + os.sep).startswith(inside) or (path + os.sep).startswith(own) \
                     or (path + os.sep).startswith(tools) or path in programs \
-                    or _TOOL_FILE.search(path) or path in reads.written or path in held:
+                    or _TOOL_FILE.search(path) or path in reads.written or path in held \
+                    or not os.path.lexists(path):  # a step's own temporary (cc1's /tmp/cc*.s)
                 continue
             found.append((step, path))
     return found, checked
