@@ -99,15 +99,18 @@ mkdir -p "$(dirname "$1")"
 '''
 
 
-def _plugin_distribution(root: Path) -> Path:
-    """A tiny installed distribution: a module and its dist-info with the entry point."""
+def _plugin_distribution(root: Path, name: str = "wsb_copy", source: str = PLUGIN) -> Path:
+    """A tiny installed distribution: module `<name>_type` and its dist-info registering
+    build type `name`."""
+    module = f"{name}_type"
     root.mkdir()
-    (root / "wsb_copy_type.py").write_text(PLUGIN)
-    info = root / "wsb_copy_type-0.1.dist-info"
+    (root / f"{module}.py").write_text(source)
+    info = root / f"{module}-0.1.dist-info"
     info.mkdir()
-    (info / "METADATA").write_text("Metadata-Version: 2.1\nName: wsb-copy-type\nVersion: 0.1\n")
+    (info / "METADATA").write_text(
+        f"Metadata-Version: 2.1\nName: {module.replace('_', '-')}\nVersion: 0.1\n")
     (info / "entry_points.txt").write_text(
-        f"[{ENTRY_POINT_GROUP}]\nwsb_copy = wsb_copy_type:BUILD_TYPE\n")
+        f"[{ENTRY_POINT_GROUP}]\n{name} = {module}:BUILD_TYPE\n")
     return root
 
 
@@ -267,14 +270,7 @@ BUILD_TYPE = MapBuildType()
 
 
 def _map_distribution(root: Path) -> Path:
-    root.mkdir()
-    (root / "wsb_map_type.py").write_text(MAP_PLUGIN)
-    info = root / "wsb_map_type-0.1.dist-info"
-    info.mkdir()
-    (info / "METADATA").write_text("Metadata-Version: 2.1\nName: wsb-map-type\nVersion: 0.1\n")
-    (info / "entry_points.txt").write_text(
-        f"[{ENTRY_POINT_GROUP}]\nwsb_map = wsb_map_type:BUILD_TYPE\n")
-    return root
+    return _plugin_distribution(root, "wsb_map", MAP_PLUGIN)
 
 
 def _map_workspace(ws: Path) -> None:
