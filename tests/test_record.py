@@ -1,6 +1,7 @@
-"""A package's record (wsbuild/record/): its own files by one rule, what it read outside by
-content, the environment by digest, the two keys, and the one dirty check. Pure logic on real
-files in tmp_path; the builds that write and read records are tests/test_up_to_date.py's."""
+"""A package's record (wsbuild/record/): its own files by one rule, what its steps read
+outside by content, the variables they read by digest, the two keys, and the one dirty check.
+Pure logic on real files in tmp_path; the builds that write and read records are
+tests/test_up_to_date.py's and tests/test_observed.py's."""
 
 from __future__ import annotations
 
@@ -8,8 +9,9 @@ import json
 import os
 from pathlib import Path
 
-from wsbuild.record.dirty import PackageNow, dirty_reason
-from wsbuild.record.environment import changed_names, environment_digests, keyed
+from wsbuild.record.dirty import Environment, PackageNow, dirty_reason
+from wsbuild.record.environment import UNSET, changed_names, variable_digests
+from wsbuild.record.installed import damaged_install, installed_entries
 from wsbuild.record.model import PackageRecord, read_record, write_record
 from wsbuild.record.outside import Digests, first_change, own_entries, take
 from wsbuild.record.own_files import LEFT_OUT, own_files
@@ -97,7 +99,7 @@ def test_a_listing_leaves_out_the_entries_the_package_installs_itself(tmp_path: 
     install = tmp_path / "install"
     site = install / "lib" / "site-packages"
     _write(site / "dep" / "__init__.py")
-    own = own_entries(str(install), [("lib/site-packages/me/__init__.py", 1)])
+    own = own_entries(str(install), [("lib/site-packages/me/__init__.py", (), "")])
     reads = take([], [str(site)], Digests(), own=own)
     _write(site / "me" / "__init__.py")
     assert first_change(reads, Digests(), own=own) is None
@@ -105,21 +107,46 @@ def test_a_listing_leaves_out_the_entries_the_package_installs_itself(tmp_path: 
     assert first_change(reads, Digests(), own=own) == str(site)
 
 
-def test_the_environment_is_every_variable_but_a_short_list_by_digest() -> None:
-    env = {"PATH": "/bin", "TURTLEBOT3_MODEL": "burger", "TERM": "xterm", "SHLVL": "2",
-           "GITHUB_RUN_ID": "9", "CI_JOB_ID": "3", "HOME": "/home/a", "TOKEN": "s3cr3t"}
-    digests = environment_digests(env)
-    assert sorted(digests) == ["HOME", "PATH", "TOKEN", "TURTLEBOT3_MODEL"]
+def test_a_record_holds_the_variables_read_whatever_their_name_by_digest() -> None:
+    env = {"PATH": "/bin", "TURTLEBOT3_MODEL": "burger", "BUILD_NUMBER": "7",
+           "HOME": "/home/a", "TOKEN": "s3cr3t", "EDITOR": "vim"}
+    digests = variable_digests(env, ["HOME", "TOKEN", "BUILD_NUMBER", "UNSET_ONE",
+                                     "WSBUILD_CACHE_DIR"])
+    assert sorted(digests) == ["BUILD_NUMBER", "HOME", "TOKEN", "UNSET_ONE"]
+    assert digests["UNSET_ONE"] == UNSET
     assert "s3cr3t" not in json.dumps(digests)
-    assert "HOME" not in keyed(digests)  # differs between users: compared, not in the key
-    other = environment_digests({**env, "HOME": "/home/b", "TURTLEBOT3_MODEL": "waffle"})
-    assert changed_names(digests, other) == ["HOME", "TURTLEBOT3_MODEL"]
+    other = variable_digests({**env, "HOME": "/home/b", "EDITOR": "emacs"}, digests)
+    assert changed_names(digests, other) == ["HOME"]
+    # a path list's entries in the workspace's own install go; a single path into it counts
+    sourced = {"AMENT_PREFIX_PATH": "/ws/install/a:/opt/ros", "MY_MAP": "/ws/install/a/m.yaml"}
+    plain = {"AMENT_PREFIX_PATH": "/opt/ros", "MY_MAP": "/ws/install/b/m.yaml"}
+    names = ["AMENT_PREFIX_PATH", "MY_MAP"]
+    a = variable_digests(sourced, names, own_install="/ws/install")
+    b = variable_digests(plain, names, own_install="/ws/install")
+    assert changed_names(a, b) == ["MY_MAP"]
+
+
+def test_an_installed_file_is_checked_by_content_and_a_link_by_where_it_points(
+        tmp_path: Path) -> None:
+    install = tmp_path / "install"
+    data = _write(install / "p" / "share" / "data.txt", "aaaa")
+    target = _write(tmp_path / "src" / "p" / "launch.py", "x")
+    (install / "p" / "launch.py").symlink_to(target)
+    installed = installed_entries(str(install), [str(data), str(install / "p" / "launch.py")])
+    assert damaged_install(str(install), installed) is None
+    data.write_text("bbbb")  # edited in place, its size kept
+    assert damaged_install(str(install), installed) == "p/share/data.txt"
+    data.write_text("aaaa")
+    assert damaged_install(str(install), installed) is None
+    target.rename(tmp_path / "src" / "moved.py")  # the package moved: the link dangles
+    assert damaged_install(str(install), installed) == "p/launch.py"
 
 
 def _record(own: Path, **fields: object) -> PackageRecord:
     values: dict[str, object] = dict(package="p", build_type="cmake",
                                      own=own_files(own, {}).files, settings={"options": {}},
-                                     environment={"PATH": "x"}, dependencies={"d": "k1"},
+                                     environment=variable_digests({"PATH": "x"}, ["PATH"]),
+                                     dependencies={"d": "k1"},
                                      dependency_inputs={"d": "i1"}, complete=True)
     values.update(fields)
     return PackageRecord(**values).sealed()  # type: ignore[arg-type]
@@ -129,8 +156,9 @@ def test_the_keys_derive_from_the_record_and_a_record_round_trips(tmp_path: Path
     pkg = tmp_path / "pkg"
     _write(pkg / "CMakeLists.txt")
     record = _record(pkg)
-    assert _record(pkg, environment={"PATH": "x", "HOME": "h2"}).inputs_key == record.inputs_key
-    assert _record(pkg, environment={"PATH": "y"}).inputs_key != record.inputs_key
+    # what the steps read is known after a build only: in the key, not the inputs key
+    assert _record(pkg, environment={"PATH": "y"}).inputs_key == record.inputs_key
+    assert _record(pkg, environment={"PATH": "y"}).key != record.key
     assert _record(pkg, dependencies={"d": "k2"}).inputs_key == record.inputs_key
     assert _record(pkg, dependencies={"d": "k2"}).key != record.key
     header = _write(tmp_path / "ext.h")
@@ -151,7 +179,7 @@ def test_the_one_dirty_check_names_what_changed_first(tmp_path: Path) -> None:
 
     def reason(**now: object) -> str | None:
         values: dict[str, object] = dict(own=own_files(pkg, old.own), settings=old.settings,
-                                         environment=old.environment,
+                                         environment=Environment({"PATH": "x"}),
                                          dependencies=old.dependencies)
         values.update(now)
         found = dirty_reason(old, PackageNow(**values),  # type: ignore[arg-type]
@@ -160,15 +188,29 @@ def test_the_one_dirty_check_names_what_changed_first(tmp_path: Path) -> None:
         return None if found is None else found.kind + ": " + found.text
 
     assert reason() is None
-    assert reason(environment={"PATH": "y"}) == "environment: environment variable changed: PATH"
+    assert reason(environment=Environment({"PATH": "y"})) == \
+        "environment: environment variable changed: PATH"
+    assert reason(environment=Environment({"PATH": "x", "EDITOR": "vim"})) is None
     assert reason(settings={"options": {"cmake_args": ["-DX=1"]}}).startswith("options:")
     assert reason(dependencies={"d": "pending:x"}).startswith("dependency: dependency d is built first")
     _write(header, "2")
     assert reason() == f"external: file outside the package changed: {header}"
     _write(pkg / "CMakeLists.txt", "edited")
     assert reason() == "source: source changed: CMakeLists.txt"
-    assert dirty_reason(None, PackageNow(own_files(pkg, {}), {}, {}, {}),
+    assert dirty_reason(None, PackageNow(own_files(pkg, {}), {}, Environment({}), {}),
                         install_base=tmp_path, digests=Digests()).kind == "new"
+    assert reason(environment=Environment({"PATH": "x"})) is not None  # (the source edit)
+    _write(pkg / "CMakeLists.txt")
+    incomplete = _record(pkg, outside=take([str(header)], [], Digests()), complete=False,
+                         unobserved=("/bin/static ran unobserved",))
+    now = PackageNow(own_files(pkg, incomplete.own), incomplete.settings,
+                     Environment({"PATH": "x"}), incomplete.dependencies)
+    assert dirty_reason(incomplete, now, install_base=tmp_path, digests=Digests()).kind == \
+        "unobserved"
+    volatile = _record(pkg, outside=take([str(header)], [], Digests()),
+                       volatile="custom target version_header always runs")
+    assert dirty_reason(volatile, now, install_base=tmp_path, digests=Digests()).kind == \
+        "volatile"
 
 
 def test_every_shortcut_asks_the_one_dirty_check() -> None:

@@ -10,15 +10,23 @@ from collections.abc import Iterator, Mapping
 from contextlib import ExitStack, contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from wsbuild.cache.run import RunCache
 from wsbuild.cache.settings import CacheSettings
 from wsbuild.engine.jobserver import Jobserver
 from wsbuild.events import Emit, Notice
 from wsbuild.record.outside import Digests
+
+if TYPE_CHECKING:
+    from wsbuild.observe.library import Observer
+    from wsbuild.record.dirty import Environment
 from wsbuild.underlay.environment import PreparedUnderlay, prepare_underlay
 from wsbuild.workspace.root import BUILD_MARKER, Workspace
 
+#: set to 0, nothing is observed (every package then builds every time): what benchmarks/
+#: compares a build with observing against
+OBSERVE_VARIABLE = "WSBUILD_OBSERVE"
 #: where the stand-ins for ament linters without a wheel are written (underlay/lint.py)
 LINT_SHIM = Path(".wsbuild") / "lint_shim"
 
@@ -58,13 +66,20 @@ class Session:
     _jobserver: Jobserver | None = field(default=None)
     #: the outside files' and listings' digests taken in this run (record/outside.py)
     digests: Digests = field(default_factory=Digests)
-    _environment: dict[str, str] | None = field(default=None)
+    _environ: dict[str, str] | None = field(default=None)
     _facts: dict[str, object] = field(default_factory=dict)
+    _observer: Observer | str | None = field(default=None)
 
     @property
     def environ(self) -> Mapping[str, str]:
-        """The environment every package's build or test starts from (the underlay applied)."""
-        return self.underlay.environ
+        """The environment every package's build or test step starts from: the underlay
+        applied, less what a terminal sets for itself, with a fixed locale
+        (observe/step_environment.py)."""
+        if self._environ is None:
+            from wsbuild.observe.step_environment import step_base
+
+            self._environ = step_base(self.underlay.environ)
+        return self._environ
 
     def facts(self, build_type: str) -> object:
         """What a build type finds once per run (`BuildType.run_facts`: the tools it runs),
@@ -78,16 +93,26 @@ class Session:
         return self._facts[build_type]
 
     @property
-    def environment(self) -> Mapping[str, str]:
-        """The digests of `environ`'s variables as a package's record holds them
-        (record/environment.py), worked out once per run."""
-        if self._environment is None:
-            from wsbuild.record.environment import environment_digests
+    def environment(self) -> Environment:
+        """`environ` as records compare it (record/dirty.py)."""
+        from wsbuild.record.dirty import Environment
 
-            self._environment = environment_digests(
-                self.environ, own_install=str(self.workspace.install_base),
-                not_inputs=self.options.not_inputs)
-        return self._environment
+        return Environment(self.environ, own_install=str(self.workspace.install_base),
+                           ignored=self.options.not_inputs)
+
+    @property
+    def observer(self) -> Observer | str:
+        """The step observer (observe/library.py), built when a step first needs it; else
+        why there is none."""
+        if self._observer is None:
+            from wsbuild.cache.settings import default_cache_dir
+            from wsbuild.observe.library import observer
+
+            if os.environ.get(OBSERVE_VARIABLE) == "0":  # benchmarks/: the cost of observing
+                self._observer = f"observing is off ({OBSERVE_VARIABLE}=0)"
+            else:
+                self._observer = observer(default_cache_dir(os.environ), self.environ)
+        return self._observer
 
     @property
     def underlay_prefixes(self) -> list[Path]:
@@ -137,6 +162,7 @@ def open_session(workspace: Workspace, options: SessionOptions, emit: Emit) -> I
         cache = RunCache(options.cache, workspace, emit, symlink_install=options.symlink_install,
                          log=run_log / "cache.log" if run_log is not None else None)
         session = Session(workspace, options, merged, underlay, run_log, cache, tuple(notices))
+        cache.environment = session.environment
         try:
             yield session
         finally:

@@ -145,6 +145,30 @@ class Runner(Protocol):
                  env: Mapping[str, str] | None = None, problems: Problems | None = None) -> None: ...
 
 
+class StepObserver(Protocol):
+    """How an in-process step has the processes it asks of a warm helper observed (the
+    builder's builder/observations.py): the helper starts with the observer loaded and idle,
+    each request writes into a directory of its own."""
+
+    def helper_environment(self, env: Mapping[str, str], directory: Path) -> dict[str, str]:
+        """The environment a warm helper process starts with, writing what it reads while it
+        starts into `directory`."""
+        ...
+
+    def directory(self, label: str) -> Path:
+        """A new directory for the processes of one request of step `label`."""
+        ...
+
+    def request_environment(self, env: Mapping[str, str], directory: Path) -> dict[str, str]:
+        """`env` as the processes of one request run with it, writing into `directory`."""
+        ...
+
+    def add(self, label: str, directory: Path, env: Mapping[str, str]) -> None:
+        """What the processes that wrote into `directory` read, for step `label`, which
+        ran with `env`."""
+        ...
+
+
 @dataclass(frozen=True, slots=True)
 class ReadOutside:
     """What a build read outside its package, as its build system lists it (absolute paths;
@@ -197,6 +221,13 @@ class PackageContext:
     #: (`BuildType.read_state`: e.g. CMake's cache and the last configure's record); the
     #: steps are decided from it, so `steps()` reads nothing itself
     state: object = None
+    #: the labels of its last build's steps that read what changed since (its record's
+    #: `read_by`): a build type redoes from there (CMake configures again when its configure
+    #: step read a changed file or variable that CMake itself does not watch)
+    redo: tuple[str, ...] = ()
+    #: how its in-process steps have the processes they ask of a warm helper observed
+    #: (None: not observed, a plan's or a by-hand command's context)
+    observe: StepObserver | None = None
 
     @property
     def source_dir(self) -> Path:
@@ -207,7 +238,8 @@ def package_context(build_type: BuildType, *, package: Package, build_dir: Path,
                     install_prefix: Path, stage_prefix: Path, options: BuildOptions,
                     environ: Mapping[str, str], run: Runner, warn: Callable[[str], None],
                     dependency_prefixes: Sequence[Path] = (), jobserver_fifo: Path | None = None,
-                    facts: object = None) -> PackageContext:
+                    facts: object = None, redo: Sequence[str] = (),
+                    observe: StepObserver | None = None) -> PackageContext:
     """The one function that makes a package's context: the build's, `--dry-run`'s and the
     by-hand command's (builder/context.py works out the environment and options of the first
     two, by_hand.py takes them from its command line). The build type reads the state of the
@@ -217,7 +249,8 @@ def package_context(build_type: BuildType, *, package: Package, build_dir: Path,
         package=package, build_dir=build_dir, install_prefix=install_prefix,
         stage_prefix=stage_prefix, options=options, environ=dict(environ), run=run, warn=warn,
         dependency_prefixes=tuple(dependency_prefixes), jobserver_fifo=jobserver_fifo,
-        facts=facts, state=read_state(build_dir) if read_state is not None else None)
+        facts=facts, state=read_state(build_dir) if read_state is not None else None,
+        redo=tuple(redo), observe=observe)
 
 
 @dataclass(frozen=True, slots=True)

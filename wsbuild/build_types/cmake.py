@@ -57,17 +57,15 @@ LOCAL_GATE_VAR = "WSBUILD_LOCAL_GATE_CMAKE"
 #: what a C/C++ toolchain reads from the environment at the first configure only: a change
 #: configures from scratch
 COMPILER_ENVIRONMENT = ("CC", "CXX", "CFLAGS", "CXXFLAGS", "CPPFLAGS", "LDFLAGS")
-#: what wsbuild sets in a build's environment for one run only (the jobserver, the compiler
-#: cache's and distcc's private files): not what a configure depends on
-_RUN_ONLY_ENVIRONMENT = ("MAKEFLAGS", "CCACHE_*", "SCCACHE_*", "DISTCC_*")
 
 
 def _compiler_digests(environ: Mapping[str, str]) -> dict[str, str | None]:
     """Each compiler variable by a digest of its value (None: unset)."""
-    from wsbuild.record.environment import environment_digests
+    from wsbuild.record.environment import UNSET, variable_digests
 
-    digests = environment_digests({k: environ[k] for k in COMPILER_ENVIRONMENT if k in environ})
-    return {name: digests.get(name) for name in COMPILER_ENVIRONMENT}
+    digests = variable_digests(environ, COMPILER_ENVIRONMENT)
+    return {name: None if digests[name] == UNSET else digests[name]
+            for name in COMPILER_ENVIRONMENT}
 
 
 def _defines(cmake_args: Sequence[str], name: str) -> bool:
@@ -132,6 +130,11 @@ class CMakeBuildType:
             "-DCMAKE_EXPORT_COMPILE_COMMANDS=ON",
             f"-DPYTHON_EXECUTABLE={python}",
         ]
+        if not _defines(cmake_options(ctx).args, "CMAKE_FIND_USE_PACKAGE_REGISTRY"):
+            # the user package registry (~/.cmake/packages) is found through HOME: a configure
+            # that looks there reads HOME, and its build is then not shared with another
+            # user's; export(PACKAGE) fills it only where a project turns it on (CMP0090)
+            args.append("-DCMAKE_FIND_USE_PACKAGE_REGISTRY=OFF")
         own = cmake_options(ctx)
         if not any(a.startswith("-DPython3_EXECUTABLE=") for a in own.underlay_args):
             args.append(f"-DPython3_EXECUTABLE={python}")
@@ -229,22 +232,22 @@ class CMakeBuildType:
         return external_inputs(ctx.build_dir, ctx.source_dir, ninja.path if ninja else None)
 
     def needs_configure(self, ctx: PackageContext) -> bool:
+        """Configure when asked, when there is no cache, when the source, the arguments or the
+        compilers' variables differ from the last configure's, and when the last configure
+        read a file or a variable that changed since (`ctx.redo`: the package's record says
+        which step read what changed; CMake itself watches only its own list of files, not
+        what `file(READ)` or `$ENV{}` read)."""
         own = cmake_options(ctx)
-        if own.clean_cache or own.force_configure:
+        if own.clean_cache or own.force_configure or "configure" in ctx.redo:
             return True
         state = self.state(ctx)
         return not state.cache or self._record(ctx) != state.record
 
     def _record(self, ctx: PackageContext) -> dict[str, Any]:
-        """What decides whether to configure again: the source, the arguments, the compilers'
-        variables (a change configures from scratch) and every other variable a
-        CMakeLists.txt may read with $ENV{} (a change configures again: CMake does not
-        notice one by itself)."""
-        from wsbuild.record.environment import environment_digests
-
+        """What decides whether to configure again: the source, the arguments and the
+        compilers' variables (a change configures from scratch)."""
         return {"source": str(ctx.source_dir), "args": self.configure_args(ctx),
-                "environment": _compiler_digests(ctx.environ),
-                "variables": environment_digests(ctx.environ, not_inputs=_RUN_ONLY_ENVIRONMENT)}
+                "environment": _compiler_digests(ctx.environ)}
 
     def prepare_configure_steps(self, ctx: PackageContext) -> list[Step]:
         """What goes before a configure: a cache CMake cannot configure again (made with

@@ -21,6 +21,15 @@ makes a cache miss about as cheap as a plain compile.
 
 With `--distribute` (builder/distribute.py) ccache calls distcc on a miss; sccache cannot, so
 it is refused there and `auto` looks for ccache only.
+
+What the observer (observe/) makes of a compiler cache: its storage is its own state (a cache
+returns what the compiler would have made; what it read to decide is the sources, the
+headers and the compiler, observed where it read them), so reads there are no input of a
+package (`state_dirs`), nor are the variables it reads only to find its configuration and
+its storage (`OWN_VARIABLES`; the configuration files it then reads are observed). sccache
+compiles in its server, which wsbuild starts outside every step: the headers the compiler
+read are in Ninja's and the depfiles' lists (build_types/cmake_inputs.py), and the variables
+a compiler reads (`COMPILER_VARIABLES`) count as read by every step that compiled through it.
 """
 
 from __future__ import annotations
@@ -54,6 +63,25 @@ AUTO_ORDER = ("ccache", "sccache")
 _SERVER_START_SECONDS = 15.0
 #: variables the sccache server must not inherit (a jobserver of a package, a stray server)
 _SERVER_SCRUB = ("MAKEFLAGS", "MFLAGS", "CARGO_MAKEFLAGS", "SCCACHE_SERVER_PORT")
+#: what each tool reads of the environment only to find its configuration and its storage
+OWN_VARIABLES: dict[str, frozenset[str]] = {
+    "ccache": frozenset({"HOME", "XDG_CACHE_HOME", "XDG_CONFIG_HOME", "XDG_RUNTIME_DIR",
+                         "CCACHE_CONFIGPATH", "CCACHE_CONFIGPATH2", "CCACHE_DIR",
+                         "CCACHE_STATSLOG", "CCACHE_INTERNAL_TRACE",
+                         "CCACHE_DISABLE_INODE_CACHE_MIN_AGE", "TERM", "CLICOLOR_FORCE",
+                         "NO_COLOR"}),
+    "sccache": frozenset({"HOME", "XDG_CACHE_HOME", "XDG_CONFIG_HOME", "XDG_RUNTIME_DIR",
+                          "SCCACHE_DIR", "SCCACHE_CONF", "SCCACHE_SERVER_UDS",
+                          "SCCACHE_SERVER_PORT", "SCCACHE_LOG", "SCCACHE_ERROR_LOG",
+                          "SCCACHE_NO_DAEMON", "SCCACHE_STARTUP_NOTIFY", "TERM",
+                          "CLICOLOR_FORCE", "NO_COLOR", "RUST_LOG", "RUST_BACKTRACE"}),
+}
+#: what GCC and Clang read of the environment (their manuals' "Environment Variables")
+COMPILER_VARIABLES = ("CPATH", "C_INCLUDE_PATH", "CPLUS_INCLUDE_PATH", "OBJC_INCLUDE_PATH",
+                      "OBJCPLUS_INCLUDE_PATH", "LIBRARY_PATH", "COMPILER_PATH",
+                      "GCC_EXEC_PREFIX", "SOURCE_DATE_EPOCH", "DEPENDENCIES_OUTPUT",
+                      "SUNPRO_DEPENDENCIES", "GCC_COMPARE_DEBUG", "TMPDIR", "LANG", "LC_ALL",
+                      "LC_CTYPE", "LC_MESSAGES", "LANGUAGE")
 
 
 @dataclass(frozen=True, slots=True)
@@ -129,6 +157,7 @@ class CompilerCache:
     #: why the server did not start: every package that would compile fails with it
     _failure: WsbuildError | None = None
     _lock: threading.Lock = field(default_factory=threading.Lock)
+    _state: tuple[Path, ...] | None = None
 
     @property
     def launcher(self) -> str:
@@ -211,6 +240,44 @@ class CompilerCache:
         env = {k: v for k, v in os.environ.items() if k not in _SERVER_SCRUB}
         env.update(self.environ)
         return env
+
+    def state_dirs(self) -> tuple[Path, ...]:
+        """Where the tool keeps its cache (asked of it once), and its private directory."""
+        with self._lock:
+            if self._state is None:
+                self._state = (self.private_dir, *_storage(self.tool, self.executable,
+                                                           self._client_env()))
+            return self._state
+
+    @property
+    def own_variables(self) -> dict[str, frozenset[str]]:
+        """The variables (OWN_VARIABLES) of the tool's executable, by its name."""
+        return {self.executable.name: OWN_VARIABLES.get(self.tool, frozenset()),
+                os.path.basename(os.path.realpath(self.executable)):
+                    OWN_VARIABLES.get(self.tool, frozenset())}
+
+    @property
+    def compiles_unobserved(self) -> bool:
+        """Whether the compilers run where no step is observed (sccache's server)."""
+        return self.tool == "sccache"
+
+
+def _storage(tool: str, executable: Path, environ: Mapping[str, str]) -> tuple[Path, ...]:
+    """The tool's cache directory: `ccache -k cache_dir`; SCCACHE_DIR, else sccache's default
+    under the user's cache directory."""
+    if tool == "ccache":
+        try:
+            done = subprocess.run([str(executable), "-k", "cache_dir"], env=dict(environ),
+                                  capture_output=True, text=True, timeout=30, check=False,
+                                  stdin=subprocess.DEVNULL)
+        except (OSError, subprocess.SubprocessError):
+            return ()
+        found = done.stdout.strip()
+        return (Path(found),) if done.returncode == 0 and found.startswith("/") else ()
+    if environ.get("SCCACHE_DIR"):
+        return (Path(environ["SCCACHE_DIR"]),)
+    base = environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache")
+    return (Path(base) / "sccache",)
 
 
 def open_compiler_cache(choice: str, environ: Mapping[str, str], log_file: Path, *,

@@ -17,6 +17,7 @@ from wsbuild.build_types import (
     Problems,
     Runner,
     StepFailed,
+    StepObserver,
     get_build_type,
     package_context,
 )
@@ -33,7 +34,8 @@ def make_context(selection: Selection, session: Session, name: str, *, prefix: P
                  options: BuildOptions, stage_prefix: Path | None = None,
                  run_environ: Mapping[str, str] | None = None, run: Runner | None = None,
                  warn: Callable[[str], None] | None = None,
-                 jobserver_fifo: Path | None = None) -> PackageContext:
+                 jobserver_fifo: Path | None = None, redo: tuple[str, ...] = (),
+                 observe: StepObserver | None = None) -> PackageContext:
     """Package `name`'s context (see the module's docstring); without `run`, a context that
     runs nothing (the plan's, `--dry-run`'s)."""
     from wsbuild.prefix import environment_for
@@ -56,7 +58,7 @@ def make_context(selection: Selection, session: Session, name: str, *, prefix: P
         environ=environ, run=run or _not_run, warn=warn or (lambda _text: None),
         dependency_prefixes=[prefix for prefix, _ in dependencies],
         jobserver_fifo=jobserver_fifo if jobserver_fifo is not None else RUN_JOBSERVER,
-        facts=session.facts(package.build_type))
+        facts=session.facts(package.build_type), redo=redo, observe=observe)
 
 
 def _not_run(command: object, *, cwd: Path, env: Mapping[str, str] | None = None,

@@ -11,6 +11,7 @@ import time
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from wsbuild.build_types import (
     PackageContext,
@@ -22,6 +23,7 @@ from wsbuild.build_types import (
 )
 from wsbuild.builder.compiler_cache import CompilerCache
 from wsbuild.builder.context import RUN_JOBSERVER
+from wsbuild.builder.observations import StepObservations
 from wsbuild.builder.step_trace import StepTraces
 from wsbuild.builder.distribute import Distribution
 from wsbuild.builder.plan import BUILDING_MARKER, Decision, PackagePlan
@@ -32,12 +34,16 @@ from wsbuild.engine.jobserver import Jobserver
 from wsbuild.engine.process import env_delta, format_command, run_command
 from wsbuild.errors import WsbuildError
 from wsbuild.events import CacheRestored, Emit
+from wsbuild.record.installed import Installed
 from wsbuild.record.model import PackageRecord
 from wsbuild.redaction import redact
 from wsbuild.session import Session
 from wsbuild.workspace.model import DepCategory
 from wsbuild.workspace.selection import Selection
 from wsbuild.words import did_you_mean
+
+if TYPE_CHECKING:
+    from wsbuild.record.dirty import Environment
 
 
 @dataclass(frozen=True, slots=True)
@@ -73,6 +79,10 @@ class PackageBuild:
     #: the step running now, and the suite's build-step oracle (off: traces nothing)
     step: str = ""
     traces: StepTraces = field(default_factory=StepTraces)
+    #: what the steps of this build were observed to read (made by `stage`)
+    observations: StepObservations | None = None
+    #: why the build system still had work right after the steps ("": it had none)
+    volatile: str = ""
 
     @property
     def name(self) -> str:
@@ -129,6 +139,7 @@ class PackageBuild:
         self.stage()
         try:
             self.run_steps()
+            self.volatile = self._work_left()
             self.register()
             installed = self.commit()
         except StepFailed as failure:
@@ -151,14 +162,14 @@ class PackageBuild:
         with its dependencies as this run left them; None when it is refused (the package is
         then built). The package's record becomes the entry's (builder/records.py)."""
         from wsbuild.builder.records import restored_record
-        from wsbuild.record.environment import changed_names
         from wsbuild.record.model import write_record
 
         planned = self.planned
         assert planned.cache_key is not None and planned.cache_entry is not None
         session = self.run.session
+        key = planned.cache_entry.key or planned.cache_key
         restored = session.cache.restore(
-            planned.cache_key, planned.cache_entry.found, self.prefix, self.merged_record,
+            key, planned.cache_entry.found, self.prefix, self.merged_record,
             inputs_key=planned.inputs_key, dependencies=self._dependency_keys(),
             digests=session.digests)
         if isinstance(restored, str):
@@ -169,13 +180,10 @@ class PackageBuild:
             planned, entry_record, installed,
             install_base=self.run.selection.workspace.install_base, digests=session.digests))
         (self.build_dir / BUILDING_MARKER).unlink(missing_ok=True)
-        differed = changed_names(entry_record.environment, planned.now.environment)
-        where = f"; built where {', '.join(differed)} differed" if differed else ""
-        self._log(f"Restored from the build cache ({entry.source}, archive {entry.digest})"
-                  f"{where}")
+        self._log(f"Restored from the build cache ({entry.source}, archive {entry.digest})")
         self.run.emit(CacheRestored(self.name, entry.source))
         return JobResult(self.name, Outcome.FINISHED, self._seconds(), log_dir=self.log_dir,
-                         message=f"restored from cache{where}")
+                         message="restored from cache")
 
     def stage(self) -> None:
         """Mark the build unfinished, make a fresh stage and the package's context (the one
@@ -192,11 +200,34 @@ class PackageBuild:
             run_environ.update(self.run.compilers.package_environ(self.name))
         if self.run.distribution is not None:
             run_environ.update(self.run.distribution.environ)
+        self.observations = self._observations(run_environ)
+        reason = self.planned.reason
         self.context = make_context(
             self.run.selection, self.run.session, self.name, prefix=self.prefix,
             options=self.planned.options.applied_to(self.run.options),
             stage_prefix=self.stage_prefix, run_environ=run_environ, run=self._run_command,
-            warn=self.warnings.append, jobserver_fifo=self.run.jobserver.fifo)
+            warn=self.warnings.append, jobserver_fifo=self.run.jobserver.fifo,
+            redo=reason.redo if reason is not None else (), observe=self.observations)
+
+    def _observations(self, run_environ: Mapping[str, str]) -> StepObservations:
+        """A fresh record of what this build's steps read (builder/observations.py): what
+        wsbuild sets for this run only and a compiler cache's own state are no input."""
+        from wsbuild.builder.observations import OBSERVE_DIR
+
+        compilers = self.run.compilers
+        observations = StepObservations(
+            self.build_dir / OBSERVE_DIR, self.run.session.observer,
+            run_only=set(run_environ),
+            tool_state=compilers.state_dirs() if compilers is not None else (),
+            tool_variables=compilers.own_variables if compilers is not None else {})
+        observations.start()
+        return observations
+
+    def _work_left(self) -> str:
+        """What the build system would still do right after the steps (its build type's
+        `work_left`; "" when nothing, or when the type cannot tell)."""
+        work_left = getattr(get_build_type(self.planned.build_type), "work_left", None)
+        return work_left(self._ctx()) if work_left is not None else ""
 
     def steps(self) -> Sequence[Step]:
         """The steps the plan decided; the build type is asked again with the build's context,
@@ -232,7 +263,8 @@ class PackageBuild:
                 self._run_command(command.argv, cwd=command.cwd,
                                   env={**ctx.environ, **command.env, **run_env},
                                   problems=command.problems,
-                                  shown_env={**ctx.environ, **command.env})
+                                  shown_env={**ctx.environ, **command.env},
+                                  run_only=tuple(run_env))
             else:
                 self._run_action(step, ctx)
 
@@ -292,7 +324,7 @@ class PackageBuild:
                                   python_site=str(site_packages_relpath()),
                                   install_prefix=self.prefix)
 
-    def commit(self) -> list[tuple[str, int]]:
+    def commit(self) -> list[Installed]:
         """The stage replaces the package's prefix; returns the installed files."""
         from wsbuild.prefix import stage as staging
 
@@ -307,24 +339,34 @@ class PackageBuild:
         staging.commit_isolated(self.stage_prefix, self.prefix)
         return staging.installed_files(install_base, self.prefix)
 
-    def write_record(self, installed: list[tuple[str, int]]) -> PackageRecord:
-        """What this build depended on, for the next run's plan (builder/records.py); the
-        build is finished."""
-        from wsbuild.builder.records import built_record
+    def write_record(self, installed: list[Installed]) -> PackageRecord:
+        """What this build's steps were observed to read, for the next run's plan
+        (builder/records.py); the build is finished."""
+        from wsbuild.builder.compiler_cache import COMPILER_VARIABLES
+        from wsbuild.builder.records import Where, built_record
         from wsbuild.record.model import write_record
 
-        # the package's own files, its build directory and what it installs (in a merged
-        # install the prefix is every package's: only the stage is its own)
+        # its build directory and what it installs are its outputs (in a merged install the
+        # prefix is every package's: only the stage is its own)
         ctx = self._ctx()
-        inside = [self.planned.source_dir.absolute(), self.build_dir.absolute(),
-                  ctx.stage_prefix, *([] if self.run.session.merged else [self.prefix])]
+        session = self.run.session
+        outputs = (self.build_dir.absolute(), ctx.stage_prefix,
+                   *(() if session.merged else (self.prefix,)))
+        compilers = self.run.compilers
+        where = Where(source_dir=self.planned.source_dir.absolute(),
+                      own=self.planned.own.files, outputs=tuple(outputs),
+                      install_base=self.run.selection.workspace.install_base,
+                      tool_state=compilers.state_dirs() if compilers is not None else ())
         build_type = get_build_type(self.planned.build_type)
         runner = build_type.test_runner
+        assert self.observations is not None
         record = built_record(
-            self.planned, read=build_type.external_inputs(ctx),
-            dependencies=self._dependency_keys(), installed=installed, inside=inside,
-            install_base=self.run.selection.workspace.install_base,
-            digests=self.run.session.digests, started_ns=self.started_ns,
+            self.planned, observations=self.observations,
+            declared=build_type.external_inputs(ctx), dependencies=self._dependency_keys(),
+            installed=installed, where=where, environment=session.environment,
+            digests=session.digests, started_ns=self.started_ns, volatile=self.volatile,
+            compiler_variables=COMPILER_VARIABLES
+            if compilers is not None and compilers.compiles_unobserved else (),
             test_tree=runner is not None and getattr(runner, "tests_in_build_tree",
                                                      lambda _: False)(self.build_dir))
         write_record(self.build_dir, record)
@@ -349,12 +391,29 @@ class PackageBuild:
         dependencies = self._dependency_keys()
         record = cut_off_record(planned, dependencies,
                                 install_base=self.run.selection.workspace.install_base,
-                                digests=self.run.session.digests)
+                                digests=self.run.session.digests,
+                                environment=self._environment_now())
         if record is None:
             return None
         write_record(self.build_dir, record)
         return JobResult(self.name, Outcome.UP_TO_DATE, self._seconds(),
                          message=cutoff_note(planned.previous, dependencies))
+
+    def _environment_now(self) -> Environment:
+        """What the package's steps would see now, its dependencies (built before it in this
+        run) applied: a dependency's hook may set what a step reads."""
+        from wsbuild.builder.context import make_context
+        from wsbuild.record.dirty import Environment
+
+        session = self.run.session
+        ctx = make_context(self.run.selection, session, self.name, prefix=self.prefix,
+                           options=self.planned.options.applied_to(self.run.options))
+        environ = dict(ctx.environ)
+        for step in self.planned.steps:
+            if step.command is not None:
+                environ.update(step.command.env)
+        return Environment(environ, own_install=str(self.run.selection.workspace.install_base),
+                           ignored=session.options.not_inputs)
 
     def store(self, record: PackageRecord) -> None:
         """Into the build cache (when on) with its record, for the next machine or branch that
@@ -390,10 +449,12 @@ class PackageBuild:
 
     def _run_command(self, command: Sequence[str], *, cwd: Path,
                      env: Mapping[str, str] | None = None, problems: Problems | None = None,
-                     shown_env: Mapping[str, str] | None = None) -> None:
-        """A step's command: logged with what reproduces it in a fresh shell, its stderr kept
-        as warnings (only the `problems` among them when the build type says which).
-        `shown_env` is `env` without what only this run has (a stage's DESTDIR, a FIFO)."""
+                     shown_env: Mapping[str, str] | None = None,
+                     run_only: Sequence[str] = ()) -> None:
+        """A step's command, observed: logged with what reproduces it in a fresh shell, its
+        stderr kept as warnings (only the `problems` among them when the build type says
+        which). `shown_env` is `env` without what only this run has (a stage's DESTDIR, a
+        FIFO: `run_only` names them)."""
         use_env = dict(env) if env is not None else self._ctx().environ
         delta = self._reproducible(env_delta(shown_env if shown_env is not None else use_env,
                                              os.environ))
@@ -402,9 +463,15 @@ class PackageBuild:
         if run_only:
             self._log("  and, for this run only: " + " ".join(
                 f"{k}={shlex.quote(v)}" for k, v in run_only.items()))
-        traced = self.traces.command(command, self.step, self.build_dir)
-        completed = run_command(traced, cwd=cwd, env=use_env, log_dir=self.log_dir,
-                                pass_fds=self.run.jobserver.fds)
+        assert self.observations is not None
+        token, observed_env = self.observations.begin(self.step or "step", use_env, run_only)
+        traced, observed_env = self.traces.command(command, self.step, self.build_dir,
+                                                   observed_env)
+        try:
+            completed = run_command(traced, cwd=cwd, env=observed_env, log_dir=self.log_dir,
+                                    pass_fds=self.run.jobserver.fds)
+        finally:
+            self.observations.finish(token)
         stderr = list(completed.stderr)
         if problems is not None:
             stderr = problems(stderr)

@@ -24,6 +24,7 @@ from wsbuild.builder.request import BuildRequest, PackageOptions
 from wsbuild.engine.ready_queue import JobGraph, start_order
 from wsbuild.errors import DependencyError
 from wsbuild.record.dirty import Dirty, PackageNow, Reason, cutoff_note, dirty_reason
+from wsbuild.record.installed import Installed
 from wsbuild.record.model import PENDING, PackageRecord, inputs_key, read_record
 from wsbuild.record.outside import OutsideReads, own_entries, refreshed
 from wsbuild.record.own_files import OwnFiles, own_files
@@ -94,17 +95,23 @@ class PackagePlan:
         return self.now.own
 
     def record(self, *, dependencies: Mapping[str, str], outside: OutsideReads | None = None,
-               complete: bool = False, installed: Sequence[tuple[str, int]] = (),
-               test_tree: bool = False) -> PackageRecord:
+               complete: bool = False, installed: Sequence[Installed] = (),
+               test_tree: bool = False, environment: Mapping[str, str] | None = None,
+               environment_seen: Mapping[str, str] | None = None, environment_names: str = "",
+               unobserved: Sequence[str] = (), volatile: str = "",
+               read_by: Mapping[str, str] | None = None) -> PackageRecord:
         """The record of this package built now: what the plan saw, its dependencies' keys as
-        their builds left them, and what its build read outside (record/outside.py)."""
+        their builds left them, and what its steps read (record/model.py)."""
         return PackageRecord(
             package=self.name, build_type=self.build_type, own=self.now.own.files,
-            settings=self.now.settings, environment=self.now.environment,
+            settings=self.now.settings, environment=dict(environment or {}),
+            environment_seen=dict(environment_seen or {}), environment_names=environment_names,
             dependencies=dict(sorted(dependencies.items())),
             dependency_inputs=dict(sorted(self.dependency_inputs.items())),
             outside=outside if outside is not None else OutsideReads(),
-            complete=complete, installed=tuple(installed), test_tree=test_tree).sealed()
+            complete=complete, unobserved=tuple(unobserved), volatile=volatile,
+            read_by=dict(read_by or {}), installed=tuple(installed),
+            test_tree=test_tree).sealed()
 
 
 @dataclass(frozen=True, slots=True)
@@ -263,17 +270,17 @@ def plan_package(planning: _Planning, name: str) -> PackagePlan:
                            inputs_key=kept.inputs_key, note=note, previous=old, cut_off=kept,
                            **common)
     assert reason is not None
-    before = inputs_key(name, package.build_type, own.digest, settings, now.environment,
-                        dependency_inputs)
+    before = inputs_key(name, package.build_type, own.digest, settings, dependency_inputs)
     common["inputs_key"] = before
     common["backdated"] = _backdated(old, own)
     common["previous"] = old
-    cache_key = session.cache.key(name, package.build_type, before, prefix, session.environ)
+    cache_key = session.cache.key(name, package.build_type, before, prefix)
     found = None
     if cache_key is not None and reason.kind is not Dirty.FORCED:
         found = session.cache.lookup(cache_key, before, now.dependencies, session.digests,
                                      waiting=bool(closure & planning.pending))
-    common["steps"], common["step_environ"] = _steps(planning, name, prefix, own_options)
+    common["steps"], common["step_environ"] = _steps(planning, name, prefix, own_options,
+                                                     redo=reason.redo)
     if found is not None:
         known = all(not key.startswith(PENDING) for key in now.dependencies.values())
         key = found.record.key if known else PENDING + before
@@ -283,8 +290,8 @@ def plan_package(planning: _Planning, name: str) -> PackagePlan:
                        cache_key=cache_key, **common)
 
 
-def _steps(planning: _Planning, name: str, prefix: Path, own_options: PackageOptions
-           ) -> tuple[tuple[Step, ...], Mapping[str, str]]:
+def _steps(planning: _Planning, name: str, prefix: Path, own_options: PackageOptions, *,
+           redo: tuple[str, ...] = ()) -> tuple[tuple[Step, ...], Mapping[str, str]]:
     """The steps of a package to build (or to restore: a refused entry builds it), decided as
     the build decides them, from the context the builder makes (builder/context.py) with the
     compiler launcher the build will use; and the environment they start from."""
@@ -295,7 +302,8 @@ def _steps(planning: _Planning, name: str, prefix: Path, own_options: PackageOpt
     options = replace(own_options.applied_to(planning.options),
                       compiler_launcher=planning.launcher)
     ctx = make_context(planning.selection, planning.session, name, prefix=prefix,
-                       options=options, stage_prefix=_stage(planning.selection, name))
+                       options=options, stage_prefix=_stage(planning.selection, name),
+                       redo=redo)
     return tuple(get_build_type(ctx.package.build_type).steps(ctx)), ctx.environ
 
 

@@ -49,11 +49,14 @@ def trace_file() -> str | None:
     return os.environ.get(TRACE_VARIABLE) or None
 
 
-def traced(argv: Sequence[str], output: Path) -> list[str]:
-    """`argv` run under strace, its opens and execs written to `output`."""
+def traced(argv: Sequence[str], output: Path, env_of_traced: Mapping[str, str] = {}
+           ) -> list[str]:  # noqa: B006
+    """`argv` run under strace, its opens and execs written to `output`; `env_of_traced`:
+    variables set for the traced program only, not for strace (the observer's library)."""
+    settings = [arg for name, value in env_of_traced.items() for arg in ("-E", f"{name}={value}")]
     return ["strace", "-f", "-qq", "--seccomp-bpf", "-y", "-e",
-            "trace=open,openat,openat2,execve", "-e", "signal=none", "-o", str(output), "--",
-            *argv]
+            "trace=open,openat,openat2,execve", "-e", "signal=none", *settings,
+            "-o", str(output), "--", *argv]
 
 
 @dataclass(frozen=True, slots=True)
@@ -139,16 +142,20 @@ class StepTraces:
     file: str | None = field(default_factory=trace_file)
     traces: dict[str, Path] = field(default_factory=dict)
 
-    def command(self, argv: Sequence[str], step: str, build_dir: Path) -> Sequence[str]:
-        """`argv`, under strace when the oracle is on (its trace in the build directory)."""
+    def command(self, argv: Sequence[str], step: str, build_dir: Path,
+                env: Mapping[str, str]) -> tuple[Sequence[str], Mapping[str, str]]:
+        """`argv` and `env`, under strace when the oracle is on (its trace in the build
+        directory; the observer's library loaded into the traced program, not into strace)."""
         if self.file is None:
-            return argv
+            return argv, env
         from wsbuild.files import private_directory
 
         directory = private_directory(build_dir / ".wsbuild" / "trace")
         output = directory / f"{len(self.traces) + 1:02d}-{step or 'step'}.strace"
         self.traces[f"{step or 'step'} ({argv[0]})"] = output
-        return traced(argv, output)
+        preloaded = {name: env[name] for name in ("LD_PRELOAD",) if name in env}
+        return traced(argv, output, preloaded), {k: v for k, v in env.items()
+                                                  if k not in preloaded}
 
     def check(self, package: str, record: PackageRecord, source_dir: Path,
               outputs: Iterable[Path]) -> None:

@@ -257,8 +257,9 @@ class BuildCache:
 
     def _store_now(self, key: CacheKey, root: Path, files: Iterable[str] | None,
                    package_record: bytes = b""
-                   ) -> tuple[str | None, tuple[list[tuple[str, Path]], str, bytes] | None]:
-        """Pack and store locally; (why not stored, what to upload: the blobs, the address
+                   ) -> tuple[str | None,
+                              tuple[list[tuple[str, Path]], tuple[str, ...], bytes] | None]:
+        """Pack and store locally; (why not stored, what to upload: the blobs, the addresses
         and the action record)."""
         import hashlib
 
@@ -278,11 +279,12 @@ class BuildCache:
             blobs.append((record_digest, self.local.put_blob(record_digest, record_temp)))
         record = ActionResult(key.package, digest, size, record_digest,
                               len(package_record)).encode()
-        self.local.put_action(key.address, record)
+        for address in key.addresses:
+            self.local.put_action(address, record)
         with self._lock:
             self._stored = True
             upload = self._uploads_on
-        return None, (blobs, key.address, record) if upload else None
+        return None, (blobs, key.addresses, record) if upload else None
 
     def _submit(self, item: tuple[object, ...]) -> None:
         with self._lock:
@@ -310,10 +312,11 @@ class BuildCache:
             if upload is not None:
                 self._upload(*upload)
         else:
-            _, blobs, address, record = item
-            self._upload(blobs, address, record)  # type: ignore[arg-type]
+            _, blobs, addresses, record = item
+            self._upload(blobs, addresses, record)  # type: ignore[arg-type]
 
-    def _upload(self, blobs: list[tuple[str, Path]], address: str, record: bytes) -> None:
+    def _upload(self, blobs: list[tuple[str, Path]], addresses: tuple[str, ...],
+                record: bytes) -> None:
         from wsbuild.cache.http import CacheRejected, CacheUnavailable
 
         remote = self.remote
@@ -323,7 +326,8 @@ class BuildCache:
             for digest, blob in blobs:
                 if not remote.has_blob(digest):
                     remote.put_blob(digest, blob)
-            remote.put_action(address, record)
+            for address in addresses:
+                remote.put_action(address, record)
         except CacheRejected as error:
             self._uploads_off(str(error))
         except CacheUnavailable as error:

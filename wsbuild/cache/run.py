@@ -3,11 +3,15 @@ build never pays for it), a package's cache key from its inputs key, lookups whi
 planned, and restores committed into install/ exactly as a build commits its stage.
 
 An entry carries the package record it was built with (record/model.py), and is restored only
-when this machine proves it (ccache's direct mode): the record's inputs key is the one looked
-up, each dependency's key here is the one it was built against (those built in this run once
-they are), and every file and directory listing it read outside the package has the same
-content here. After a restore the package's record is the entry's, with this machine's
-signatures and environment, so later edits are seen."""
+when this machine proves it (ccache's direct mode, BuildXL's observed path sets): the record's
+inputs key is the one looked up, its steps were all observed and its build system had no work
+left, each dependency's key here is the one it was built against (those built in this run
+once they are), every variable its steps read has the same value here, and every file,
+listing, search and probe it read outside the package has the same content here. An entry
+whose variables differ here is looked for once more under the variant of its key those
+variables' values here give (cache/key.py): a build that read HOME is found for this HOME
+only. After a restore the package's record is the entry's, with this machine's signatures,
+so later edits are seen."""
 
 from __future__ import annotations
 
@@ -25,6 +29,7 @@ from wsbuild.workspace.root import Workspace
 if TYPE_CHECKING:
     from wsbuild.cache.client import BuildCache, Found, Restored
     from wsbuild.cache.key import CacheKey
+    from wsbuild.record.dirty import Environment
     from wsbuild.record.model import PackageRecord
     from wsbuild.record.outside import Digests
 
@@ -32,25 +37,37 @@ if TYPE_CHECKING:
 
 @dataclass(frozen=True, slots=True)
 class Proven:
-    """An entry this machine proved while the run was planned, and its package record."""
+    """An entry this machine proved while the run was planned, its package record and the
+    key (or variant of it) it was found under."""
 
     found: Found
     record: PackageRecord
+    key: CacheKey | None = None
+
+
+@dataclass(frozen=True, slots=True)
+class Disproof:
+    """Why an entry is not restored here, and its record when it could be read."""
+
+    why: str
+    record: PackageRecord | None = None
+    #: the variables its steps read differ here (its key's variant may hold another entry)
+    variables: bool = False
 
 
 def disproof(found: Found, inputs_key: str, dependencies: Mapping[str, str], digests: Digests,
-             *, install_base: Path, planning: bool, waiting: bool = False
-             ) -> tuple[PackageRecord | None, str]:
-    """The entry's package record and "" when this machine proves it, else (None, why not).
+             *, install_base: Path, planning: bool, waiting: bool = False,
+             environment: Environment | None = None) -> PackageRecord | Disproof:
+    """The entry's package record when this machine proves it, else why not (`Disproof`).
     `dependencies`: the keys the package's dependencies have here (a PENDING one is not
     compared: its build in this run decides, and the restore asks again); `waiting`: some
     dependency is yet to be built or restored in this run, so what the entry read in the
-    install base is compared at the restore only."""
-    from wsbuild.record.dirty import changed_read
+    install base is compared at the restore only; `environment`: the variables here."""
+    from wsbuild.record.dirty import Dirty, changed_read
     from wsbuild.record.model import decode
 
     if found.package_record is None:
-        return None, "the entry carries no package record"
+        return Disproof("the entry carries no package record")
     try:
         import json
 
@@ -58,14 +75,15 @@ def disproof(found: Found, inputs_key: str, dependencies: Mapping[str, str], dig
     except ValueError:
         record = None
     if record is None:
-        return None, "the entry's package record cannot be read"
+        return Disproof("the entry's package record cannot be read")
     if record.inputs_key != inputs_key:
-        return None, "the entry's package record is not of these inputs"
+        return Disproof("the entry's package record is not of these inputs")
     changed = changed_read(record, digests=digests, install_base=install_base,
-                           planning=planning, dependencies=dependencies, waiting=waiting)
+                           planning=planning, dependencies=dependencies, waiting=waiting,
+                           environment=environment)
     if changed is not None:
-        return None, changed.text
-    return record, ""
+        return Disproof(changed.text, record, changed.kind is Dirty.ENVIRONMENT)
+    return record
 
 
 class RunCache:
@@ -84,6 +102,8 @@ class RunCache:
         self._seconds = {"lookup": 0.0, "restore": 0.0, "store": 0.0}
         self._counts = {"lookup": 0, "restore": 0, "store": 0}
         self._misses: list[str] = []
+        #: the variables here (the session's, set when the session opens; None: not compared)
+        self.environment: Environment | None = None
 
     def _account(self, what: str, started: float) -> None:
         with self._lock:
@@ -107,22 +127,43 @@ class RunCache:
     def _warn(self, text: str) -> None:
         self._emit(Notice(text, warning=True))
 
-    def key(self, name: str, build_type: str, inputs_key: str, prefix: Path,
-            environ: Mapping[str, str]) -> CacheKey | None:
+    def key(self, name: str, build_type: str, inputs_key: str, prefix: Path) -> CacheKey | None:
         if self.settings is None:
             return None
         started = time.perf_counter()
         from wsbuild import __version__
         from wsbuild.cache.key import cache_key
 
-        directory = self.settings.directory
         key = cache_key(package=name, inputs_key=inputs_key, install_prefix=prefix,
-                        build_type=build_type, environ=environ, version=__version__,
-                        workspace_install=self.workspace.install_base,
-                        memo=directory / "toolchain.json" if directory else None)
+                        build_type=build_type, version=__version__)
         with self._lock:  # counted with the lookups
             self._seconds["lookup"] += time.perf_counter() - started
         return key
+
+    def _proven(self, key: CacheKey, inputs_key: str, dependencies: Mapping[str, str],
+                digests: Digests, *, planning: bool, waiting: bool = False
+                ) -> Proven | str | None:
+        """The entry under `key`, or under the variant of it the variables here give, when
+        this machine proves it; None when there is none; else why it is not restored."""
+        cache = self._open()
+        found = cache.find(key)
+        if found is None:
+            return None
+        proof = disproof(found, inputs_key, dependencies, digests,
+                         install_base=self.workspace.install_base, planning=planning,
+                         waiting=waiting, environment=self.environment)
+        if not isinstance(proof, Disproof):
+            return Proven(found, proof, key)
+        if not proof.variables or proof.record is None or self.environment is None:
+            return proof.why
+        variant = key.with_variant(self.environment.digests(proof.record.environment))
+        found = cache.find(variant)
+        if found is None:
+            return f"{proof.why}, and no entry was built where they are as here"
+        proof = disproof(found, inputs_key, dependencies, digests,
+                         install_base=self.workspace.install_base, planning=planning,
+                         waiting=waiting, environment=self.environment)
+        return proof.why if isinstance(proof, Disproof) else Proven(found, proof, variant)
 
     def lookup(self, key: CacheKey, inputs_key: str, dependencies: Mapping[str, str],
                digests: Digests, *, waiting: bool = False) -> Proven | None:
@@ -130,22 +171,17 @@ class RunCache:
         (`disproof`; `waiting`: a dependency is yet to be built or restored in this run),
         None otherwise; reads only."""
         started = time.perf_counter()
-        found = self._open().find(key)
-        record = None
-        if found is None:
-            why_not = f"not in the cache under {key.address} = sha256 of {key.text}"
-        else:
-            record, why_not = disproof(found, inputs_key, dependencies, digests,
-                                       install_base=self.workspace.install_base, planning=True,
-                                       waiting=waiting)
-        if found is None or record is None:
+        proven = self._proven(key, inputs_key, dependencies, digests, planning=True,
+                              waiting=waiting)
+        if not isinstance(proven, Proven):
+            why_not = proven or f"not in the cache under {key.address} = sha256 of {key.text}"
             self._account("lookup", started)
             with self._lock:  # for "why was this not restored?": in the log
                 self._misses.append(f"{key.package}: {why_not}")
             return None
         with self._lock:  # counted with the restore that follows
             self._seconds["restore"] += time.perf_counter() - started
-        return Proven(found, record)
+        return proven
 
     def probe(self, key: CacheKey, inputs_key: str, dependencies: Mapping[str, str],
               digests: Digests) -> Proven | str | None:
@@ -155,13 +191,11 @@ class RunCache:
         into the run's log: cache/waiting.py asks again and again while another job of a CI
         matrix builds the package."""
         cache = self._open()
-        found = cache.find(key)
-        if found is None:
+        proven = self._proven(key, inputs_key, dependencies, digests, planning=False)
+        if proven is None:
             off = self.settings is not None and self.settings.url and cache.remote is None
             return "the cache server is off for this run" if off else None
-        record, why_not = disproof(found, inputs_key, dependencies, digests,
-                                   install_base=self.workspace.install_base, planning=False)
-        return Proven(found, record) if record is not None else why_not
+        return proven
 
     def restore(self, key: CacheKey, found: Found, prefix: Path, merged_record: Path | None, *,
                 inputs_key: str, dependencies: Mapping[str, str], digests: Digests
@@ -174,14 +208,14 @@ class RunCache:
         from wsbuild.prefix import stage as staging
 
         started = time.perf_counter()
-        entry_record, why_not = disproof(found, inputs_key, dependencies, digests,
-                                         install_base=self.workspace.install_base,
-                                         planning=False)
-        if entry_record is None:
+        entry_record = disproof(found, inputs_key, dependencies, digests,
+                                install_base=self.workspace.install_base, planning=False,
+                                environment=self.environment)
+        if isinstance(entry_record, Disproof):
             self._account("lookup", started)
             with self._lock:
-                self._misses.append(f"{key.package}: {why_not}")
-            return why_not
+                self._misses.append(f"{key.package}: {entry_record.why}")
+            return entry_record.why
         cache = self._open()
         install_base = self.workspace.install_base
         stage = staging.new_stage(install_base, key.package)
@@ -216,8 +250,12 @@ class RunCache:
 
         from wsbuild.record.model import encode
 
+        if not package_record.complete or package_record.volatile:
+            return ("not cached: its steps were not all observed" if not package_record.complete
+                    else "not cached: its build system always has work")
         started = time.perf_counter()
         files = merged_record.read_text().splitlines() if merged_record is not None else None
+        key = key.with_variant(package_record.environment)
         data = json.dumps(encode(package_record), separators=(",", ":")).encode()
         why_not = self._open().store(key, prefix, files, package_record=data,
                                      background=merged_record is None)

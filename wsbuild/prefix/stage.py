@@ -12,6 +12,7 @@ from collections.abc import Iterable, Iterator
 from contextlib import contextmanager
 from pathlib import Path
 
+from wsbuild.record.installed import Installed, installed_entries
 from wsbuild.files import atomic_write
 from wsbuild import inputs
 
@@ -149,10 +150,9 @@ def recover_all(install_base: Path) -> None:
 
 
 def installed_files(install_base: Path, prefix: Path,
-                    only: Iterable[str] | None = None) -> list[tuple[str, int]]:
-    """(path relative to install_base, size) of a package's installed files; -1 for symlinks."""
-    result: list[tuple[str, int]] = []
-    base = str(install_base)
+                    only: Iterable[str] | None = None) -> list[Installed]:
+    """A package's installed files and symlinks, as its record holds them
+    (record/installed.py)."""
     if only is not None:
         paths = [os.path.join(prefix, rel) for rel in only]
     else:
@@ -160,10 +160,4 @@ def installed_files(install_base: Path, prefix: Path,
         for dirpath, dirnames, filenames in os.walk(prefix):
             for name in filenames + [d for d in dirnames if os.path.islink(os.path.join(dirpath, d))]:
                 paths.append(os.path.join(dirpath, name))
-    for path in sorted(paths):
-        try:
-            size = -1 if os.path.islink(path) else os.stat(path).st_size
-        except OSError:
-            continue
-        result.append((os.path.relpath(path, base), size))
-    return result
+    return installed_entries(str(install_base), paths)

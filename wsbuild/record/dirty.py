@@ -6,15 +6,15 @@ from __future__ import annotations
 
 import json
 import os
-from collections.abc import Collection, Mapping
+from collections.abc import Collection, Iterable, Mapping
 from dataclasses import dataclass
 from enum import Enum
 from pathlib import Path
 
-from wsbuild import inputs
-from wsbuild.record.environment import changed_names
+from wsbuild.record.environment import changed_names, names_digest, variable_digests
+from wsbuild.record.installed import damaged_install
 from wsbuild.record.model import PENDING, PackageRecord
-from wsbuild.record.outside import Digests, first_change, own_entries
+from wsbuild.record.outside import Digests, changed_paths, first_change, own_entries
 from wsbuild.record.own_files import OwnFiles, files_digest
 
 
@@ -40,6 +40,10 @@ class Dirty(str, Enum):
     EXTERNAL = "external"
     #: what it installed is missing or changed under install/
     INSTALL = "install"
+    #: its steps were not all observed: its build system runs every time
+    UNOBSERVED = "unobserved"
+    #: its build system had work left right after its last build: it runs every time
+    VOLATILE = "volatile"
 
     def __str__(self) -> str:
         return self.value
@@ -56,6 +60,28 @@ class Reason:
     #: decided once the dependencies in `details` are built in this run: built only if what
     #: it read of them changed (early cutoff), else up to date
     cutoff: bool = False
+    #: the labels of the steps that read what changed (record.read_by): a build type redoes
+    #: from the first of them (CMake configures again when its configure read it)
+    redo: tuple[str, ...] = ()
+
+
+@dataclass(frozen=True, slots=True)
+class Environment:
+    """The environment a package's steps would start from now, before its dependencies'
+    hooks (observe/step_environment.py's `step_base` of the run's), as records compare it."""
+
+    environ: Mapping[str, str]
+    #: the workspace's install base (record/environment.py's normalization)
+    own_install: str = ""
+    #: the variables the user says never matter (`--env-ignore`)
+    ignored: tuple[str, ...] = ()
+
+    def digests(self, names: Iterable[str]) -> dict[str, str]:
+        return variable_digests(self.environ, names, own_install=self.own_install,
+                                ignored=self.ignored)
+
+    def names(self) -> str:
+        return names_digest(self.environ, ignored=self.ignored)
 
 
 @dataclass(frozen=True, slots=True)
@@ -64,9 +90,25 @@ class PackageNow:
 
     own: OwnFiles
     settings: Mapping[str, object]
-    environment: Mapping[str, str]
+    environment: Environment
     #: the keys its workspace dependencies have (after this run, where known)
     dependencies: Mapping[str, str]
+
+
+def environment_change(record: PackageRecord, environment: Environment, *,
+                       seen: bool = False) -> tuple[str, ...]:
+    """The variables the record's steps read whose value differs now (`seen`: compared with
+    what the steps saw, their dependencies' hooks applied, and `environment` is such)."""
+    held = record.environment_seen if seen else record.environment
+    now = environment.digests(held)
+    changed = tuple(changed_names(held, now))
+    if record.environment_names and environment.names() != record.environment_names:
+        changed += ("(the set of variables)",)
+    return changed
+
+
+def _redo(record: PackageRecord, changed: Iterable[str]) -> tuple[str, ...]:
+    return tuple(dict.fromkeys(record.read_by[c] for c in changed if c in record.read_by))
 
 
 def dirty_reason(old: PackageRecord | None, now: PackageNow, *, install_base: Path,
@@ -84,10 +126,12 @@ def dirty_reason(old: PackageRecord | None, now: PackageNow, *, install_base: Pa
     if old.settings != now.settings:
         changed = tuple(settings_changes(old.settings, now.settings))
         return Reason(Dirty.OPTIONS, "build options changed: " + "; ".join(changed), changed)
-    if old.environment != now.environment:
-        names = tuple(changed_names(old.environment, now.environment))
-        shown = ", ".join(names[:5]) + (" …" if len(names) > 5 else "")
-        return Reason(Dirty.ENVIRONMENT, f"environment variable changed: {shown}", names)
+    changed_variables = environment_change(old, now.environment)
+    if changed_variables:
+        shown = ", ".join(changed_variables[:5]) + (" …" if len(changed_variables) > 5 else "")
+        return Reason(Dirty.ENVIRONMENT, f"environment variable changed: {shown}",
+                      changed_variables,
+                      redo=_redo(old, (f"${name}" for name in changed_variables)))
     if (old.own_digest or files_digest(old.own)) != now.own.digest:  # by content, not stat
         changed = now.own.changed or sorted(set(old.own) ^ set(now.own.files))
         shown = ", ".join(changed[:3]) + (" …" if len(changed) > 3 else "")
@@ -95,9 +139,10 @@ def dirty_reason(old: PackageRecord | None, now: PackageNow, *, install_base: Pa
                       tuple(changed))
     changed_deps = sorted(n for n in set(old.dependencies) | set(now.dependencies)
                           if old.dependencies.get(n) != now.dependencies.get(n))
+    always = _always(old)
     # early cutoff: a rebuilt dependency matters only through what this build read of it, when
-    # the build system said all it read
-    cutoff = old.complete and set(old.dependencies) == set(now.dependencies)
+    # all its steps read was observed
+    cutoff = always is None and set(old.dependencies) == set(now.dependencies)
     if changed_deps and not cutoff:
         return Reason(Dirty.DEPENDENCY, "dependency rebuilt: " + ", ".join(changed_deps),
                       tuple(changed_deps))
@@ -107,26 +152,51 @@ def dirty_reason(old: PackageRecord | None, now: PackageNow, *, install_base: Pa
                       "package only if what it read of it changes", tuple(waiting), cutoff=True)
     outside = first_change(old.outside, digests, planning=True,
                            own=own_entries(str(install_base), old.installed))
-    if outside is not None and changed_deps:
-        return Reason(Dirty.DEPENDENCY, "dependency rebuilt: " + ", ".join(changed_deps)
-                      + f" (read while building: {outside})", tuple(changed_deps))
     if outside is not None:
-        return Reason(Dirty.EXTERNAL, f"file outside the package changed: {outside}", (outside,))
-    damaged = damaged_install(install_base, old.installed)
+        changed = tuple(changed_paths(old.outside, digests, planning=True,
+                                      own=own_entries(str(install_base), old.installed)))
+        redo = _redo(old, changed)
+        if changed_deps:
+            return Reason(Dirty.DEPENDENCY, "dependency rebuilt: " + ", ".join(changed_deps)
+                          + f" (read while building: {outside})", tuple(changed_deps),
+                          redo=redo)
+        return Reason(Dirty.EXTERNAL, f"file outside the package changed: {outside}",
+                      changed or (outside,), redo=redo)
+    damaged = damaged_install(str(install_base), old.installed)
     if damaged is not None:
         return Reason(Dirty.INSTALL, f"install damaged: {damaged} missing or changed", (damaged,))
+    return always
+
+
+def _always(record: PackageRecord) -> Reason | None:
+    """Why a package's build system runs every time, whatever changed: its steps were not all
+    observed, or its build system had work left right after its build."""
+    if not record.complete:
+        why = "; ".join(record.unobserved[:2]) or "its steps were not observed"
+        return Reason(Dirty.UNOBSERVED, f"not fully observed, so built every time ({why})",
+                      record.unobserved)
+    if record.volatile:
+        return Reason(Dirty.VOLATILE, f"its build system always has work ({record.volatile})",
+                      (record.volatile,))
     return None
 
 
 def changed_read(record: PackageRecord, *, digests: Digests, install_base: Path,
                  planning: bool, dependencies: Mapping[str, str] | None = None,
-                 waiting: bool = False) -> Reason | None:
+                 waiting: bool = False, environment: Environment | None = None,
+                 seen: bool = False) -> Reason | None:
     """What a record's build read that is not so here, None when all is (the part of the check
     an entry of the build cache and early cutoff ask, their own files and settings being
-    proved by the inputs key): with `dependencies`, the keys the package's dependencies have
-    here (a PENDING one is not compared: its build in this run decides); then the files and
-    listings it read outside the package (`waiting`: some dependency is yet to be built or
-    restored in this run, so what it read in the install base is compared later)."""
+    proved by the inputs key): a record whose steps were not all observed, or whose build
+    system always has work, never holds; with `dependencies`, the keys the package's
+    dependencies have here (a PENDING one is not compared: its build in this run decides);
+    with `environment`, the variables its steps read (`seen`: as they saw them, their
+    dependencies' hooks applied); then the files, listings, searches and probes outside the
+    package (`waiting`: some dependency is yet to be built or restored in this run, so what it
+    read in the install base is compared later)."""
+    always = _always(record)
+    if always is not None:
+        return always
     if dependencies is not None:
         for dep, key in sorted(dependencies.items()):
             if not key.startswith(PENDING) and record.dependencies.get(dep) != key:
@@ -134,11 +204,18 @@ def changed_read(record: PackageRecord, *, digests: Digests, install_base: Path,
         if set(record.dependencies) != set(dependencies):
             return Reason(Dirty.DEPENDENCY, "built against other dependencies",
                           tuple(sorted(set(record.dependencies) ^ set(dependencies))))
+    if environment is not None:
+        changed_variables = environment_change(record, environment, seen=seen)
+        if changed_variables:
+            return Reason(Dirty.ENVIRONMENT, f"read {', '.join(changed_variables[:5])}, which "
+                          "differs here", changed_variables,
+                          redo=_redo(record, (f"${n}" for n in changed_variables)))
     changed = first_change(record.outside, digests, planning=planning,
                            own=own_entries(str(install_base), record.installed),
                            skip=str(install_base) + os.sep if waiting else "")
     if changed is not None:
-        return Reason(Dirty.EXTERNAL, f"read {changed}, which differs here", (changed,))
+        return Reason(Dirty.EXTERNAL, f"read {changed}, which differs here", (changed,),
+                      redo=_redo(record, (changed,)))
     return None
 
 
@@ -151,20 +228,6 @@ def cutoff_note(old: PackageRecord | None, dependencies: Mapping[str, str]) -> s
         return ""
     return (f"dependency {', '.join(changed)} rebuilt; nothing this package builds from "
             "changed → up to date")
-
-
-def damaged_install(install_base: Path, installed: Collection[tuple[str, int]]) -> str | None:
-    """The first installed file that is missing or changed size, if any."""
-    for rel, size in installed:
-        path = os.path.join(install_base, rel)
-        try:
-            if size == -1:
-                inputs.lstat(path)
-            elif inputs.stat(path).st_size != size:
-                return rel
-        except OSError:
-            return rel
-    return None
 
 
 def settings_changes(old: Mapping[str, object], new: Mapping[str, object]) -> list[str]:

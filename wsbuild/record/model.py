@@ -1,21 +1,32 @@
 """A package's record, build/<pkg>/.wsbuild/record.json: everything that decided its last
-build's output, written once when the build (or a restore) finished.
+build's output, as its steps were observed to read it (observe/), written once when the build
+(or a restore, or early cutoff) finished.
 
 It holds:
 - `own`: the package's own files by content digest (record/own_files.py);
-- `outside`: what its build read outside the package, files by content and directory listings
-  by entries (record/outside.py), and whether that list is `complete` (the build system said
-  what it read: a rebuilt dependency then matters only through it, early cutoff);
-- `environment`: a digest of every variable that can reach a build (record/environment.py);
+- `outside`: what its steps read outside the package: files by content, listings by entries,
+  searches by the entries they match, probes by what is at each path (record/outside.py),
+  and `read_by`: which step first read each (a build type redoes from there);
+- `environment`: the variables its steps read, each by a digest of its value as the step
+  would get it before its dependencies' hooks (what a plan compares), and
+  `environment_seen`: the same variables as the steps saw them (what early cutoff compares
+  after a dependency was rebuilt; record/environment.py); `environment_names` when a step
+  listed the names;
+- `complete`: every process of every step was observed; when not (`unobserved` says why),
+  the package runs its build system every time;
+- `volatile`: why its build system had work left right after its build (an always-out-of-date
+  target): it runs every time too;
 - `settings`: the options that shape its output, the interpreter, the underlay's paths, the
   install prefix, wsbuild's version;
 - `dependencies`: the keys (and inputs keys) of the workspace packages it was built against;
-- `installed`: the files it installed, with their sizes.
+- `installed`: what it installed, by content and link target (record/installed.py).
 
 Two keys derive from it. `inputs_key` digests what is known before a build reads anything
-(own files, settings, the environment but its `SHARED` variables, the dependencies' inputs
-keys): the build cache finds entries by it. `key` adds what the build read outside and the
-dependencies' keys: it is what dependents record and what a cached test result is valid for.
+(own files, settings, the dependencies' inputs keys): the build cache finds candidate entries
+by it, and an entry is restored only when this machine proves what the entry's record says
+its steps read (cache/run.py). `key` adds what the steps read (outside files, the variables)
+and the dependencies' keys: it is what dependents record and what a cached test result is
+valid for.
 
 Values of environment variables are never written, only digests; the directory and the file
 are private to the user (0700, 0600)."""
@@ -30,14 +41,14 @@ from pathlib import Path
 
 from wsbuild import inputs
 from wsbuild.files import atomic_write, private_directory
-from wsbuild.record.environment import keyed
-from wsbuild.record.outside import OutsideReads, Seen
+from wsbuild.record.installed import Installed
+from wsbuild.record.outside import Looked, OutsideReads, Seen
 from wsbuild.record.own_files import OwnFile, files_digest
 
 #: where a package's record is, under its build directory
 RECORD_FILE = Path(".wsbuild") / "record.json"
 #: bumped whenever the record's shape or meaning changes: an older record reads as none
-FORMAT = 1
+FORMAT = 2
 #: what a package's key is in a plan until its build (or restore) in this run says it,
 #: followed by its inputs key
 PENDING = "pending:"
@@ -54,18 +65,29 @@ class PackageRecord:
     build_type: str
     own: Mapping[str, OwnFile]
     settings: Mapping[str, object]
+    #: the variables its steps read -> digest of the value before its dependencies' hooks
     environment: Mapping[str, str]
     #: the keys of its workspace dependencies it was built against
     dependencies: Mapping[str, str]
     #: and their inputs keys (what its own inputs key holds of them)
     dependency_inputs: Mapping[str, str] = field(default_factory=dict)
     outside: OutsideReads = field(default_factory=OutsideReads)
-    #: the build system said all it read outside (early cutoff may skip a rebuild)
+    #: every process of its steps was observed
     complete: bool = False
-    installed: tuple[tuple[str, int], ...] = ()
+    installed: tuple[Installed, ...] = ()
     #: its tests run from what the build left in its build directory (TestRunner's
     #: `tests_in_build_tree`): after a restore, `wsbuild test` builds that tree first
     test_tree: bool = False
+    #: the variables as its steps saw them (its dependencies' hooks applied)
+    environment_seen: Mapping[str, str] = field(default_factory=dict)
+    #: a digest of the set of variables' names, when a step listed them ("" when none did)
+    environment_names: str = ""
+    #: why its steps were not fully observed
+    unobserved: tuple[str, ...] = ()
+    #: why its build system still had work right after its build ("" when it had none)
+    volatile: str = ""
+    #: outside path -> the label of the step that first read it
+    read_by: Mapping[str, str] = field(default_factory=dict)
     #: the keys (see the module's docstring) and the own files' digest, computed by `sealed()`
     inputs_key: str = ""
     key: str = ""
@@ -75,23 +97,26 @@ class PackageRecord:
         """The record with its keys computed from its fields."""
         own = files_digest(self.own)
         before = inputs_key(self.package, self.build_type, own, self.settings,
-                            self.environment, self.dependency_inputs)
+                            self.dependency_inputs)
         return replace(self, inputs_key=before, own_digest=own,
-                       key=output_key(before, self.outside, self.dependencies))
+                       key=output_key(before, self.outside, self.dependencies,
+                                      self.environment, self.environment_names))
 
 
 def inputs_key(package: str, build_type: str, own_digest: str, settings: Mapping[str, object],
-               environment: Mapping[str, str], dependency_inputs: Mapping[str, str]) -> str:
+               dependency_inputs: Mapping[str, str]) -> str:
     """What decides a package's output that is known before its build reads anything: its
-    own files, settings, environment (but the `SHARED` variables) and its dependencies'
-    inputs keys."""
-    return digest_of([package, build_type, own_digest, settings, keyed(environment),
+    own files, settings and its dependencies' inputs keys."""
+    return digest_of([package, build_type, own_digest, settings,
                       sorted(dependency_inputs.items())])
 
 
-def output_key(inputs_key: str, outside: OutsideReads, dependencies: Mapping[str, str]) -> str:
-    """`inputs_key` with what the build read outside the package and its dependencies' keys."""
-    return digest_of([inputs_key, outside.digest(), sorted(dependencies.items())])
+def output_key(inputs_key: str, outside: OutsideReads, dependencies: Mapping[str, str],
+               environment: Mapping[str, str], environment_names: str = "") -> str:
+    """`inputs_key` with what the build read outside the package, the variables it read and
+    its dependencies' keys."""
+    return digest_of([inputs_key, outside.digest(), sorted(dependencies.items()),
+                      sorted(environment.items()), environment_names])
 
 
 def record_path(build_dir: Path) -> Path:
@@ -102,34 +127,24 @@ def read_record(build_dir: Path) -> PackageRecord | None:
     """The package's record; None when there is none, or one this version cannot read."""
     try:
         data = json.loads(inputs.read_text(build_dir / RECORD_FILE))
-        if data["format"] != FORMAT:
-            return None
-        outside = data["outside"]
-        return PackageRecord(
-            package=data["package"],
-            build_type=data["build_type"],
-            own={rel: OwnFile(*value) for rel, value in data["own"].items()},
-            settings=dict(data["settings"]),
-            environment=dict(data["environment"]),
-            dependencies=dict(data["dependencies"]),
-            dependency_inputs=dict(data["dependency_inputs"]),
-            outside=OutsideReads(
-                {path: Seen(tuple(sig), digest) for path, (sig, digest) in outside["files"].items()},
-                {path: Seen(tuple(sig), digest)
-                 for path, (sig, digest) in outside["listings"].items()}),
-            complete=bool(data["complete"]),
-            installed=tuple((rel, size) for rel, size in data["installed"]),
-            test_tree=bool(data["test_tree"]),
-            inputs_key=data["inputs_key"],
-            key=data["key"],
-            own_digest=data["own_digest"],
-        )
-    except (OSError, ValueError, KeyError, TypeError, AttributeError):
+    except (OSError, ValueError):
         return None
+    return decode(data, sealed=False)
+
+
+def _seen(value: object) -> Seen:
+    signature, digest = value  # type: ignore[misc]
+    return Seen(tuple(int(x) for x in signature), str(digest))
+
+
+def _looked(value: object) -> Looked:
+    names, signature, digest = value  # type: ignore[misc]
+    return Looked(tuple(str(names).split("/")) if names else (), _seen((signature, digest)))
 
 
 def encode(record: PackageRecord) -> dict[str, object]:
     """The record as JSON values (also what a build cache entry carries)."""
+    outside = record.outside
     return {
         "format": FORMAT,
         "package": record.package,
@@ -140,43 +155,63 @@ def encode(record: PackageRecord) -> dict[str, object]:
         "own": {rel: value.as_list() for rel, value in sorted(record.own.items())},
         "settings": record.settings,
         "environment": dict(sorted(record.environment.items())),
+        "environment_seen": dict(sorted(record.environment_seen.items())),
+        "environment_names": record.environment_names,
         "dependencies": dict(sorted(record.dependencies.items())),
         "dependency_inputs": dict(sorted(record.dependency_inputs.items())),
         "outside": {
-            "files": {p: [list(s.signature), s.digest] for p, s in sorted(record.outside.files.items())},
+            "files": {p: [list(s.signature), s.digest] for p, s in sorted(outside.files.items())},
             "listings": {p: [list(s.signature), s.digest]
-                         for p, s in sorted(record.outside.listings.items())},
+                         for p, s in sorted(outside.listings.items())},
+            "searches": {p: ["/".join(n), list(s.signature), s.digest]
+                         for p, (n, s) in sorted(outside.searches.items())},
+            "probes": {p: ["/".join(n), list(s.signature), s.digest]
+                       for p, (n, s) in sorted(outside.probes.items())},
         },
+        "read_by": dict(sorted(record.read_by.items())),
         "complete": record.complete,
-        "installed": [list(item) for item in record.installed],
+        "unobserved": list(record.unobserved),
+        "volatile": record.volatile,
+        "installed": [[i.rel, list(i.signature), i.digest] for i in record.installed],
         "test_tree": record.test_tree,
     }
 
 
-def decode(data: object) -> PackageRecord | None:
-    """A record from its JSON values (a build cache entry's), its keys computed here (never
-    taken from the data); None when it is not one."""
-    if not isinstance(data, dict):
+def decode(data: object, *, sealed: bool = True) -> PackageRecord | None:
+    """A record from its JSON values; None when it is not one. `sealed`: its keys computed
+    here (a build cache entry's: never taken from the data), else the ones it carries (the
+    package's own record, written by `write_record`)."""
+    if not isinstance(data, dict) or data.get("format") != FORMAT:
         return None
     try:
         outside = data["outside"]
-        return PackageRecord(
+        record = PackageRecord(
             package=str(data["package"]),
             build_type=str(data["build_type"]),
             own={str(rel): OwnFile(*value) for rel, value in data["own"].items()},
             settings=dict(data["settings"]),
             environment={str(k): str(v) for k, v in data["environment"].items()},
+            environment_seen={str(k): str(v) for k, v in data["environment_seen"].items()},
+            environment_names=str(data["environment_names"]),
             dependencies={str(k): str(v) for k, v in data["dependencies"].items()},
             dependency_inputs={str(k): str(v) for k, v in data["dependency_inputs"].items()},
             outside=OutsideReads(
-                {str(p): Seen(tuple(int(x) for x in sig), str(d))
-                 for p, (sig, d) in outside["files"].items()},
-                {str(p): Seen(tuple(int(x) for x in sig), str(d))
-                 for p, (sig, d) in outside["listings"].items()}),
+                {str(p): _seen(v) for p, v in outside["files"].items()},
+                {str(p): _seen(v) for p, v in outside["listings"].items()},
+                {str(p): _looked(v) for p, v in outside["searches"].items()},
+                {str(p): _looked(v) for p, v in outside["probes"].items()}),
+            read_by={str(k): str(v) for k, v in data["read_by"].items()},
             complete=bool(data["complete"]),
-            installed=tuple((str(rel), int(size)) for rel, size in data["installed"]),
+            unobserved=tuple(str(why) for why in data["unobserved"]),
+            volatile=str(data["volatile"]),
+            installed=tuple(Installed(str(rel), tuple(int(x) for x in signature), str(digest))
+                            for rel, signature, digest in data["installed"]),
             test_tree=bool(data["test_tree"]),
-        ).sealed() if data.get("format") == FORMAT else None
+        )
+        if sealed:
+            return record.sealed()
+        return replace(record, inputs_key=str(data["inputs_key"]), key=str(data["key"]),
+                       own_digest=str(data["own_digest"]))
     except (KeyError, TypeError, ValueError, AttributeError):
         return None
 

@@ -1,6 +1,9 @@
-"""What a package's build read outside the package: files by content digest, directory listings
-by their entries (the build system's own lists: CMake's and Ninja's, the depfiles, the globs,
-the installed directories; a Python build's opens, stats and listings).
+"""What a package's build read outside the package, as its steps were observed to read it
+(observe/): files by content digest, directory listings by their entries, directories searched
+for some names only by the entries those names match (Python's import system looking a module
+up, site.py looking for `.pth` files), and the paths its steps looked at or looked for, by
+whether each is there and of which type (a header found in the second of two include
+directories stays found there only while the first lacks it).
 
 Each is held with the stat signature it had when its digest was taken: a check stats it and
 takes the digest again only when the signature differs (a dependency reinstalled to the same
@@ -10,11 +13,12 @@ compiler's headers, CMake's modules, setuptools), and each is read once per run.
 
 from __future__ import annotations
 
+import functools
 import hashlib
 import os
 import stat as modes
 import threading
-from collections.abc import Callable, Collection, Iterable, Mapping
+from collections.abc import Callable, Collection, Iterable, Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import NamedTuple
 
@@ -34,11 +38,11 @@ def no_own_entries(_path: str) -> frozenset[str]:
     return frozenset()
 
 
-def own_entries(install_base: str, installed: Collection[tuple[str, int]]) -> OwnEntries:
+def own_entries(install_base: str, installed: Collection[Sequence[object]]) -> OwnEntries:
     """The names a package's installed files (relative to `install_base`) put into each
     directory: what a listing of that directory leaves out."""
     base = install_base.rstrip(os.sep) + os.sep
-    files = [rel for rel, _ in installed]
+    files = [str(entry[0]) for entry in installed]
 
     def entries(path: str) -> frozenset[str]:
         if not (path + os.sep).startswith(base):
@@ -53,18 +57,30 @@ def own_entries(install_base: str, installed: Collection[tuple[str, int]]) -> Ow
 
 class Seen(NamedTuple):
     """A path as the record holds it: its stat signature, and its content's digest (a file) or
-    its entries' (a listing)."""
+    its entries' (a listing, a search, the probes of its names)."""
 
     signature: tuple[int, ...]
     digest: str
 
 
+class Looked(NamedTuple):
+    """A directory looked into for some names only: the names (fnmatch patterns for a search,
+    plain names for probes, sorted) and what was seen of them."""
+
+    names: tuple[str, ...]
+    seen: Seen
+
+
 @dataclass(frozen=True, slots=True)
 class OutsideReads:
-    """Files and directory listings outside the package that its build read (absolute paths)."""
+    """What the package's build read outside the package (absolute paths): files, listings,
+    searches (directory -> the patterns of the names looked up) and probes (directory -> the
+    names looked at or for in it)."""
 
     files: Mapping[str, Seen] = field(default_factory=dict)
     listings: Mapping[str, Seen] = field(default_factory=dict)
+    searches: Mapping[str, Looked] = field(default_factory=dict)
+    probes: Mapping[str, Looked] = field(default_factory=dict)
 
     def digest(self) -> str:
         """One digest of every path with its content's (or entries') digest."""
@@ -73,10 +89,24 @@ class OutsideReads:
             for path in sorted(seen):
                 total.update(f"{kind}\0{path}\0{seen[path].digest}\n"
                              .encode("utf-8", "surrogateescape"))
+        for kind, looked in (("s", self.searches), ("p", self.probes)):
+            for path in sorted(looked):
+                names, seen = looked[path]
+                total.update(f"{kind}\0{path}\0{'/'.join(names)}\0{seen.digest}\n"
+                             .encode("utf-8", "surrogateescape"))
         return total.hexdigest()
 
     def __len__(self) -> int:
-        return len(self.files) + len(self.listings)
+        return len(self.files) + len(self.listings) + len(self.searches) + len(self.probes)
+
+    def paths(self) -> Iterator[str]:
+        """Every file and directory it names (probes as the paths they looked at)."""
+        yield from self.files
+        yield from self.listings
+        yield from self.searches
+        for directory, (names, _) in self.probes.items():
+            yield from (f"{directory}/{name}" if directory != "/" else f"/{name}"
+                        for name in names)
 
 
 class Digests:
@@ -87,6 +117,7 @@ class Digests:
         self._lock = threading.Lock()
         self._files: dict[tuple[str, tuple[int, ...]], str] = {}
         self._listings: dict[tuple[str, tuple[int, ...], frozenset[str]], str] = {}
+        self._looked: dict[tuple[str, str, tuple[int, ...], tuple[str, ...]], str] = {}
         #: the signatures taken while planning
         self._signatures: dict[str, tuple[int, ...]] = {}
 
@@ -133,6 +164,91 @@ class Digests:
         return known
 
 
+    def looked(self, kind: str, path: str, signature: tuple[int, ...],
+               names: tuple[str, ...]) -> str:
+        """The digest of a search (`kind` "search": the entries matching `names`, fnmatch
+        patterns) or of probes ("probe": each of `names` there or not, and its type) of the
+        directory at `path`."""
+        key = (kind, path, signature, names)
+        with self._lock:
+            known = self._looked.get(key)
+        if known is None:
+            known = search_digest(path, names) if kind == "search" else probe_digest(path, names)
+            with self._lock:
+                self._looked[key] = known
+        return known
+
+
+def search_digest(path: str, patterns: Collection[str]) -> str:
+    """The digest of the entries (name and type) of the directory at `path` whose names match
+    one of `patterns`."""
+    try:
+        entries = inputs.scandir(path)
+    except NotADirectoryError:
+        return "not a directory"
+    except FileNotFoundError:
+        return ABSENT_DIGEST
+    except OSError as exc:
+        return f"unlistable:{exc.errno}"
+    matcher = _matcher(tuple(sorted(patterns)))
+    total = hashlib.blake2b(digest_size=16)
+    for entry in sorted(entries, key=lambda e: e.name):
+        if matcher(entry.name):
+            total.update(f"{entry.name}\0{_kind(entry)}\n".encode("utf-8", "surrogateescape"))
+    return total.hexdigest()
+
+
+@functools.lru_cache(maxsize=4096)
+def _matcher(patterns: tuple[str, ...]) -> Callable[[str], bool]:
+    """Whether a name matches one of `patterns`: a plain name, `NAME.*` (a module looked up:
+    any suffix) or another fnmatch pattern."""
+    import fnmatch
+    import re
+
+    exact = {p for p in patterns if not any(c in p for c in "*?[")}
+    stems = tuple(p[:-1] for p in patterns if p.endswith(".*")
+                  and not any(c in p[:-2] for c in "*?["))
+    rest = [p for p in patterns if p not in exact and not (p.endswith(".*") and p[:-1] in stems)]
+    compiled = re.compile("|".join(fnmatch.translate(p) for p in rest)) if rest else None
+
+    def matches(name: str) -> bool:
+        return name in exact or (bool(stems) and name.startswith(stems)) \
+            or (compiled is not None and compiled.match(name) is not None)
+
+    return matches
+
+
+def _kind(entry: os.DirEntry[str]) -> str:
+    try:
+        return "l" if entry.is_symlink() else "d" if entry.is_dir() else "f"
+    except OSError:
+        return "?"
+
+
+def path_kind(path: str) -> str:
+    """What is at `path`: a directory (d), another file (f), a dangling link (l), nothing
+    (n); declared as a stat."""
+    try:
+        return "d" if modes.S_ISDIR(inputs.stat(path).st_mode) else "f"
+    except OSError:
+        pass
+    try:
+        inputs.lstat(path)
+    except OSError:
+        return "n"
+    return "l"
+
+
+def probe_digest(directory: str, names: Collection[str]) -> str:
+    """The digest of what is at each of `names` in `directory` (path_kind)."""
+    total = hashlib.blake2b(digest_size=16)
+    base = directory.rstrip("/")
+    for name in sorted(names):
+        total.update(f"{name}\0{path_kind(f'{base}/{name}')}\n"
+                     .encode("utf-8", "surrogateescape"))
+    return total.hexdigest()
+
+
 def listing_digest(path: str, own: Collection[str] = ()) -> str:
     """The digest of a directory's entries but `own`: each name with its type (file,
     directory, link, other); declared as a listing."""
@@ -155,26 +271,43 @@ def listing_digest(path: str, own: Collection[str] = ()) -> str:
 
 
 def take(files: Iterable[str], listings: Iterable[str], digests: Digests, *,
+         searches: Mapping[str, Collection[str]] | None = None,
+         probes: Mapping[str, Collection[str]] | None = None,
          started_ns: int = 0, own: OwnEntries = no_own_entries) -> OutsideReads:
     """What a finished build read, as the record holds it (`own`: the package's own entries of
-    each listed directory, left out). A path changed since `started_ns` (the build's start)
-    may have changed after the build read it: it is held as racy, so the next check builds
-    again."""
+    each listed directory, left out; `searches` and `probes`: directory -> names). A path
+    changed since `started_ns` (the build's start) may have changed after the build read it:
+    it is held as racy, so the next check builds again."""
     files, listings = sorted(set(files)), sorted(set(listings))
+
+    def racy(signature: tuple[int, ...], directory_counts: bool) -> bool:
+        return bool(started_ns) and signature != inputs.ABSENT \
+            and max(signature[3:]) >= started_ns \
+            and (directory_counts or not modes.S_ISDIR(signature[0]))
 
     def seen(path: str, listing: bool) -> Seen:
         signature = digests.signature(path)
         # a file's content may have changed after the build read it; a directory read as a
         # file counts by its type only, which its entries' changes leave alone
-        if started_ns and signature != inputs.ABSENT and max(signature[3:]) >= started_ns \
-                and (listing or not modes.S_ISDIR(signature[0])):
+        if racy(signature, listing):
             return Seen(signature, RACY_DIGEST)
         digest = digests.listing(path, signature, own(path)) if listing \
             else digests.file(path, signature)
         return Seen(signature, digest)
 
+    def looked(kind: str, path: str, names: Collection[str]) -> Looked:
+        ordered = tuple(sorted(set(names)))
+        signature = digests.signature(path)
+        if racy(signature, True):
+            return Looked(ordered, Seen(signature, RACY_DIGEST))
+        return Looked(ordered, Seen(signature, digests.looked(kind, path, signature, ordered)))
+
     return OutsideReads({path: seen(path, False) for path in files},
-                        {path: seen(path, True) for path in listings})
+                        {path: seen(path, True) for path in listings},
+                        {path: looked("search", path, names)
+                         for path, names in sorted((searches or {}).items())},
+                        {path: looked("probe", path, names)
+                         for path, names in sorted((probes or {}).items())})
 
 
 def first_change(reads: OutsideReads, digests: Digests, *, planning: bool = False,
@@ -183,6 +316,16 @@ def first_change(reads: OutsideReads, digests: Digests, *, planning: bool = Fals
     none does. A path whose signature is unchanged is not read. `planning`: each path stat'ed
     once for the whole plan; `skip`: a directory whose paths are not compared (what this run
     has yet to build)."""
+    changes = changed_paths(reads, digests, planning=planning, own=own, skip=skip, first=True)
+    return changes[0] if changes else None
+
+
+def changed_paths(reads: OutsideReads, digests: Digests, *, planning: bool = False,
+                  own: OwnEntries = no_own_entries, skip: str = "",
+                  first: bool = False) -> list[str]:
+    """Every path whose content, entries, matching entries or probed names differ from
+    `reads` (`first`: stop at the first); see `first_change`."""
+    found: list[str] = []
     for kind, seen_paths in (("file", reads.files), ("listing", reads.listings)):
         for path, seen in seen_paths.items():
             if skip and (path + os.sep).startswith(skip):
@@ -193,8 +336,21 @@ def first_change(reads: OutsideReads, digests: Digests, *, planning: bool = Fals
             now = digests.listing(path, signature, own(path)) if kind == "listing" \
                 else digests.file(path, signature)
             if now != seen.digest:
-                return path
-    return None
+                found.append(path)
+                if first:
+                    return found
+    for kind, looked in (("search", reads.searches), ("probe", reads.probes)):
+        for path, (names, seen) in looked.items():
+            if skip and (path + os.sep).startswith(skip):
+                continue
+            signature = digests.signature(path, planning=planning)
+            if signature == seen.signature and seen.digest != RACY_DIGEST:
+                continue
+            if digests.looked(kind, path, signature, names) != seen.digest:
+                found.append(path)
+                if first:
+                    return found
+    return found
 
 
 def refreshed(reads: OutsideReads, digests: Digests, *, own: OwnEntries = no_own_entries
@@ -209,5 +365,15 @@ def refreshed(reads: OutsideReads, digests: Digests, *, own: OwnEntries = no_own
             else digests.file(path, signature)
         return Seen(signature, now) if now == seen.digest else seen
 
+    def again_looked(kind: str, path: str, looked: Looked) -> Looked:
+        signature = digests.signature(path)
+        if signature == looked.seen.signature:
+            return looked
+        now = digests.looked(kind, path, signature, looked.names)
+        return Looked(looked.names, Seen(signature, now)) if now == looked.seen.digest \
+            else looked
+
     return OutsideReads({p: again(p, s, False) for p, s in reads.files.items()},
-                        {p: again(p, s, True) for p, s in reads.listings.items()})
+                        {p: again(p, s, True) for p, s in reads.listings.items()},
+                        {p: again_looked("search", p, s) for p, s in reads.searches.items()},
+                        {p: again_looked("probe", p, s) for p, s in reads.probes.items()})

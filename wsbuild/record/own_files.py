@@ -127,12 +127,13 @@ def _signatures(root: Path, outputs: Iterable[str]) -> Iterator[tuple[str, os.st
 
 
 def content_digest(path: str) -> str:
-    """A file's content digest (raises OSError)."""
-    digest = hashlib.blake2b(digest_size=16)
+    """A file's content digest (raises OSError): SHA-256, which CPUs compute in hardware
+    (twice BLAKE2's speed where they do), cut to 128 bits."""
+    digest = hashlib.sha256()
     with open(path, "rb") as handle:
         for chunk in iter(lambda: handle.read(1 << 20), b""):
             digest.update(chunk)
-    return digest.hexdigest()
+    return digest.hexdigest()[:32]
 
 
 def own_files(root: Path, previous: Mapping[str, OwnFile], outputs: Iterable[str] = ()

@@ -81,7 +81,7 @@ def configure(ctx: PackageContext) -> PythonBuildPlan:
         return PythonBuildPlan(build_system, None, (blocker or "",))
     _check_syntax(source / "setup.py", python_executable(ctx))
     setup = read_setup(source, ctx.build_dir.absolute(), environ=ctx.environ,
-                       python_executable=python_executable(ctx))
+                       python_executable=python_executable(ctx), observe=ctx.observe)
     reasons = setup.fallback_reasons + ((blocker,) if blocker else ())
     if setup.ignored_install_options:
         ctx.warn(f"{source / 'setup.cfg'}: [install] options "
@@ -125,15 +125,16 @@ def install(ctx: PackageContext, plan: PythonBuildPlan | None) -> None:
         # `setup.py install` byte-compiles (unless PYTHONDONTWRITEBYTECODE is set); the
         # .pyc files name the final install path, not the stage
         errors = compile_bytecode([(path, target.final(path)) for path in to_compile],
-                                  environ=ctx.environ, python_executable=target.python_executable)
+                                  environ=ctx.environ, python_executable=target.python_executable,
+                                  observe=ctx.observe)
         for error in errors:
             ctx.warn(f"byte-compiling failed: {error}")
 
 
 def _read_outside(ctx: PackageContext, setup: SetupPlan) -> ReadOutside:
-    """What the fast path read outside the package: what setup.py opened (its imports of a
-    dependency included) and stat'ed, the directories it listed (a glob over a dependency's
-    share directory), and the files it installs from outside the package directory."""
+    """What the fast path reads outside the package in wsbuild's own process, where no step
+    is observed: the files it installs from outside the package directory (what setup.py
+    itself read is observed in the helper, build_types/pybuild/setup_py.py)."""
     inside = tuple({f"{spelling(directory)}{os.sep}"
                     for directory in (ctx.source_dir, ctx.build_dir)
                     for spelling in (os.path.abspath, os.path.realpath)})
@@ -144,10 +145,9 @@ def _read_outside(ctx: PackageContext, setup: SetupPlan) -> ReadOutside:
                              if not (os.path.abspath(path) + os.sep).startswith(inside)
                              and not (os.path.realpath(path) + os.sep).startswith(inside)}))
 
-    read = set(setup.opened) | set(setup.stated)
-    read.update(str(ctx.source_dir / f.source) for f in setup.files)
+    read = {str(ctx.source_dir / f.source) for f in setup.files}
     read.update(str(ctx.source_dir / name) for entry in setup.data_files for name in entry.sources)
-    return ReadOutside(files=outside(read), listings=outside(set(setup.listed)))
+    return ReadOutside(files=outside(read))
 
 
 def record(ctx: PackageContext) -> None:

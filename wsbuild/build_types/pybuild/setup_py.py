@@ -5,15 +5,17 @@ from __future__ import annotations
 import atexit
 import json
 import os
+import shutil
 import signal
 import subprocess
 import sys
+import tempfile
 import threading
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path, PurePosixPath
 
-from wsbuild.build_types import StepFailed
+from wsbuild.build_types import StepFailed, StepObserver
 from wsbuild.errors import ManifestError
 
 #: the script the target interpreter runs; it must not import wsbuild
@@ -91,12 +93,6 @@ class SetupPlan:
     egg_info_basename: str | None = None
     #: why the package needs a real PEP 517 build; empty for the fast path
     fallback_reasons: tuple[str, ...] = ()
-    #: every file setup.py read (its imports included), absolute
-    opened: tuple[str, ...] = ()
-    #: every path setup.py stat'ed (os.path.exists, isfile, ...), absolute
-    stated: tuple[str, ...] = ()
-    #: every directory setup.py listed (os.listdir, os.scandir, glob, os.walk), absolute
-    listed: tuple[str, ...] = ()
 
     @property
     def fast(self) -> bool:
@@ -126,16 +122,20 @@ def read_build_system(source_dir: Path) -> BuildSystem:
 
 
 def read_setup(source_dir: Path, build_dir: Path, *, environ: Mapping[str, str],
-               python_executable: str) -> SetupPlan:
+               python_executable: str, observe: StepObserver | None = None,
+               label: str = "configure") -> SetupPlan:
     """Run setup.py (or setuptools' default for a pyproject-only package) in a warm helper.
 
     setuptools runs `egg_info` into `build_dir`; nothing is written into `source_dir`.
     A setup.py that fails to run yields a plan whose `fallback_reasons` say why, so that the
-    real build reports the error with a command to reproduce it.
+    real build reports the error with a command to reproduce it. With `observe`, what the
+    helper read when it started (setuptools, imported once for every package) and what the
+    request's processes read (setup.py, its imports, the programs it runs) are observed, as
+    step `label`'s.
     """
     build_dir.mkdir(parents=True, exist_ok=True)
     result_path = build_dir / _SETUP_RESULT
-    request = {
+    request: dict[str, object] = {
         "op": "read",
         "source_dir": str(source_dir),
         "egg_base": os.path.relpath(os.path.realpath(build_dir), os.path.realpath(source_dir)),
@@ -143,12 +143,20 @@ def read_setup(source_dir: Path, build_dir: Path, *, environ: Mapping[str, str],
         "result": str(result_path),
         "log": str(build_dir / SETUP_LOG),
     }
+    directory = None
+    if observe is not None:
+        directory = observe.directory(label)
+        request["env"] = observe.request_environment(environ, directory)
+        request["observe_dir"] = str(directory)
     name = source_dir.name
     result_path.unlink(missing_ok=True)
     try:
-        answer = _POOL.call(python_executable, environ, request)
+        answer = _POOL.call(python_executable, environ, request, observe=observe, label=label)
     except HelperDied as exc:
         raise StepFailed(f"reading {source_dir / 'setup.py'} was stopped: {exc}") from None
+    finally:
+        if observe is not None and directory is not None:
+            observe.add(label, directory, environ)
     if not answer.get("ready", True):
         return SetupPlan(name, "", fallback_reasons=(
             f"{python_executable} cannot import setuptools ({answer.get('error')})",))
@@ -162,17 +170,20 @@ def read_setup(source_dir: Path, build_dir: Path, *, environ: Mapping[str, str],
 
 
 def compile_bytecode(files: Sequence[tuple[Path, Path]], *, environ: Mapping[str, str],
-                     python_executable: str) -> list[str]:
+                     python_executable: str, observe: StepObserver | None = None) -> list[str]:
     """Byte-compile (file, path it will have once installed) pairs with the target interpreter.
 
     Returns one message per file that failed to compile (a syntax error does not fail the
-    install, as with `setup.py install`).
+    install, as with `setup.py install`). The helper compiles in its own process, which
+    observes nothing between requests: what it reads is the staged files (`observe` only
+    picks the helpers that serve observed builds).
     """
     if not files:
         return []
     request = {"op": "compile", "files": [[str(path), str(final)] for path, final in files]}
     try:
-        answer = _POOL.call(python_executable, environ, request)
+        answer = _POOL.call(python_executable, environ, request, observe=observe,
+                            label="")
     except HelperDied as exc:
         raise StepFailed(f"byte-compiling was stopped: {exc}") from None
     if not answer.get("ready", True):
@@ -207,9 +218,6 @@ def _plan_from_json(data: dict) -> SetupPlan:
         egg_info_dir=Path(egg_info_dir) if egg_info_dir else None,
         egg_info_basename=data.get("egg_info_basename"),
         fallback_reasons=tuple(data.get("fallback", ())),
-        opened=tuple(str(p) for p in data.get("opened", ())),
-        stated=tuple(str(p) for p in data.get("stated", ())),
-        listed=tuple(str(p) for p in data.get("listed", ())),
     )
 
 
@@ -218,15 +226,25 @@ class HelperDied(RuntimeError):
 
 
 class _Helper:
-    """One helper process; used by one thread at a time."""
+    """One helper process; used by one thread at a time. An observed one (`observe`) starts
+    with the step observer loaded: what it reads while it imports setuptools is written into
+    a private directory of its own (`started`, read into each package it serves), then it
+    observes nothing until a request names where to write."""
 
-    def __init__(self, python_executable: str, environ: Mapping[str, str]) -> None:
+    def __init__(self, python_executable: str, environ: Mapping[str, str],
+                 observe: StepObserver | None = None) -> None:
+        env = dict(environ)
+        self.started: Path | None = None
+        self.environ = dict(environ)
+        if observe is not None:
+            self.started = Path(tempfile.mkdtemp(prefix="wsbuild-helper-"))
+            env = observe.helper_environment(environ, self.started)
         # Its own session: a terminal Ctrl-C is wsbuild's to handle, and `close` can stop the
         # helper together with a setup.py it is running by signalling the process group.
         self.process = subprocess.Popen(
             [python_executable, str(HELPER_SCRIPT)],
             stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=subprocess.DEVNULL,
-            env=dict(environ), cwd="/", start_new_session=True, text=True, encoding="utf-8",
+            env=env, cwd="/", start_new_session=True, text=True, encoding="utf-8",
         )
         self.hello = self._receive()
 
@@ -263,6 +281,8 @@ class _Helper:
             except OSError:
                 pass
         self.process.wait()
+        if self.started is not None:
+            shutil.rmtree(self.started, ignore_errors=True)
 
 
 class HelperPool:
@@ -281,10 +301,14 @@ class HelperPool:
         self._atexit = False
 
     def call(self, python_executable: str, environ: Mapping[str, str],
-             request: Mapping[str, object]) -> dict:
+             request: Mapping[str, object], *, observe: StepObserver | None = None,
+             label: str = "") -> dict:
         """Send one request; the answer of a helper that could not import setuptools has
-        `ready: False`."""
-        helper = self._acquire(python_executable, environ)
+        `ready: False`. With `observe`, an observed helper serves it, and what it read when
+        it started is added to step `label`'s observations."""
+        helper = self._acquire(python_executable, environ, observe)
+        if observe is not None and helper.started is not None and label:
+            observe.add(label, helper.started, helper.environ)
         if not helper.ready:
             self._release(python_executable, helper)
             return dict(helper.hello)
@@ -313,41 +337,50 @@ class HelperPool:
         for helper in helpers:
             helper.close()
 
-    def _acquire(self, python_executable: str, environ: Mapping[str, str]) -> _Helper:
+    def _acquire(self, python_executable: str, environ: Mapping[str, str],
+                 observe: StepObserver | None = None) -> _Helper:
+        kind = self._kind(python_executable, observe)
         with self._cond:
             while True:
-                idle = self._idle.setdefault(python_executable, [])
+                idle = self._idle.setdefault(kind, [])
                 if idle:
                     return idle.pop()
-                if self._count.get(python_executable, 0) < self.max_helpers:
-                    self._count[python_executable] = self._count.get(python_executable, 0) + 1
+                if self._count.get(kind, 0) < self.max_helpers:
+                    self._count[kind] = self._count.get(kind, 0) + 1
                     break
                 self._cond.wait()
             if not self._atexit:
                 atexit.register(self.shutdown)
                 self._atexit = True
         try:
-            helper = _Helper(python_executable, environ)
+            helper = _Helper(python_executable, environ, observe)
         except BaseException:
             with self._cond:
-                self._count[python_executable] -= 1
+                self._count[kind] -= 1
                 self._cond.notify()
             raise
         with self._cond:
             self._all.append(helper)
         return helper
 
+    @staticmethod
+    def _kind(python_executable: str, observed: object) -> str:
+        """Helpers serve requests of one interpreter, observed or not."""
+        return f"{python_executable}\0{'observed' if observed is not None else ''}"
+
     def _release(self, python_executable: str, helper: _Helper) -> None:
+        kind = self._kind(python_executable, helper.started)
         with self._cond:
             if helper in self._all:
-                self._idle.setdefault(python_executable, []).append(helper)
+                self._idle.setdefault(kind, []).append(helper)
             self._cond.notify()
 
     def _discard(self, python_executable: str, helper: _Helper) -> None:
+        kind = self._kind(python_executable, helper.started)
         with self._cond:
             if helper in self._all:
                 self._all.remove(helper)
-                self._count[python_executable] -= 1
+                self._count[kind] -= 1
             self._cond.notify()
         helper.close()
 

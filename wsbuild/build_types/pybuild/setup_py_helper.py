@@ -289,18 +289,13 @@ def _child(req: dict, channel_fd: int) -> int:
     os.chdir(req["source_dir"])
     os.environ.clear()
     os.environ.update(req["env"])
-    sys.path[:] = _child_sys_path(req["source_dir"], req["env"])
-    opened, stated, listed = _watch_reads()
+    hook = _start_observing(req["env"])
+    sys.path[:] = [p for p in _child_sys_path(req["source_dir"], req["env"]) if p != hook]
     try:
         result = _run_setup(req)
     except BaseException as exc:  # a broken setup.py must not take the helper down
         traceback.print_exc()
         result = {"error": f"{type(exc).__name__}: {exc}"}
-    # what setup.py read (its imports included), looked at and listed: the build's
-    # dependency list, as a compiler's depfile is a C++ build's
-    result["opened"] = sorted(opened)
-    result["stated"] = sorted(stated - opened)
-    result["listed"] = sorted(listed)
     sys.stdout.flush()
     sys.stderr.flush()
     tmp = req["result"] + ".tmp"
@@ -310,68 +305,48 @@ def _child(req: dict, channel_fd: int) -> int:
     return 0
 
 
-def _import_system() -> bool:
-    """Whether the import system or distribution discovery (importlib.metadata) is listing a
-    directory: which modules and distributions exist there is what they look up, and what is
-    imported or read of them is recorded as opened. (Their listings of sys.path would tie a
-    package to every file a merged install holds, whoever installed it.)"""
-    frame = sys._getframe(2)
-    while frame is not None:
-        name = frame.f_code.co_filename
-        if "importlib" in name and ("_bootstrap" in name or "metadata" in name):
-            return True
-        frame = frame.f_back
-    return False
+def _observer():
+    """The step observer's switch, when wsbuild started this helper with it loaded (an
+    observed build: wsbuild/observe/interposer.c), else None."""
+    if not os.environ.get("LD_PRELOAD"):
+        return None
+    try:
+        import ctypes
+
+        return ctypes.CDLL(None).wsobserve_set_dir
+    except (ImportError, OSError, AttributeError):
+        return None
 
 
-def _watch_reads() -> tuple:
-    """The absolute paths of every file this process opens for reading, every path it stats
-    and every directory it lists from now on (an audit hook for opens, imports and listings:
-    os.listdir, os.scandir, hence glob and os.walk, but the import system's own; os.stat and
-    os.lstat wrapped, hence os.path.exists, isfile, isdir and pathlib's; a forked child's
-    own)."""
-    opened: set = set()
-    stated: set = set()
-    listed: set = set()
-    cwd = os.getcwd()
+_SET_DIR = None
 
-    def absolute(path: object) -> str | None:
-        if not isinstance(path, (str, bytes, os.PathLike)):
-            return None  # a file descriptor
-        name = os.fsdecode(path)
-        return name if os.path.isabs(name) else os.path.join(cwd, name)
 
-    def hook(event: str, args: tuple) -> None:
-        if event == "open" and args and isinstance(args[0], (str, bytes)):
-            mode = args[1] if len(args) > 1 else "r"
-            flags = args[2] if len(args) > 2 else 0
-            if isinstance(mode, str) and any(c in mode for c in "wax+"):
-                return  # written: an output
-            if isinstance(flags, int) and flags & (os.O_WRONLY | os.O_RDWR | os.O_CREAT):
-                return
-            opened.add(absolute(args[0]))
-        elif event in ("os.listdir", "os.scandir") and args and not _import_system():
-            name = absolute(args[0] if args[0] is not None else ".")
-            if name is not None:
-                listed.add(name)
+def _stop_observing() -> None:
+    """After the helper imported setuptools (what it read then is each package's too): the
+    helper observes nothing until a request's child starts."""
+    if _SET_DIR is not None:
+        _SET_DIR(None)
+    os.environ.pop("WSOBSERVE_DIR", None)
+    state = getattr(type(os.environ), "_wsobserve_state", None)
+    if state is not None:  # the Python hook, loaded when the helper started
+        state.update(dir=None, pid=-1, fd=-1)
 
-    real_stat, real_lstat = os.stat, os.lstat
 
-    def watched_stat(path, *args, **kwargs):  # type: ignore[no-untyped-def]
-        name = absolute(path) if kwargs.get("dir_fd") is None else None
-        if name is not None:
-            stated.add(name)
-        return real_stat(path, *args, **kwargs)
+def _start_observing(env: dict):
+    """In a request's child, when the request is observed: the library writes into the
+    request's directory from now on, and the Python hook (the first entry of the request's
+    PYTHONPATH) observes os.environ and the import system. Returns the hook's directory."""
+    directory = env.get("WSOBSERVE_DIR")
+    if _SET_DIR is None or not directory:
+        return None
+    _SET_DIR(directory.encode("utf-8", "surrogateescape"))
+    hook_dir = env.get("PYTHONPATH", "").split(os.pathsep)[0]
+    hook = os.path.join(hook_dir, "sitecustomize.py")
+    if os.path.isfile(hook):
+        import runpy
 
-    def watched_lstat(path, *args, **kwargs):  # type: ignore[no-untyped-def]
-        name = absolute(path) if kwargs.get("dir_fd") is None else None
-        if name is not None:
-            stated.add(name)
-        return real_lstat(path, *args, **kwargs)
-
-    os.stat, os.lstat = watched_stat, watched_lstat
-    sys.addaudithook(hook)
-    return opened, stated, listed
+        runpy.run_path(hook, run_name="wsobserve")["_observe"]()
+    return hook_dir
 
 
 def _read(req: dict, channel) -> dict:
@@ -407,10 +382,14 @@ def main() -> int:
     os.dup2(2, 1)
     # wsbuild stops this process; a terminal Ctrl-C is wsbuild's to handle.
     signal.signal(signal.SIGINT, signal.SIG_IGN)
+    global _SET_DIR
+    _SET_DIR = _observer()
     try:
-        _reply(channel, _import_setuptools())
+        hello = _import_setuptools()
     except Exception as exc:  # noqa: BLE001 - reported to wsbuild, which falls back
-        _reply(channel, {"ready": False, "error": f"{type(exc).__name__}: {exc}"})
+        hello = {"ready": False, "error": f"{type(exc).__name__}: {exc}"}
+    _stop_observing()
+    _reply(channel, hello)
     for line in sys.stdin:
         req = json.loads(line)
         try:
