@@ -147,7 +147,7 @@ class Runner(Protocol):
 
 class StepObserver(Protocol):
     """How an in-process step has the processes it asks of a warm helper observed (the
-    builder's builder/observations.py): the helper starts with the observer loaded and idle,
+    observe/steps.py): the helper starts with the observer loaded and idle,
     each request writes into a directory of its own."""
 
     def helper_environment(self, env: Mapping[str, str], directory: Path) -> dict[str, str]:

@@ -326,12 +326,23 @@ class CMakeBuildType:
         own = cmake_options(ctx)
         if own.target:
             command += ["--target", own.target]
-        if own.clean_first:
+        if own.clean_first or "build" in ctx.redo:
+            # the last build read a variable or a file that changed and that the generator
+            # does not watch (a compiler's CPATH, a custom command's own input): only a build
+            # of everything again reads it again
             command.append("--clean-first")
         env, run_env = self._build_env(ctx)
         return Step("build", command=Command(tuple(command), ctx.build_dir, env=env,
                                              run_env=run_env),
                     reads=(ctx.source_dir, ctx.build_dir), writes=(ctx.build_dir,))
+
+    def keeps_earlier_work(self, ctx: PackageContext) -> bool:
+        """Whether this build reuses what an earlier one left in the build directory (Ninja
+        rebuilds only what changed, so what the earlier steps read still decides part of the
+        output): there is a cache, and it is not removed before the configure."""
+        state = self.state(ctx)
+        return bool(state.cache) and not (state.cache and self._from_scratch(ctx, state)) \
+            and not self.install_mode_switched(ctx)
 
     def _build_env(self, ctx: PackageContext) -> tuple[dict[str, str], dict[str, str]]:
         """What configure and build set on top of the package environment (kept in reproduce

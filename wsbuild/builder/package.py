@@ -23,7 +23,7 @@ from wsbuild.build_types import (
 )
 from wsbuild.builder.compiler_cache import CompilerCache
 from wsbuild.builder.context import RUN_JOBSERVER
-from wsbuild.builder.observations import StepObservations
+from wsbuild.observe.steps import StepObservations
 from wsbuild.builder.step_trace import StepTraces
 from wsbuild.builder.distribute import Distribution
 from wsbuild.builder.plan import BUILDING_MARKER, Decision, PackagePlan
@@ -83,6 +83,8 @@ class PackageBuild:
     observations: StepObservations | None = None
     #: why the build system still had work right after the steps ("": it had none)
     volatile: str = ""
+    #: this build reuses what the last one left in the build directory (builder/records.py)
+    _kept_earlier_work: bool = False
 
     @property
     def name(self) -> str:
@@ -202,17 +204,20 @@ class PackageBuild:
             run_environ.update(self.run.distribution.environ)
         self.observations = self._observations(run_environ)
         reason = self.planned.reason
+        keeps = getattr(get_build_type(self.planned.build_type), "keeps_earlier_work", None)
         self.context = make_context(
             self.run.selection, self.run.session, self.name, prefix=self.prefix,
             options=self.planned.options.applied_to(self.run.options),
             stage_prefix=self.stage_prefix, run_environ=run_environ, run=self._run_command,
             warn=self.warnings.append, jobserver_fifo=self.run.jobserver.fifo,
             redo=reason.redo if reason is not None else (), observe=self.observations)
+        # decided before the steps run (they change what the build directory holds)
+        self._kept_earlier_work = keeps is not None and keeps(self.context)
 
     def _observations(self, run_environ: Mapping[str, str]) -> StepObservations:
-        """A fresh record of what this build's steps read (builder/observations.py): what
-        wsbuild sets for this run only and a compiler cache's own state are no input."""
-        from wsbuild.builder.observations import OBSERVE_DIR
+        """A fresh record of what this build's steps read (observe/steps.py): what wsbuild
+        sets for this run only and a compiler cache's own state are no input."""
+        from wsbuild.observe.steps import OBSERVE_DIR
 
         compilers = self.run.compilers
         observations = StepObservations(
@@ -343,8 +348,9 @@ class PackageBuild:
         """What this build's steps were observed to read, for the next run's plan
         (builder/records.py); the build is finished."""
         from wsbuild.builder.compiler_cache import COMPILER_VARIABLES
-        from wsbuild.builder.records import Where, built_record
+        from wsbuild.builder.records import built_record
         from wsbuild.record.model import write_record
+        from wsbuild.record.observed import Where
 
         # its build directory and what it installs are its outputs (in a merged install the
         # prefix is every package's: only the stage is its own)
@@ -353,17 +359,22 @@ class PackageBuild:
         outputs = (self.build_dir.absolute(), ctx.stage_prefix,
                    *(() if session.merged else (self.prefix,)))
         compilers = self.run.compilers
-        where = Where(source_dir=self.planned.source_dir.absolute(),
-                      own=self.planned.own.files, outputs=tuple(outputs),
-                      install_base=self.run.selection.workspace.install_base,
-                      tool_state=compilers.state_dirs() if compilers is not None else ())
+        where = Where(source_dir=str(self.planned.source_dir.absolute()),
+                      outputs=tuple(str(o) for o in outputs),
+                      tool_state=tuple(str(d) for d in compilers.state_dirs())
+                      if compilers is not None else ())
         build_type = get_build_type(self.planned.build_type)
         runner = build_type.test_runner
         assert self.observations is not None
+        keeps = getattr(build_type, "keeps_earlier_work", None)
         record = built_record(
             self.planned, observations=self.observations,
+            earlier=self.planned.previous if keeps is not None and self._kept_earlier_work
+            else None,
             declared=build_type.external_inputs(ctx), dependencies=self._dependency_keys(),
-            installed=installed, where=where, environment=session.environment,
+            installed=installed, where=where,
+            install_base=self.run.selection.workspace.install_base,
+            environment=session.environment,
             digests=session.digests, started_ns=self.started_ns, volatile=self.volatile,
             compiler_variables=COMPILER_VARIABLES
             if compilers is not None and compilers.compiles_unobserved else (),

@@ -31,6 +31,30 @@ Warn = Callable[[str], None]
 
 #: the largest package record an entry may carry (a C++ package's: tens of KiB)
 MAX_RECORD_BYTES = 64 * 1024 * 1024
+#: how many variants of one key the cache remembers (the most recent ones)
+MAX_VARIANTS = 16
+
+
+def _variant_list(data: bytes | None) -> list[tuple[str, ...]]:
+    """A key's variants document: a JSON list of lists of variable names; [] when it is not
+    one."""
+    import json
+
+    try:
+        value = json.loads(data) if data else []
+    except ValueError:
+        return []
+    if not isinstance(value, list):
+        return []
+    return [tuple(names) for names in value[:MAX_VARIANTS]
+            if isinstance(names, list) and all(isinstance(n, str) for n in names)]
+
+
+def _with_variant(known: list[tuple[str, ...]], names: tuple[str, ...]) -> bytes:
+    import json
+
+    merged = [names, *(n for n in known if n != names)][:MAX_VARIANTS]
+    return json.dumps([list(n) for n in merged]).encode()
 
 
 @dataclass(frozen=True, slots=True)
@@ -128,6 +152,22 @@ class BuildCache:
                          digest=None)
             return None
         return Found(record, from_local, self._package_record(key, record))
+
+    def variants(self, key: CacheKey) -> list[tuple[str, ...]]:
+        """The variable names of the variants stored under `key` (most recent first), locally
+        and on the server."""
+        found = _variant_list(self.local.get_action(key.variants_address))
+        remote = self.remote
+        if remote is not None:
+            from wsbuild.cache.http import CacheUnavailable
+
+            try:
+                more = _variant_list(remote.get_action(key.variants_address))
+            except CacheUnavailable as error:
+                self._remote_off(str(error))
+                more = []
+            found += [names for names in more if names not in found]
+        return found[:MAX_VARIANTS]
 
     def _package_record(self, key: CacheKey, record: ActionResult) -> bytes | None:
         """The entry's package record (its blob, locally or from the server, checked against
@@ -239,7 +279,8 @@ class BuildCache:
 
     # -- storing -------------------------------------------------------------------------
     def store(self, key: CacheKey, root: Path, files: Iterable[str] | None = None, *,
-              package_record: bytes = b"", background: bool = False) -> str | None:
+              package_record: bytes = b"", background: bool = False,
+              variables: tuple[str, ...] = ()) -> str | None:
         """Pack `root` (or `files` below it) as `key`'s entry, with the package record it was
         built with (`package_record`, JSON); None when stored (or queued: `background` packs
         on the cache's own thread, while the build goes on), else why not. Problems of
@@ -248,19 +289,19 @@ class BuildCache:
             return "the cache is read-only for this run"
         if background:
             self._submit(("store", key, root, None if files is None else list(files),
-                          package_record))
+                          package_record, variables))
             return None
-        why_not, upload = self._store_now(key, root, files, package_record)
+        why_not, upload = self._store_now(key, root, files, package_record, variables)
         if upload is not None:
             self._submit(("upload", *upload))
         return why_not
 
     def _store_now(self, key: CacheKey, root: Path, files: Iterable[str] | None,
-                   package_record: bytes = b""
-                   ) -> tuple[str | None,
-                              tuple[list[tuple[str, Path]], tuple[str, ...], bytes] | None]:
-        """Pack and store locally; (why not stored, what to upload: the blobs, the addresses
-        and the action record)."""
+                   package_record: bytes = b"", variables: tuple[str, ...] = ()
+                   ) -> tuple[str | None, tuple[object, ...] | None]:
+        """Pack and store locally, its variant named in its key's variants document; (why not
+        stored, what to upload: the blobs, the addresses, the action record, the key and the
+        variables)."""
         import hashlib
 
         temp = self.local.temp_file()
@@ -281,10 +322,13 @@ class BuildCache:
                               len(package_record)).encode()
         for address in key.addresses:
             self.local.put_action(address, record)
+        if key.variant:
+            known = _variant_list(self.local.get_action(key.variants_address))
+            self.local.put_action(key.variants_address, _with_variant(known, variables))
         with self._lock:
             self._stored = True
             upload = self._uploads_on
-        return None, (blobs, key.addresses, record) if upload else None
+        return None, (blobs, key.addresses, record, key, variables) if upload else None
 
     def _submit(self, item: tuple[object, ...]) -> None:
         with self._lock:
@@ -304,19 +348,19 @@ class BuildCache:
 
     def _work_on(self, item: tuple[object, ...]) -> None:
         if item[0] == "store":
-            _, key, root, files, package_record = item
+            _, key, root, files, package_record, variables = item
             why_not, upload = self._store_now(key, root, files,  # type: ignore[arg-type]
-                                              package_record)  # type: ignore[arg-type]
+                                              package_record,  # type: ignore[arg-type]
+                                              variables)  # type: ignore[arg-type]
             if why_not:
                 self.notes.append(f"{key.package}: {why_not}")  # type: ignore[attr-defined]
             if upload is not None:
-                self._upload(*upload)
+                self._upload(*upload)  # type: ignore[arg-type]
         else:
-            _, blobs, addresses, record = item
-            self._upload(blobs, addresses, record)  # type: ignore[arg-type]
+            self._upload(*item[1:])  # type: ignore[arg-type]
 
     def _upload(self, blobs: list[tuple[str, Path]], addresses: tuple[str, ...],
-                record: bytes) -> None:
+                record: bytes, key: CacheKey, variables: tuple[str, ...]) -> None:
         from wsbuild.cache.http import CacheRejected, CacheUnavailable
 
         remote = self.remote
@@ -328,6 +372,9 @@ class BuildCache:
                     remote.put_blob(digest, blob)
             for address in addresses:
                 remote.put_action(address, record)
+            if key.variant:  # a race with another uploader loses one variant: a miss, no more
+                known = _variant_list(remote.get_action(key.variants_address))
+                remote.put_action(key.variants_address, _with_variant(known, variables))
         except CacheRejected as error:
             self._uploads_off(str(error))
         except CacheUnavailable as error:

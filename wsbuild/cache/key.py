@@ -65,6 +65,11 @@ class CacheKey:
         plain = hashlib.sha256(self.text.encode()).hexdigest()
         return (plain, self.address) if self.variant else (plain,)
 
+    @property
+    def variants_address(self) -> str:
+        """Where the list of the variable names of this key's variants is kept."""
+        return hashlib.sha256(f"{self.text}\0variants".encode()).hexdigest()
+
     def with_variant(self, environment: Mapping[str, str]) -> CacheKey:
         """This key's variant for the digests of the variables a build read."""
         text = json.dumps(sorted(environment.items()), separators=(",", ":"))

@@ -156,14 +156,22 @@ class RunCache:
             return Proven(found, proof, key)
         if not proof.variables or proof.record is None or self.environment is None:
             return proof.why
-        variant = key.with_variant(self.environment.digests(proof.record.environment))
-        found = cache.find(variant)
-        if found is None:
-            return f"{proof.why}, and no entry was built where they are as here"
-        proof = disproof(found, inputs_key, dependencies, digests,
-                         install_base=self.workspace.install_base, planning=planning,
-                         waiting=waiting, environment=self.environment)
-        return proof.why if isinstance(proof, Disproof) else Proven(found, proof, variant)
+        first = proof.why
+        tried: set[str] = {key.address}
+        for names in [tuple(sorted(proof.record.environment)), *cache.variants(key)]:
+            variant = key.with_variant(self.environment.digests(names))
+            if variant.address in tried:
+                continue
+            tried.add(variant.address)
+            found = cache.find(variant)
+            if found is None:
+                continue
+            proof = disproof(found, inputs_key, dependencies, digests,
+                             install_base=self.workspace.install_base, planning=planning,
+                             waiting=waiting, environment=self.environment)
+            if not isinstance(proof, Disproof):
+                return Proven(found, proof, variant)
+        return f"{first}, and no entry was built where they are as here"
 
     def lookup(self, key: CacheKey, inputs_key: str, dependencies: Mapping[str, str],
                digests: Digests, *, waiting: bool = False) -> Proven | None:
@@ -258,7 +266,8 @@ class RunCache:
         key = key.with_variant(package_record.environment)
         data = json.dumps(encode(package_record), separators=(",", ":")).encode()
         why_not = self._open().store(key, prefix, files, package_record=data,
-                                     background=merged_record is None)
+                                     background=merged_record is None,
+                                     variables=tuple(sorted(package_record.environment)))
         self._account("store", started)
         return why_not
 

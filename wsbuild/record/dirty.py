@@ -108,7 +108,9 @@ def environment_change(record: PackageRecord, environment: Environment, *,
 
 
 def _redo(record: PackageRecord, changed: Iterable[str]) -> tuple[str, ...]:
-    return tuple(dict.fromkeys(record.read_by[c] for c in changed if c in record.read_by))
+    """The labels of the steps that read what changed, where no build system watches it."""
+    return tuple(dict.fromkeys(label for c in changed if c in record.read_by
+                               for label in record.read_by[c].split(",")))
 
 
 def dirty_reason(old: PackageRecord | None, now: PackageNow, *, install_base: Path,

@@ -142,9 +142,29 @@ def _looked(value: object) -> Looked:
     return Looked(tuple(str(names).split("/")) if names else (), _seen((signature, digest)))
 
 
+def encode_outside(outside: OutsideReads) -> dict[str, object]:
+    """What was read outside, as JSON values."""
+    return {
+        "files": {p: [list(s.signature), s.digest] for p, s in sorted(outside.files.items())},
+        "listings": {p: [list(s.signature), s.digest]
+                     for p, s in sorted(outside.listings.items())},
+        "searches": {p: ["/".join(n), list(s.signature), s.digest]
+                     for p, (n, s) in sorted(outside.searches.items())},
+        "probes": {p: ["/".join(n), list(s.signature), s.digest]
+                   for p, (n, s) in sorted(outside.probes.items())},
+    }
+
+
+def decode_outside(data: Mapping[str, Mapping[str, object]]) -> OutsideReads:
+    """What was read outside, from its JSON values (raises KeyError, TypeError, ValueError)."""
+    return OutsideReads({str(p): _seen(v) for p, v in data["files"].items()},
+                        {str(p): _seen(v) for p, v in data["listings"].items()},
+                        {str(p): _looked(v) for p, v in data["searches"].items()},
+                        {str(p): _looked(v) for p, v in data["probes"].items()})
+
+
 def encode(record: PackageRecord) -> dict[str, object]:
     """The record as JSON values (also what a build cache entry carries)."""
-    outside = record.outside
     return {
         "format": FORMAT,
         "package": record.package,
@@ -159,15 +179,7 @@ def encode(record: PackageRecord) -> dict[str, object]:
         "environment_names": record.environment_names,
         "dependencies": dict(sorted(record.dependencies.items())),
         "dependency_inputs": dict(sorted(record.dependency_inputs.items())),
-        "outside": {
-            "files": {p: [list(s.signature), s.digest] for p, s in sorted(outside.files.items())},
-            "listings": {p: [list(s.signature), s.digest]
-                         for p, s in sorted(outside.listings.items())},
-            "searches": {p: ["/".join(n), list(s.signature), s.digest]
-                         for p, (n, s) in sorted(outside.searches.items())},
-            "probes": {p: ["/".join(n), list(s.signature), s.digest]
-                       for p, (n, s) in sorted(outside.probes.items())},
-        },
+        "outside": encode_outside(record.outside),
         "read_by": dict(sorted(record.read_by.items())),
         "complete": record.complete,
         "unobserved": list(record.unobserved),
@@ -184,7 +196,6 @@ def decode(data: object, *, sealed: bool = True) -> PackageRecord | None:
     if not isinstance(data, dict) or data.get("format") != FORMAT:
         return None
     try:
-        outside = data["outside"]
         record = PackageRecord(
             package=str(data["package"]),
             build_type=str(data["build_type"]),
@@ -195,11 +206,7 @@ def decode(data: object, *, sealed: bool = True) -> PackageRecord | None:
             environment_names=str(data["environment_names"]),
             dependencies={str(k): str(v) for k, v in data["dependencies"].items()},
             dependency_inputs={str(k): str(v) for k, v in data["dependency_inputs"].items()},
-            outside=OutsideReads(
-                {str(p): _seen(v) for p, v in outside["files"].items()},
-                {str(p): _seen(v) for p, v in outside["listings"].items()},
-                {str(p): _looked(v) for p, v in outside["searches"].items()},
-                {str(p): _looked(v) for p, v in outside["probes"].items()}),
+            outside=decode_outside(data["outside"]),
             read_by={str(k): str(v) for k, v in data["read_by"].items()},
             complete=bool(data["complete"]),
             unobserved=tuple(str(why) for why in data["unobserved"]),

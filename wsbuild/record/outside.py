@@ -296,10 +296,10 @@ def take(files: Iterable[str], listings: Iterable[str], digests: Digests, *,
         return Seen(signature, digest)
 
     def looked(kind: str, path: str, names: Collection[str]) -> Looked:
+        # only some names of the directory count: taken now, never racy (a directory such as
+        # /tmp changes all the time, the names a step looked for in it seldom)
         ordered = tuple(sorted(set(names)))
         signature = digests.signature(path)
-        if racy(signature, True):
-            return Looked(ordered, Seen(signature, RACY_DIGEST))
         return Looked(ordered, Seen(signature, digests.looked(kind, path, signature, ordered)))
 
     return OutsideReads({path: seen(path, False) for path in files},

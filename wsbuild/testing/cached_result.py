@@ -1,6 +1,13 @@
-"""A package's last passing test result, reused while nothing its tests can observe changed:
-what enters the key (`TestKey`), and the record kept of it in build/<pkg>/.wsbuild/test_result.json
-(digests only, never an environment value; the directory is private to the user).
+"""A package's last passing test result, reused while nothing its tests read changed: what
+enters the key (`TestKey`), what its test run was observed to read (`CachedResult.reads`,
+`.environment`: observe/, as a build's record holds its steps'), and the record kept of it in
+build/<pkg>/.wsbuild/test_result.json (digests only, never an environment value; the
+directory is private to the user). A run not fully observed is never reused.
+
+The observed reads hold what the tests imported and opened outside the package (a workspace
+package they import without declaring it, through the sourced environment, included), the
+configuration files pytest looked for upward (`src/pytest.ini`, `setup.cfg`, …), the programs
+they ran, and each variable they read by its value's digest.
 
 The key's parts derive from the packages' records (record/model.py), each compared as written:
 - `build`: the key of the package's own record (what decided its build's output);
@@ -18,11 +25,8 @@ The key's parts derive from the packages' records (record/model.py), each compar
 - `options`: what `wsbuild test` hands the tool (its own arguments only: --pytest-args or
   --ctest-args, then the package's own; the retest counts, --strict-linters, where results
   go, the install layout, the interpreter) and wsbuild's version;
-- `environment`: one digest per variable of the environment the tool starts with, all but
-  those that cannot reach a test (record/environment.py's list, as for a build);
-- `tools`: the interpreter, the versions of the distributions it and the ROS tests' pytest hold
-  (their dist-info names), dpkg's status file, and the tools its test runner names
-  (`KeyInputs.tools`; CTest's: the ctest binary).
+- `tools`: the interpreter, and the tools its test runner names (`KeyInputs.tools`; CTest's:
+  the ctest binary).
 """
 
 from __future__ import annotations
@@ -38,10 +42,12 @@ from pathlib import Path
 from wsbuild import inputs
 from wsbuild.files import atomic_write, private_directory
 from wsbuild.build_types.junit import Counts
+from wsbuild.record.model import decode_outside, encode_outside
+from wsbuild.record.outside import OutsideReads
 
 #: the record of the package's last passing test result
 TEST_RECORD = Path(".wsbuild") / "test_result.json"
-RECORD_FORMAT = 2
+RECORD_FORMAT = 3
 
 
 def _digest(value: object) -> str:
@@ -53,27 +59,11 @@ def _digest(value: object) -> str:
 stat_signature = inputs.signature
 
 
-def distributions(directory: Path) -> list[str]:
-    """The distributions installed in a site directory, with their versions."""
-    try:
-        return sorted(e.name for e in inputs.scandir(directory)
-                      if e.name.endswith((".dist-info", ".egg-info", ".egg-link", ".pth")))
-    except OSError:
-        return []
-
-
-def interpreter_tools(python_executable: str, ros_pytest: Path) -> str:
-    """What every package's test tools share: the interpreter, its distributions' versions,
-    the ROS tests' pytest, the system's packages (dpkg's status file)."""
-    sites: list[str] = []
-    if Path(python_executable) == Path(sys.executable):
-        paths = sysconfig.get_paths()
-        for site in sorted({paths["purelib"], paths["platlib"]}):
-            sites += distributions(Path(site))
+def interpreter_tools(python_executable: str) -> str:
+    """What every package's test tools share: the interpreter (what the tests read of its
+    library and distributions is observed)."""
     return _digest([python_executable, stat_signature(python_executable),
-                    stat_signature(inputs.realpath(python_executable)), sites,
-                    str(ros_pytest), distributions(ros_pytest),
-                    stat_signature("/var/lib/dpkg/status")])
+                    stat_signature(inputs.realpath(python_executable))])
 
 
 @dataclass(frozen=True, slots=True)
@@ -86,14 +76,13 @@ class TestKey:
     closure: dict[str, str]
     sources: str
     options: str
-    environment: dict[str, str]
     tools: str
     underlays: str = ""
 
     @property
     def digest(self) -> str:
         return _digest([self.build, sorted(self.closure.items()), self.underlays, self.sources,
-                        self.options, sorted(self.environment.items()), self.tools])
+                        self.options, self.tools])
 
     def changed_since(self, old: TestKey) -> str:
         """What changed from `old`, in words (the first of the parts, in the key's order)."""
@@ -109,10 +98,6 @@ class TestKey:
             return "a file of the package changed"
         if self.options != old.options:
             return "other test options"
-        if self.environment != old.environment:
-            names = sorted(n for n in set(self.environment) | set(old.environment)
-                           if self.environment.get(n) != old.environment.get(n))
-            return f"environment variables changed: {' '.join(names)}"
         if self.tools != old.tools:
             return "the test tools or the installed distributions changed"
         return ""
@@ -129,6 +114,12 @@ class CachedResult:
     #: the log directory of the run that produced it
     log_dir: Path | None = None
     seconds: float = 0.0
+    #: what the test run was observed to read outside the package, and the variables it read
+    #: (their digests as it saw them)
+    reads: OutsideReads = field(default_factory=OutsideReads)
+    environment: dict[str, str] = field(default_factory=dict)
+    #: why the run was not fully observed (such a result is never reused)
+    unobserved: tuple[str, ...] = ()
 
     def files_unchanged(self) -> bool:
         """The JUnit files are still those the run wrote (what `test-result` reads)."""
@@ -158,13 +149,15 @@ def read_cached_result(build_dir: Path) -> CachedResult | None:
         key = data["key"]
         return CachedResult(
             key=TestKey(build=key["build"], closure=dict(key["closure"]),
-                        sources=key["sources"], options=key["options"],
-                        environment=dict(key["environment"]), tools=key["tools"],
+                        sources=key["sources"], options=key["options"], tools=key["tools"],
                         underlays=key["underlays"]),
             counts=Counts(**data["counts"]),
             result_files={p: (int(s), int(m)) for p, (s, m) in data["result_files"].items()},
             log_dir=Path(data["log_dir"]) if data.get("log_dir") else None,
             seconds=float(data.get("seconds", 0.0)),
+            reads=decode_outside(data["reads"]),
+            environment={str(k): str(v) for k, v in data["environment"].items()},
+            unobserved=tuple(str(why) for why in data["unobserved"]),
         )
     except (OSError, ValueError, KeyError, TypeError, AttributeError):
         return None
@@ -176,9 +169,11 @@ def write_cached_result(build_dir: Path, result: CachedResult) -> None:
         "format": RECORD_FORMAT,
         "digest": key.digest,
         "key": {"build": key.build, "closure": dict(sorted(key.closure.items())),
-                "sources": key.sources, "options": key.options,
-                "environment": dict(sorted(key.environment.items())), "tools": key.tools,
+                "sources": key.sources, "options": key.options, "tools": key.tools,
                 "underlays": key.underlays},
+        "reads": encode_outside(result.reads),
+        "environment": dict(sorted(result.environment.items())),
+        "unobserved": list(result.unobserved),
         "counts": {"tests": result.counts.tests, "errors": result.counts.errors,
                    "failures": result.counts.failures, "skipped": result.counts.skipped},
         "result_files": {p: list(s) for p, s in sorted(result.result_files.items())},

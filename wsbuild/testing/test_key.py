@@ -1,5 +1,6 @@
-"""A package's test key: everything its tests can observe, worked out for one run from the
-packages' records (the key's parts and how a cached result is kept are cached_result.py's)."""
+"""A package's test key: what its tests can observe that is known before they run, worked
+out for one run from the packages' records (the key's parts, and how a cached result keeps
+what the tests were observed to read, are cached_result.py's)."""
 
 from __future__ import annotations
 
@@ -9,12 +10,10 @@ from typing import TYPE_CHECKING
 
 from wsbuild import __version__
 from wsbuild.build_types.test_runner import TestContext, TestRunner
-from wsbuild.record.environment import environment_digests
 from wsbuild.record.model import PackageRecord, read_record
 from wsbuild.record.own_files import stat_digest
 from wsbuild.testing.cached_result import TestKey, interpreter_tools
 from wsbuild.testing.closure import closure_under_test
-from wsbuild.testing.pytest_env import ros_pytest_dir
 from wsbuild.testing.underlays import UnderlayPackages
 
 if TYPE_CHECKING:
@@ -38,8 +37,7 @@ class TestKeys:
     _underlays: UnderlayPackages | None = None
 
     def __post_init__(self) -> None:
-        self._tools = interpreter_tools(self.request.python_executable,
-                                        ros_pytest_dir(self.request.python_executable))
+        self._tools = interpreter_tools(self.request.python_executable)
         self._underlays = UnderlayPackages(self.selection.workspace.install_base)
 
     def key(self, runner: TestRunner, ctx: TestContext) -> TestKey | None:
@@ -66,7 +64,6 @@ class TestKeys:
             build=own.key, closure={dep: key for dep, key in closure.items() if key is not None},
             sources=stat_digest(packages[name].path, self._outputs(), observed.files),
             options=json.dumps(options),
-            environment=environment_digests(ctx.environ, not_inputs=request.env_ignore),
             tools=json.dumps([self._tools, *observed.tools]),
             underlays=self._underlays.signature(outside, ctx.environ))
 

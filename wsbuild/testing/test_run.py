@@ -81,7 +81,8 @@ def run_tests(selection: Selection, request: TestRequest, emit: Emit) -> TestRun
         jobs = jobs_under_test(selection)
         run = PackageRun(selection, session.run_log, jobs, report=request.report, started=started,
                          cpu_before=cpu_before)
-        tester = PackageTester(selection, request, merged, session.environ, session.run_log)
+        tester = PackageTester(selection, request, merged, session.environ, session.run_log,
+                               observer=session.observer)
         reports: dict[str, PackageTests] = {}
         timed = run.timed(emit)  # a package's test steps enter the run's timings
 
@@ -150,6 +151,7 @@ def reusable_results(selection: Selection, request: TestRequest) -> set[str]:
     """The selected packages whose last passing result `run_tests` would reuse now (what
     colcon-cache's selection options call a valid test cache). Takes no lock, writes nothing."""
     from wsbuild.prefix.layout import resolve_layout
+    from wsbuild.observe.step_environment import step_base
     from wsbuild.session import LINT_SHIM
     from wsbuild.underlay.environment import prepare_underlay
 
@@ -161,7 +163,7 @@ def reusable_results(selection: Selection, request: TestRequest) -> set[str]:
     underlay = prepare_underlay(os.environ, executable=sys.executable, repair=False,
                                 shim_dir=ws.build_base / LINT_SHIM, notice=lambda _text: None,
                                 dry_run=True)
-    tester = PackageTester(selection, request, merged, underlay.environ, ws.log_base)
+    tester = PackageTester(selection, request, merged, step_base(underlay.environ), ws.log_base)
     valid = set()
     for name in selection.selected:
         runner = tester.runner(name)
@@ -174,7 +176,7 @@ def reusable_results(selection: Selection, request: TestRequest) -> set[str]:
             for path in inputs.walk_files(share):
                 inputs.declare_file(path)
         ctx = tester.context(name, runner, None)
-        if tester.reusable(name, tester.key(runner, ctx), None) is not None:
+        if tester.reusable(name, tester.key(runner, ctx), None, ctx.environ) is not None:
             valid.add(name)
     return valid
 

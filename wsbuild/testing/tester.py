@@ -1,6 +1,7 @@
-"""One package's tests, run by its build type's test runner: in its test environment, its last
-passing result reused while nothing its tests observe changed, repeated for
---retest-until-fail / --retest-until-pass, and turned into the package's result."""
+"""One package's tests, run by its build type's test runner: in its test environment,
+observed as a build's steps are (observe/), its last passing result reused while nothing its
+tests read changed, repeated for --retest-until-fail / --retest-until-pass, and turned into
+the package's result."""
 
 from __future__ import annotations
 
@@ -16,6 +17,7 @@ from wsbuild.build_types.junit import BadResultFile, Case, CaseOutcome, Counts, 
 from wsbuild.build_types.junit import ResultFile, read_junit
 from wsbuild.build_types.test_runner import TestContext, TestOutcome, TestRunner
 from wsbuild.engine.process import REGISTRY, Completed, env_delta, format_command, run_command
+from wsbuild.observe.steps import OBSERVE_TEST_DIR, StepObservations
 from wsbuild.events import Emit, StepStarted
 from wsbuild.prefix.layout import package_prefix
 from wsbuild.testing.cached_result import (
@@ -34,6 +36,8 @@ from wsbuild.testing.tooling import tooling_failures
 from wsbuild.redaction import redact
 
 if TYPE_CHECKING:
+    from wsbuild.observe.library import Observer
+    from wsbuild.record.outside import OutsideReads
     from wsbuild.testing.request import TestRequest
     from wsbuild.workspace.selection import Selection
 
@@ -47,6 +51,8 @@ class PackageTester:
     merged: bool
     base_env: Mapping[str, str]
     run_log: Path
+    #: the step observer (or why there is none); None: a run that only plans
+    observer: Observer | str | None = None
     order: list[str] = field(default_factory=list)
     keys: TestKeys | None = None
 
@@ -57,9 +63,11 @@ class PackageTester:
     def runner(self, name: str) -> TestRunner | None:
         return get_build_type(self.selection.packages[name].build_type).test_runner
 
-    def context(self, name: str, runner: TestRunner, log_dir: Path | None) -> TestContext:
+    def context(self, name: str, runner: TestRunner, log_dir: Path | None,
+                observations: StepObservations | None = None) -> TestContext:
         """What the package's runner works with; without a log directory it may run nothing
-        (the key of a run that only plans)."""
+        (the key of a run that only plans). Each command it runs is observed into
+        `observations`."""
         env = runner.environment(self.environment(name), self.request.python_executable)
         arguments = (*self.request.tool_arguments.get(runner.name, ()),
                      *self.request.package_arguments.get(name, {}).get(runner.name, ()))
@@ -68,7 +76,7 @@ class PackageTester:
                 logged: bool = True) -> Completed:
             if log_dir is None:
                 raise RuntimeError(f"{name}: a run that only plans runs no test command")
-            return _run(command, env, log_dir, on_line, logged)
+            return _run(command, env, log_dir, on_line, logged, observations, runner.name)
 
         return TestContext(
             package=self.selection.packages[name], build_dir=self.selection.workspace.build_base / name,
@@ -80,8 +88,11 @@ class PackageTester:
         assert self.keys is not None
         return self.keys.key(runner, ctx)
 
-    def reusable(self, name: str, key: TestKey | None, log_dir: Path | None) -> CachedResult | None:
-        """The package's last passing result, when it applies to `key`; why not, in its log."""
+    def reusable(self, name: str, key: TestKey | None, log_dir: Path | None,
+                 environ: Mapping[str, str] | None = None) -> CachedResult | None:
+        """The package's last passing result, when it applies to `key` and nothing its run
+        read changed (`environ`: the environment its tests would run in now); why not, in its
+        log."""
         if key is None:
             why = "not built by wsbuild (no build key), nor all of its test closure"
         else:
@@ -90,13 +101,33 @@ class PackageTester:
                 why = "no passing result recorded"
             elif cached.key != key:
                 why = key.changed_since(cached.key) or "its key changed"
+            elif cached.unobserved:
+                why = f"its last run was not fully observed ({cached.unobserved[0]})"
             elif not cached.files_unchanged():
                 why = "its result files changed or are gone"
+            elif (changed := self._read_changed(cached, environ)) is not None:
+                why = changed
             else:
                 return cached
         if log_dir is not None:
             _log(log_dir, f"test result not reused: {why}")
         return None
+
+    def _read_changed(self, cached: CachedResult, environ: Mapping[str, str] | None
+                      ) -> str | None:
+        """What the cached run read that differs now: a variable, a file, a listing."""
+        from wsbuild.record.environment import changed_names, variable_digests
+        from wsbuild.record.outside import Digests, first_change
+
+        install = str(self.selection.workspace.install_base)
+        if environ is not None:
+            now = variable_digests(environ, cached.environment, own_install=install,
+                                   ignored=self.request.env_ignore)
+            names = changed_names(cached.environment, now)
+            if names:
+                return f"environment variables changed: {' '.join(names)}"
+        changed = first_change(cached.reads, Digests())
+        return f"changed since: {changed}" if changed is not None else None
 
     def environment(self, name: str) -> dict[str, str]:
         """The package's install last, after its test closure in dependency order."""
@@ -118,10 +149,13 @@ class PackageTester:
         if runner is None:
             return PackageTests(name, PackageStatus.NO_TESTS, log_dir=log_dir,
                                 message=f"wsbuild cannot test '{package.build_type}' packages")
-        ctx = self.context(name, runner, log_dir)
+        build_dir = self.selection.workspace.build_base / name
+        observations = StepObservations(build_dir / OBSERVE_TEST_DIR,
+                                        self.observer or "this run observes nothing")
+        ctx = self.context(name, runner, log_dir, observations)
         key = self.key(runner, ctx)
         if self.request.reuse_results:
-            cached = self.reusable(name, key, log_dir)
+            cached = self.reusable(name, key, log_dir, ctx.environ)
             if cached is not None:
                 _log(log_dir, f"test result reused from {cached.log_dir}: nothing its tests "
                               "observe changed")
@@ -132,12 +166,38 @@ class PackageTester:
                                     missing_linters=_missing_linters_in(files))
         forget_cached_result(ctx.build_dir)
         ctx.results_dir.mkdir(parents=True, exist_ok=True)
+        observations.start()
         report = self._attempts(runner, ctx, log_dir, emit)
         report = replace(report, log_dir=log_dir, seconds=time.monotonic() - started)
         if key is not None and _reusable_later(report):
+            reads, environment, unobserved = self._observed(name, ctx, observations, log_dir,
+                                                            started)
             write_cached_result(ctx.build_dir, CachedResult(
-                key, report.counts, file_stamps(report.result_files), log_dir, report.seconds))
+                key, report.counts, file_stamps(report.result_files), log_dir, report.seconds,
+                reads, environment, unobserved))
         return report
+
+    def _observed(self, name: str, ctx: TestContext, observations: StepObservations,
+                  log_dir: Path, started: float
+                  ) -> tuple[OutsideReads, dict[str, str], tuple[str, ...]]:
+        """What the test run read outside the package (its own results and logs, the
+        package's build directory and its install, which its keys hold, left out), and the
+        variables it read, by their values in the package's test environment (what the
+        runner's command sets on top of it derives from the test options, in the key)."""
+        from wsbuild.record.environment import variable_digests
+        from wsbuild.record.observed import Where, observed_reads
+        from wsbuild.record.outside import Digests
+
+        ws = self.selection.workspace
+        prefix = package_prefix(ws.install_base, name, merged=self.merged)
+        outputs = (str(ctx.results_dir), str(log_dir), str(ctx.build_dir),
+                   *(() if self.merged else (str(prefix),)))
+        reads = observed_reads(observations, Where(str(ctx.package.path.absolute()), outputs),
+                               Digests(), started_ns=int(time.time_ns()
+                                                         - (time.monotonic() - started) * 1e9))
+        environment = variable_digests(ctx.environ, reads.seen, own_install=str(ws.install_base),
+                                       ignored=self.request.env_ignore)
+        return reads.outside, environment, reads.observation.unobserved
 
     def _attempts(self, runner: TestRunner, ctx: TestContext, log_dir: Path,
                   emit: Emit) -> PackageTests:
@@ -205,15 +265,25 @@ def _missing_linters_in(paths: Sequence[Path]) -> tuple[str, ...]:
 
 
 def _run(command: Command, env: Mapping[str, str], log_dir: Path,
-         on_line: Callable[[str, bool], None] | None, logged: bool) -> Completed:
-    """A runner's command, in the package's test environment plus the command's own variables;
-    its line logged as one that reproduces it by hand."""
+         on_line: Callable[[str, bool], None] | None, logged: bool,
+         observations: StepObservations | None, label: str) -> Completed:
+    """A runner's command, in the package's test environment plus the command's own variables,
+    observed into `observations` as step `label`; its line logged as one that reproduces it
+    by hand."""
     shown = {**env, **command.env}
     delta = env_delta(shown, os.environ)
     _log(log_dir, f"Invoking command in '{command.cwd}': "
                   f"{format_command(command.argv, command.cwd, delta)}")
-    return run_command(command.argv, cwd=command.cwd, env={**shown, **command.run_env},
-                       log_dir=log_dir if logged else None, on_line=on_line)
+    full = {**shown, **command.run_env}
+    if observations is None:
+        return run_command(command.argv, cwd=command.cwd, env=full,
+                           log_dir=log_dir if logged else None, on_line=on_line)
+    token, observed = observations.begin(label, full, run_only=tuple(command.run_env))
+    try:
+        return run_command(command.argv, cwd=command.cwd, env=observed,
+                           log_dir=log_dir if logged else None, on_line=on_line)
+    finally:
+        observations.finish(token)
 
 
 def _reusable_later(report: PackageTests) -> bool:

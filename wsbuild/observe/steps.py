@@ -1,7 +1,8 @@
-"""One package build's observed steps: each command step (and each request a warm helper runs
-for an in-process step) writes what its processes read into a directory of its own under
-`build/<pkg>/.wsbuild/observe/` (observe/), and the environment each step saw is kept in
-memory (never written) until the package's record takes the digests of the variables read.
+"""One package build's (or test run's) observed steps: each command (and each request a warm
+helper runs for an in-process step) writes what its processes read into a directory of its
+own (`build/<pkg>/.wsbuild/observe/` for a build, `observe-test/` for its tests), and the
+environment each step saw is kept in memory (never written) until the package's record takes
+the digests of the variables read.
 
 Where the run has no observer (no C compiler to build it), every step counts as not fully
 observed, and the package is built every time (its record says why)."""
@@ -18,8 +19,9 @@ from wsbuild.observe.library import Observer
 from wsbuild.observe.log import Observation, read_observation
 from wsbuild.observe.step_environment import observed, unobserved
 
-#: under the package's build directory
+#: under the package's build directory: its build's steps, its tests'
 OBSERVE_DIR = Path(".wsbuild") / "observe"
+OBSERVE_TEST_DIR = Path(".wsbuild") / "observe-test"
 #: what a warm helper read when it started (its directory is written once): read once
 _settled: dict[tuple[str, tuple[Path, ...]], Observation] = {}
 
