@@ -18,6 +18,11 @@ class AmentCMakeBuildType(CMakeBuildType):
     estimate_base: float = 2.0
     #: the CMake options and --ament-cmake-args (cmake_options.py)
     options: tuple[TypeOption, ...] = AMENT_CMAKE_OPTIONS
+    #: ament_cmake_python's always-run targets: a copy of the package's Python code (or the
+    #: generated messages') and its `setup.py egg_info`, made again each build from the same
+    #: files (their reads are observed like any step's): no volatile build
+    deterministic_targets: tuple[str, ...] = ("CMakeFiles/ament_cmake_python_copy_*",
+                                              "CMakeFiles/ament_cmake_python_build_*_egg")
 
     def installs_in_place(self, ctx: PackageContext) -> bool:
         return ctx.options.symlink_install

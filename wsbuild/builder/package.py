@@ -33,6 +33,7 @@ from wsbuild.engine.jobs import JobResult, Outcome, StepStarted
 from wsbuild.engine.jobserver import Jobserver
 from wsbuild.engine.process import env_delta, format_command, run_command
 from wsbuild.errors import WsbuildError
+from wsbuild.inputs import ABSENT
 from wsbuild.events import CacheRestored, Emit
 from wsbuild.record.installed import Installed
 from wsbuild.record.model import PackageRecord
@@ -64,6 +65,9 @@ class RunResources:
     order: tuple[str, ...]
     #: distcc for the run's compiles (--distribute); None: compile here only
     distribution: Distribution | None = None
+    #: a package whose steps read another's install without declaring it fails
+    #: (--strict-dependencies), instead of being warned about
+    strict_dependencies: bool = False
 
 
 @dataclass(slots=True)
@@ -153,6 +157,11 @@ class PackageBuild:
         record = self.write_record(installed)
         self.traces.check(self.name, record, self.planned.source_dir,
                           outputs=(self.build_dir, self.prefix, self._ctx().stage_prefix))
+        undeclared = self._undeclared(record)
+        if undeclared and self.run.strict_dependencies:
+            return JobResult(self.name, Outcome.FAILED, self._seconds(), log_dir=self.log_dir,
+                             message="\n".join(undeclared) + "\n  (--strict-dependencies)")
+        self.warnings.extend(undeclared)
         self.store(record)
         return JobResult(self.name, Outcome.FINISHED, self._seconds(), log_dir=self.log_dir,
                          message=reason, warnings=tuple(interesting(self.warnings)))
@@ -210,7 +219,8 @@ class PackageBuild:
             options=self.planned.options.applied_to(self.run.options),
             stage_prefix=self.stage_prefix, run_environ=run_environ, run=self._run_command,
             warn=self.warnings.append, jobserver_fifo=self.run.jobserver.fifo,
-            redo=reason.redo if reason is not None else (), observe=self.observations)
+            redo=(*(reason.redo if reason is not None else ()), *self.redo_for_backdated()),
+            observe=self.observations)
         # decided before the steps run (they change what the build directory holds)
         self._kept_earlier_work = keeps is not None and keeps(self.context)
 
@@ -291,21 +301,13 @@ class PackageBuild:
         """Files whose content changed while their modification time did not advance get the
         current time, since make and Ninja compare times only and would keep the outputs built
         from the old content: the package's own sources edited so (`cp -p`, `touch -d`, some
-        sync tools), and a dependency's installed file it read (CMake installs a file with its
-        source's time cut to the second, so a header edited in the second this package last
-        compiled looks older than its objects; only files of the workspace's install base,
-        wsbuild's own, are touched)."""
-        planned, previous = self.planned, self.planned.previous
+        sync tools), and what its last build read inside the workspace (a dependency's
+        installed header: CMake installs a file with its source's time cut to the second).
+        Files outside the workspace are not wsbuild's to touch: `redo_for_backdated` builds
+        the package from scratch instead."""
+        planned = self.planned
         changed = [planned.source_dir / rel for rel in planned.backdated]
-        if previous is not None:
-            digests = self.run.session.digests
-            install_base = str(self.run.selection.workspace.install_base) + os.sep
-            for path, seen in previous.outside.files.items():
-                if not path.startswith(install_base):
-                    continue
-                signature = digests.signature(path)
-                if signature != seen.signature and digests.file(path, signature) != seen.digest:
-                    changed.append(Path(path))
+        changed += [Path(path) for path in self._changed_outside(inside=True)]
         for path in changed:
             try:
                 os.utime(path)
@@ -313,6 +315,38 @@ class PackageBuild:
                 continue
             self._log(f"Set the modification time of {path} to now: its content changed, its "
                       "time did not advance, and the build system compares times only")
+
+    def _changed_outside(self, *, inside: bool) -> list[str]:
+        """The files the last build read whose content changed since, inside the workspace
+        (`inside`) or outside it whose modification time did not advance past the one the
+        last build saw (make and Ninja would not see them change)."""
+        previous = self.planned.previous
+        if previous is None:
+            return []
+        digests = self.run.session.digests
+        root = str(self.run.selection.workspace.root.absolute()) + os.sep
+        found = []
+        for path, seen in previous.outside.files.items():
+            if (path + os.sep).startswith(root) != inside:
+                continue
+            signature = digests.signature(path)
+            if signature == seen.signature or signature == ABSENT \
+                    or digests.file(path, signature) == seen.digest:
+                continue
+            if inside or (len(seen.signature) > 3 and signature[3] <= seen.signature[3]):
+                found.append(path)
+        return found
+
+    def redo_for_backdated(self) -> tuple[str, ...]:
+        """The steps to redo because a file the last build read outside the workspace changed
+        with a modification time that did not advance (`cp -p`, `tar x`): the build, from
+        scratch (its build type's reading of "build" in `redo`)."""
+        backdated = self._changed_outside(inside=False)
+        if backdated:
+            self._log(f"{backdated[0]} changed, its modification time did not advance and it "
+                      "lies outside the workspace: building from scratch")
+            return ("build",)
+        return ()
 
     def register(self) -> None:
         """package.xml, the index marker and the environment hooks, into the stage."""
@@ -380,9 +414,31 @@ class PackageBuild:
             if compilers is not None and compilers.compiles_unobserved else (),
             test_tree=runner is not None and getattr(runner, "tests_in_build_tree",
                                                      lambda _: False)(self.build_dir))
+        record = replace(record, installs_read=tuple(sorted(self._installs_read(record))))
         write_record(self.build_dir, record)
         (self.build_dir / BUILDING_MARKER).unlink(missing_ok=True)
         return record
+
+    def _installs_read(self, record: PackageRecord) -> dict[str, str]:
+        """The workspace packages whose install the record's steps read (record/undeclared.py):
+        package -> the first path read."""
+        from wsbuild.record.undeclared import installs_read
+
+        selection = self.run.selection
+        found = installs_read(record, selection.workspace.install_base, selection.packages,
+                              merged=self.run.session.merged)
+        found.pop(self.name, None)
+        return found
+
+    def _undeclared(self, record: PackageRecord) -> list[str]:
+        """A line for each workspace package whose install the steps read though the package
+        does not declare it (its own `package.xml` names no dependency on it): the next plan
+        orders it after that package (builder/plan.py), and the user should declare it."""
+        closure = self.run.selection.graph.build_closure(self.name)
+        found = self._installs_read(record)
+        return [f"{self.name} read {path} but does not declare {package}: add "
+                f"`<depend>{package}</depend>` to its package.xml"
+                for package, path in sorted(found.items()) if package not in closure]
 
     def _dependency_keys(self) -> dict[str, str]:
         from wsbuild.builder.records import dependency_keys

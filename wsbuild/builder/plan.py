@@ -175,6 +175,24 @@ class _Planning:
     #: the C/C++ compiler launcher the build will use (--compiler-cache), decided when a
     #: package first needs building
     launcher: str | None = None
+    #: package -> the workspace packages whose install its last build read (its record's)
+    read_installs: dict[str, tuple[str, ...]] = field(default_factory=dict)
+
+
+def _edges(selection: Selection, read_installs: Mapping[str, Sequence[str]]
+           ) -> dict[str, set[str]]:
+    """What each selected package waits for: its declared dependencies, and the packages
+    whose install its last build read without declaring them (record/undeclared.py), where
+    they come before it in the declared order (no cycle)."""
+    selected = set(selection.selected)
+    position = {name: index for index, name in enumerate(selection.selected)}
+    edges: dict[str, set[str]] = {}
+    for name in selection.selected:
+        found = selection.graph.direct(name) & selected
+        found |= {dep for dep in read_installs.get(name, ())
+                  if dep in selected and position[dep] < position[name]}
+        edges[name] = found
+    return edges
 
 
 def make_plan(selection: Selection, request: BuildRequest, session: Session, *,
@@ -194,11 +212,6 @@ def make_plan(selection: Selection, request: BuildRequest, session: Session, *,
     unresolved = _unresolved(selection, request, session)
     overrides = overrides_to_warn(selection.selected, selection.packages,
                                   request.allow_overriding, session.environ, ws.install_base)
-    jobs = JobGraph.of(selection.selected,
-                       {n: selection.graph.direct(n) & selected for n in selection.selected})
-    weights = package_weights(selection.packages, selection.selected, ws.build_base) \
-        if priorities is None else priorities
-    path = jobs.critical_path(weights)
     planning = _Planning(selection, request, options, session,
                          underlay_paths(str(ws.install_base), session.environ),
                          tuple(str(base) for base in (ws.build_base, ws.install_base,
@@ -212,6 +225,10 @@ def make_plan(selection: Selection, request: BuildRequest, session: Session, *,
         if planned.decision is not Decision.UP_TO_DATE:
             planning.pending.add(name)
         packages.append(planned)
+    jobs = JobGraph.of(selection.selected, _edges(selection, planning.read_installs))
+    weights = package_weights(selection.packages, selection.selected, ws.build_base) \
+        if priorities is None else priorities
+    path = jobs.critical_path(weights)
     return BuildPlan(
         options=options,
         packages=start_ordered(packages, jobs, weights),
@@ -236,6 +253,8 @@ def plan_package(planning: _Planning, name: str) -> PackagePlan:
     own_options = planning.request.packages.get(name, PackageOptions())
     build_dir = selection.workspace.build_base / name
     old = read_record(build_dir)
+    if old is not None and old.installs_read:
+        planning.read_installs[name] = old.installs_read
     own = own_files(package.path, old.own if old else {}, planning.outputs)
     prefix = _prefix(selection, session, name)
     settings = package_settings(package.build_type, own_options.applied_to(planning.options),

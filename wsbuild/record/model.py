@@ -12,6 +12,8 @@ It holds:
   `environment_seen`: the same variables as the steps saw them (what early cutoff compares
   after a dependency was rebuilt; record/environment.py); `environment_names` when a step
   listed the names;
+- `installs_read`: the workspace packages whose install its steps read (a plan orders it
+  after them, whether it declares them or not);
 - `complete`: every process of every step was observed; when not (`unobserved` says why),
   the package runs its build system every time;
 - `volatile`: why its build system had work left right after its build (an always-out-of-date
@@ -86,8 +88,12 @@ class PackageRecord:
     unobserved: tuple[str, ...] = ()
     #: why its build system still had work right after its build ("" when it had none)
     volatile: str = ""
-    #: outside path -> the label of the step that first read it
+    #: outside path or `$NAME` -> the labels of the steps that read it, where no build system
+    #: watches it (comma-separated)
     read_by: Mapping[str, str] = field(default_factory=dict)
+    #: the workspace packages whose install its steps read (its declared dependencies or not:
+    #: a plan starts it after them, record/undeclared.py)
+    installs_read: tuple[str, ...] = ()
     #: the keys (see the module's docstring) and the own files' digest, computed by `sealed()`
     inputs_key: str = ""
     key: str = ""
@@ -181,6 +187,7 @@ def encode(record: PackageRecord) -> dict[str, object]:
         "dependency_inputs": dict(sorted(record.dependency_inputs.items())),
         "outside": encode_outside(record.outside),
         "read_by": dict(sorted(record.read_by.items())),
+        "installs_read": list(record.installs_read),
         "complete": record.complete,
         "unobserved": list(record.unobserved),
         "volatile": record.volatile,
@@ -208,6 +215,7 @@ def decode(data: object, *, sealed: bool = True) -> PackageRecord | None:
             dependency_inputs={str(k): str(v) for k, v in data["dependency_inputs"].items()},
             outside=decode_outside(data["outside"]),
             read_by={str(k): str(v) for k, v in data["read_by"].items()},
+            installs_read=tuple(str(name) for name in data["installs_read"]),
             complete=bool(data["complete"]),
             unobserved=tuple(str(why) for why in data["unobserved"]),
             volatile=str(data["volatile"]),
