@@ -5,7 +5,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from wsbuild.build_types import PackageContext, TypeOption
-from wsbuild.build_types.cmake import CMakeBuildType, cmake_options
+from wsbuild.build_types.cmake import CMAKE_OWN_TARGETS, CMakeBuildType, cmake_options
 from wsbuild.build_types.cmake_options import AMENT_CMAKE_OPTIONS
 from wsbuild.prefix.hooks import EnvironmentHooks
 
@@ -21,7 +21,8 @@ class AmentCMakeBuildType(CMakeBuildType):
     #: ament_cmake_python's always-run targets: a copy of the package's Python code (or the
     #: generated messages') and its `setup.py egg_info`, made again each build from the same
     #: files (their reads are observed like any step's): no volatile build
-    deterministic_targets: tuple[str, ...] = ("CMakeFiles/ament_cmake_python_copy_*",
+    deterministic_targets: tuple[str, ...] = (*CMAKE_OWN_TARGETS,
+                                              "CMakeFiles/ament_cmake_python_copy_*",
                                               "CMakeFiles/ament_cmake_python_build_*_egg")
 
     def installs_in_place(self, ctx: PackageContext) -> bool:

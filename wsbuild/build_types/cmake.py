@@ -55,6 +55,9 @@ DEFAULT_GENERATOR = "Unix Makefiles"
 LAUNCHED_LANGUAGES = ("C", "CXX")
 #: the local gate's CMake file of a distributed build (builder/distribute.py)
 LOCAL_GATE_VAR = "WSBUILD_LOCAL_GATE_CMAKE"
+#: what CMake's Ninja generator runs every time, the same from the same (see
+#: `CMakeBuildType.deterministic_targets`)
+CMAKE_OWN_TARGETS = ("*CMakeFiles/VerifyGlobs.cmake_force", "*CMakeFiles/cmake.verify_globs")
 #: seconds `ninja -n` / `make -n` may take after a build
 _WORK_LEFT_SECONDS = 60
 #: what `make -n` prints for CMake's own bookkeeping in a Makefile project
@@ -411,13 +414,17 @@ class CMakeBuildType:
         left = _work_left(done.stdout, generator, self.deterministic_targets)
         if not left:
             return ""
-        shown = left[0].split("] ", 1)[-1] if generator == NINJA else left[0]
+        shown = re.sub(r"^cd \S+ && ", "", left[0])
+        if len(shown) > 120:  # paths by their names: what runs, not where
+            shown = re.sub(r"/\S*/", "", shown)
         shown = shown if len(shown) <= 120 else shown[:117] + "..."
         return f"right after the build, {generator} still runs: {shown}"
 
-    #: always-run targets (by their output, as `ninja -d explain` names it) known to make the
-    #: same files from what they read (which the record holds): plain CMake knows none
-    deterministic_targets: tuple[str, ...] = ()
+    #: always-run targets (by their output, as `ninja -d explain` names it, fnmatch patterns)
+    #: known to make the same files from what they read (which the record holds): CMake's
+    #: own check of `file(GLOB … CONFIGURE_DEPENDS)`, which configures again only when a glob
+    #: finds other files
+    deterministic_targets: tuple[str, ...] = CMAKE_OWN_TARGETS
 
     def keeps_earlier_work(self, ctx: PackageContext) -> bool:
         """Whether this build reuses what an earlier one left in the build directory (Ninja
