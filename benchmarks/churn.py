@@ -1,9 +1,11 @@
 """Churn: random sequences of changes to every kind of input a package's output depends on, each
 followed by an incremental `wsbuild build` and `wsbuild test` in wsbuild's default
 configuration (the build cache on, the no-op replay on) and compared with a build and test from
-scratch of a fresh copy: `install/` (file set and bytes) and every test's verdict must be the
-same. tests/test_churn.py runs 30 sequences (hypothesis); this script runs more and prints what
-it found.
+scratch of a fresh copy: `install/` (its files, symlinks and directories, empty ones too, by
+content, target and mode) and every test's verdict must be the same. Every step changes
+something (a change is drawn as a move away from its input's current variant), and every kind
+of change is made in every run (`coverage`). tests/test_churn.py runs 30 random sequences and
+the coverage (hypothesis); this script runs more and prints what it found.
 
     .venv/bin/python benchmarks/churn.py                 # 200 sequences, about an hour
     .venv/bin/python benchmarks/churn.py --sequences 20  # fewer
@@ -17,13 +19,18 @@ The workspace copies the patterns of real packages, written here:
   `add_subdirectory` builds, files in directories named `build/` and `log/` it installs, the
   environment variable TURTLEBOT3_MODEL read at configure (turtlebot3's pattern), two values
   from mixins that the defaults file applies (COLCON_DEFAULTS_FILE: `build: {mixin: [...]}`),
-  and a `tools/` directory it installs into its share directory;
+  a file outside the package read at configure time only (`file(STRINGS …)`, in no CMake
+  list), a header a custom command's shell script writes from the variable CHURN_GEN (a
+  variable read by a build step, no build system watches it), and a `tools/` directory it
+  installs into its share directory;
 - `churn_py` (ament_python, depends on churn_core): its setup.py finds churn_core's share
   directory through ament_index_python and makes a console script of each `*.tool` there (a
   glob over a dependency's share directory), installs a `data_files` file from outside the
-  package and one reached through a symlink out of it, reads TURTLEBOT3_MODEL; it has a Python
-  subpackage `log/`, a test fixture under `test/log/` and tests that read the fixture, the
-  environment variable and a package of a chained underlay workspace;
+  package and one reached through a symlink out of it, reads TURTLEBOT3_MODEL, and takes its
+  description from a file outside the package that a subprocess (`cat`) reads; it has a
+  Python subpackage `log/`, a test fixture under `test/log/` and tests that read the fixture,
+  the environment variables TURTLEBOT3_MODEL and CHURN_TEST_LEVEL (the latter read by a test
+  only) and a package of a chained underlay workspace; it is moved inside `src/` and back;
 - `churn_under`, the underlay workspace's one ament_python package, which churn_py's tests
   import.
 """
@@ -86,7 +93,11 @@ if(NOT DEFINED CHURN_DEFAULT)
   set(CHURN_DEFAULT "none")
 endif()
 set(CHURN_MODEL "$ENV{TURTLEBOT3_MODEL}")
+file(STRINGS ${CMAKE_CURRENT_SOURCE_DIR}/../../shared_data/config.txt CHURN_CONFIG
+     LIMIT_COUNT 1)
 configure_file(src/config.h.in config.h)
+add_custom_command(OUTPUT gen.h
+  COMMAND sh ${CMAKE_CURRENT_SOURCE_DIR}/tools/gen.sh gen.h)
 file(GLOB CHURN_GLOBBED CONFIGURE_DEPENDS
      "${CMAKE_CURRENT_SOURCE_DIR}/../../data/globbed/*.txt")
 add_custom_command(
@@ -96,7 +107,7 @@ add_custom_command(
           -P ${CMAKE_CURRENT_SOURCE_DIR}/cmake/gen_table.cmake
   DEPFILE table.d)
 add_subdirectory(vendor)
-add_executable(churn_core src/main.cpp table.h)
+add_executable(churn_core src/main.cpp table.h gen.h)
 target_include_directories(churn_core PRIVATE ${CMAKE_CURRENT_BINARY_DIR}
   ${CMAKE_CURRENT_SOURCE_DIR}/../../third_party/include)
 target_link_libraries(churn_core vendored)
@@ -115,18 +126,20 @@ CORE_MAIN = """
 #include "config.h"
 #include "ext.h"
 #include "table.h"
+#include "gen.h"
 #include "vendor.h"
 int vendored();
 int main() {{
-  std::printf("{greeting} ext=%d table=%d vendor=%d flag=%d mixin=%s default=%s model=%s\\n",
-              EXT_VALUE, TABLE_VALUE, vendored(), CHURN_FLAG_VALUE, CHURN_MIXIN,
-              CHURN_DEFAULT, CHURN_MODEL);
+  std::printf("{greeting} ext=%d table=%d vendor=%d flag=%d mixin=%s default=%s model=%s"
+              " config=%s gen=%s\\n", EXT_VALUE, TABLE_VALUE, vendored(), CHURN_FLAG_VALUE,
+              CHURN_MIXIN, CHURN_DEFAULT, CHURN_MODEL, CHURN_CONFIG, CHURN_GEN);
   return 0;
 }}
 """
 
 PY_SETUP = """
 import os
+import subprocess
 from glob import glob
 
 from ament_index_python.packages import get_package_share_directory
@@ -137,17 +150,23 @@ tools_dir = os.path.join(get_package_share_directory('churn_core'), 'tools')
 tools = sorted(os.path.splitext(os.path.basename(path))[0]
                for path in glob(os.path.join(tools_dir, '*.tool')))
 model = os.environ.get('TURTLEBOT3_MODEL', 'burger')
+here = os.path.dirname(os.path.abspath(__file__))
+workspace = here.rpartition(os.sep + 'src' + os.sep)[0]
+about = subprocess.run(['cat', os.path.join(workspace, 'shared_data', 'about.txt')],
+                       capture_output=True, text=True, check=True).stdout.strip()
 
 setup(
     name=package_name,
     version='0.1.0',
+    description=about,
     packages=[package_name, package_name + '.log'],
     data_files=[
         ('share/ament_index/resource_index/packages', ['resource/' + package_name]),
         ('share/' + package_name, ['package.xml']),
         ('share/' + package_name + '/models/' + model, ['install/model.yaml']),
         ('share/' + package_name + '/data', ['churn_py/data/link.txt']),
-        ('share/' + package_name + '/outside', ['../../shared_data/outside.yaml']),
+        ('share/' + package_name + '/outside',
+         [os.path.join(workspace, 'shared_data', 'outside.yaml')]),
     ],
     zip_safe=True,
     entry_points={'console_scripts': ['churn_py = churn_py.main:main']
@@ -178,6 +197,10 @@ def write_workspaces(root: Path) -> None:
         #define CHURN_MIXIN "@CHURN_MIXIN@"
         #define CHURN_DEFAULT "@CHURN_DEFAULT@"
         #define CHURN_MODEL "@CHURN_MODEL@"
+        #define CHURN_CONFIG "@CHURN_CONFIG@"
+        """)
+    _write(core / "tools" / "gen.sh", """
+        printf '#define CHURN_GEN "%s"\\n' "${CHURN_GEN:-plain}" > "$1"
         """)
     _write(core / "cmake" / "gen_table.cmake", """
         file(READ "${SRC}" value)
@@ -217,6 +240,13 @@ def write_workspaces(root: Path) -> None:
         def test_the_model_is_not_broken():
             assert os.environ.get('TURTLEBOT3_MODEL', 'burger') != 'broken'
         """)
+    _write(py / "test" / "test_level.py", """
+        import os
+
+
+        def test_the_level_is_not_broken():
+            assert os.environ.get('CHURN_TEST_LEVEL', '1') != 'broken'
+        """)
     _write(py / "test" / "test_underlay.py", """
         from churn_under.core import VALUE
 
@@ -226,6 +256,7 @@ def write_workspaces(root: Path) -> None:
         """)
     (ws / "shared_data").mkdir(parents=True, exist_ok=True)
     _write(ws / "shared_data" / "outside.yaml", "outside: 1\n")
+    (ws / "empty_dirs").mkdir(exist_ok=True)
     for change in CHANGES:
         change.apply(root, 0)
 
@@ -241,11 +272,25 @@ class Change:
     what: str = ""
 
 
+def _py_dir(root: Path) -> Path:
+    """Where churn_py is now (it is moved inside src/ and back)."""
+    src = root / "ws_a" / "src"
+    nested = src / "nested" / "churn_py"
+    return nested if nested.is_dir() else src / "churn_py"
+
+
+def _located(root: Path, under: str, rel: str) -> Path:
+    """`rel` below `under`, a path of churn_py's where churn_py is now."""
+    if under == "ws_a" and rel.startswith("src/churn_py/"):
+        return _py_dir(root) / rel[len("src/churn_py/"):]
+    return root / under / rel
+
+
 def _file_variant(rel: str, texts: Sequence[str | None], what: str,
                   under: str = "ws_a") -> Change:
     """A file whose content is one of `texts` (None: the file is absent)."""
     def apply(root: Path, variant: int) -> None:
-        path = root / under / rel
+        path = _located(root, under, rel)
         text = texts[variant]
         if text is None:
             path.unlink(missing_ok=True)
@@ -255,17 +300,16 @@ def _file_variant(rel: str, texts: Sequence[str | None], what: str,
 
 
 def _symlink(root: Path, variant: int) -> None:
-    link = root / "ws_a" / "src" / "churn_py" / "churn_py" / "data" / "link.txt"
+    link = _py_dir(root) / "churn_py" / "data" / "link.txt"
     link.parent.mkdir(parents=True, exist_ok=True)
-    target = Path("..") / ".." / ".." / ".." / "shared_data" / ("target_a.txt" if variant == 0
-                                                                else "target_b.txt")
+    target = root / "ws_a" / "shared_data" / ("target_a.txt" if variant == 0 else "target_b.txt")
     if link.is_symlink() or link.exists():
         link.unlink()
-    link.symlink_to(target)
+    link.symlink_to(os.path.relpath(target, link.parent))
 
 
 def _rename(root: Path, variant: int) -> None:
-    directory = root / "ws_a" / "src" / "churn_py" / "churn_py" / "log"
+    directory = _py_dir(root) / "churn_py" / "log"
     names = ("helper.py", "aid.py")
     for name in names:
         (directory / name).unlink(missing_ok=True)
@@ -275,6 +319,27 @@ def _rename(root: Path, variant: int) -> None:
 def _environment(root: Path, variant: int) -> None:
     values = ("", "burger", "waffle", "broken")
     (root / "model").write_text(values[variant])
+
+
+def _variable(name: str, values: Sequence[str]) -> Change:
+    """A variable of the environment wsbuild runs in (`root/variables/<name>`; "" unset)."""
+    def apply(root: Path, variant: int) -> None:
+        _write(root / "variables" / name, values[variant])
+    return Change(f"${name}", len(values), apply, f"the variable {name}")
+
+
+def _moved(root: Path, variant: int) -> None:
+    """churn_py moved inside src/ (its own files, relative, are the same)."""
+    src = root / "ws_a" / "src"
+    places = (src / "churn_py", src / "nested" / "churn_py")
+    current = next((p for p in places if p.exists()), None)
+    if current is not None and current != places[variant]:
+        link = current / "churn_py" / "data" / "link.txt"
+        pointed = os.readlink(link) if link.is_symlink() else ""
+        places[variant].parent.mkdir(parents=True, exist_ok=True)
+        current.rename(places[variant])
+        if pointed:  # a relative link out of the package: its target where it was
+            _symlink(root, 1 if pointed.endswith("target_b.txt") else 0)
 
 
 def _touch(root: Path, variant: int) -> None:
@@ -356,6 +421,14 @@ CHANGES: tuple[Change, ...] = (
     Change("touch main.cpp", 2, _touch, "a source file touched, its content unchanged"),
     Change("backdated ext.h", 2, _same_size_backdated,
            "a same-size edit of an outside header with its time set back"),
+    _file_variant("shared_data/about.txt", ["about one\n", "about two\n"],
+                  "a file outside the package a setup.py's subprocess reads"),
+    _file_variant("shared_data/config.txt", ["config-1\n", "config-2\n"],
+                  "a file outside the package CMake reads at configure time only"),
+    _variable("CHURN_GEN", ("", "spicy", "mild")),
+    _variable("CHURN_TEST_LEVEL", ("", "2", "broken")),
+    Change("move churn_py", 2, _moved, "a package moved inside src/ and back"),
+    _file_variant("empty_dirs/.keep", ["", None], "a file outside every package no step reads"),
 )
 #: changes that also need the base files of the ones that follow (the symlink's targets)
 _ALWAYS = ("shared_data/target_b.txt", "target b\n"), ("src/churn_core/tools/alpha.tool",
@@ -396,7 +469,7 @@ class Churn:
 
     def _snapshot_inputs(self, name: str) -> None:
         """The inputs outside the workspace as the base state has them."""
-        for rel in ("colcon_home", "defaults.yaml", "under/src", "model"):
+        for rel in ("colcon_home", "defaults.yaml", "under/src", "model", "variables"):
             source, target = self.root / rel, self.root / f"{name}-inputs" / rel
             if target.exists():
                 continue
@@ -413,9 +486,10 @@ class Churn:
         shutil.copytree(self.root / "template", self.ws, symlinks=True)
         underlay_changed = self.state.get("under/src/churn_under/churn_under/core.py", 0) != 0
         for change in CHANGES:
-            if self.state.get(change.name, 0) != 0 and change.name in (
+            if self.state.get(change.name, 0) != 0 and (change.name in (
                     "colcon_home/mixin/churn.mixin", "defaults.yaml", "TURTLEBOT3_MODEL",
-                    "under/src/churn_under/churn_under/core.py"):
+                    "under/src/churn_under/churn_under/core.py")
+                    or change.name.startswith("$")):
                 change.apply(self.root, 0)
         self.state = {c.name: 0 for c in CHANGES}
         if underlay_changed:
@@ -443,6 +517,12 @@ class Churn:
             env["TURTLEBOT3_MODEL"] = model
         else:
             env.pop("TURTLEBOT3_MODEL", None)
+        variables = self.root / "variables"
+        for path in sorted(variables.iterdir()) if variables.is_dir() else []:
+            if path.read_text():
+                env[path.name] = path.read_text()
+            else:
+                env.pop(path.name, None)
         return env
 
     def _run(self, verb: str, *args: str, cwd: Path, env: Mapping[str, str] | None = None,
@@ -458,17 +538,20 @@ class Churn:
     def _build_underlay(self) -> None:
         self._run("build", cwd=self.root / "under")
 
-    def change(self, name: str, variant: int) -> None:
-        """Apply one change (or CLEAN)."""
+    def change(self, name: str, offset: int) -> int:
+        """Apply one change (or CLEAN): the input's variant `offset` away from its current one
+        (so every step changes something); the variant it now has."""
         if name == CLEAN:
             for base in ("build", "install"):
                 shutil.rmtree(self.ws / base, ignore_errors=True)
-            return
+            return 0
         change = next(c for c in CHANGES if c.name == name)
+        variant = (self.state.get(name, 0) + offset) % change.variants
         change.apply(self.root, variant)
         self.state[name] = variant
         if name.startswith("under/"):
             self._build_underlay()
+        return variant
 
     def compare(self) -> list[str]:
         """An incremental build, a recorded no-op and a test run in the incremental workspace,
@@ -519,7 +602,9 @@ class Churn:
     def _inputs_digest(self, env: Mapping[str, str]) -> str:
         """Every input's content: the workspace's sources and outside trees, the mixin and
         defaults files, the underlay's install, TURTLEBOT3_MODEL."""
-        digest = hashlib.sha256(env.get("TURTLEBOT3_MODEL", "\0unset").encode())
+        digest = hashlib.sha256(json.dumps(
+            [env.get(name, "\0unset") for name in ("TURTLEBOT3_MODEL", "CHURN_GEN",
+                                                  "CHURN_TEST_LEVEL")]).encode())
         for base in (self.ws, self.root / "colcon_home", self.root / "under" / "install"):
             for path in sorted(base.rglob("*")):
                 rel = path.relative_to(base)
@@ -534,17 +619,22 @@ class Churn:
 
 
 def tree(install: Path, ws: Path, as_if: Path | None = None) -> dict[str, str]:
-    """Every file and symlink of `install` by content digest (a symlink by its target), with
-    the workspace's path written as `as_if`'s (the two have names of one length)."""
+    """Every file, symlink and directory of `install` (empty ones too) by content digest and
+    mode (a symlink by its target), with the workspace's path written as `as_if`'s (the two
+    have names of one length)."""
     found: dict[str, str] = {}
     old, new = str(ws).encode(), str(as_if or ws).encode()
     for path in sorted(install.rglob("*")):
         rel = str(path.relative_to(install))
         if path.is_symlink():
             found[rel] = "-> " + os.readlink(path).replace(str(ws), str(as_if or ws))
+            continue
+        mode = f"{path.stat().st_mode & 0o7777:o}"
+        if path.is_dir():
+            found[rel + "/"] = f"directory {mode}"
         elif path.is_file():
             data = path.read_bytes().replace(old, new)
-            found[rel] = hashlib.sha256(data).hexdigest()
+            found[rel] = f"{hashlib.sha256(data).hexdigest()} {mode}"
     return found
 
 
@@ -572,8 +662,16 @@ def differences(what: str, got: Mapping[str, str], want: Mapping[str, str]) -> l
 
 
 def operations() -> list[tuple[str, int]]:
-    """Every change to draw from: each input with each of its variants, and CLEAN."""
-    return [(c.name, v) for c in CHANGES for v in range(c.variants)] + [(CLEAN, 0)]
+    """Every change to draw from: each input moved away from its current variant by each
+    offset it has (every step changes something), and CLEAN."""
+    return [(c.name, offset) for c in CHANGES for offset in range(1, c.variants)] \
+        + [(CLEAN, 1)]
+
+
+def coverage(part: int, parts: int) -> list[tuple[str, int]]:
+    """Part `part` of `parts` of a sequence that makes every kind of change once (each part
+    also removes build/ and install/ once): over the parts, every input is changed."""
+    return [(c.name, 1) for c in CHANGES[part::parts]] + [(CLEAN, 1)]
 
 
 def run_sequence(churn: Churn, sequence: Sequence[tuple[str, int]]) -> list[str]:
@@ -581,8 +679,8 @@ def run_sequence(churn: Churn, sequence: Sequence[tuple[str, int]]) -> list[str]
     naming the changes that led to it."""
     churn.start_sequence()
     done: list[str] = []
-    for name, variant in sequence:
-        churn.change(name, variant)
+    for name, offset in sequence:
+        variant = churn.change(name, offset)
         done.append(name if name == CLEAN else f"{name} → variant {variant}")
         problems = churn.compare()
         if problems:
@@ -609,8 +707,10 @@ def main(argv: Sequence[str] | None = None) -> int:
     rng = random.Random(args.seed)
     choices = operations()
     found = 0
-    for number in range(1, args.sequences + 1):
-        sequence = [rng.choice(choices) for _ in range(rng.randint(1, args.length))]
+    sequences = [coverage(0, 1)] + [
+        [rng.choice(choices) for _ in range(rng.randint(1, args.length))]
+        for _ in range(args.sequences)]
+    for number, sequence in enumerate(sequences):
         problems = run_sequence(churn, sequence)
         if problems:
             found += 1

@@ -10,7 +10,7 @@ import signal
 import subprocess
 import sys
 import tempfile
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from pathlib import Path
 
 import pytest
@@ -67,11 +67,53 @@ def _step_oracle_file() -> Path:
     return Path(os.environ[SUITE_STEP_ORACLE])
 
 
+def _findings(own: Path, session: Path) -> list[str]:
+    """What an oracle wrote into a test's own file, added to the session's (the summary)."""
+    lines: list[str] = []
+    for path in (own, Path(f"{own}.checked")):
+        try:
+            text = path.read_text()
+        except FileNotFoundError:
+            continue
+        target = session if path == own else Path(f"{session}.checked")
+        with open(target, "a", encoding="utf-8") as handle:
+            handle.write(text)
+        if path == own:
+            lines = [line for line in text.splitlines() if line and not line.startswith("#")]
+    return lines
+
+
+@pytest.fixture(autouse=True)
+def inputs_oracle(monkeypatch: pytest.MonkeyPatch, tmp_path_factory: pytest.TempPathFactory
+                  ) -> Iterator[Path]:
+    """Every test's recorded wsbuild runs write what the planning oracle found into a file
+    of the test's own: a finding fails the test that caused it (and the session's file keeps
+    it for the summary)."""
+    session = _oracle_file()
+    own = tmp_path_factory.mktemp("inputs-oracle") / "inputs-oracle.txt"
+    monkeypatch.setenv(ORACLE_VARIABLE, str(own))
+    yield own
+    found = _findings(own, session)
+    if found:
+        pytest.fail("the planning oracle found undeclared inputs (wsbuild/inputs.py):\n"
+                    + "\n".join(found[:20]), pytrace=False)
+
+
 @pytest.fixture
-def traced_steps(monkeypatch: pytest.MonkeyPatch) -> Path:
-    """The builds this test starts run their steps under the build-step oracle."""
-    monkeypatch.setenv(STEP_ORACLE_VARIABLE, os.environ[SUITE_STEP_ORACLE])
-    return _step_oracle_file()
+def traced_steps(monkeypatch: pytest.MonkeyPatch, tmp_path_factory: pytest.TempPathFactory
+                 ) -> Iterator[Path]:
+    """The builds this test starts run their steps under the build-step oracle (strace, held
+    against each package's record: builder/step_trace.py); a read no record holds fails this
+    test. Their compiles go through ccache (`--compiler-cache auto` finds the ccache
+    scripts/setup.sh installs): the oracle sees a compiler ccache runs, not one sccache's
+    server runs, outside every step."""
+    own = tmp_path_factory.mktemp("step-oracle") / "step-oracle.txt"
+    monkeypatch.setenv(STEP_ORACLE_VARIABLE, str(own))
+    yield own
+    found = _findings(own, _step_oracle_file())
+    if found:
+        pytest.fail("the build-step oracle found reads no package record holds "
+                    "(builder/step_trace.py):\n" + "\n".join(found[:20]), pytrace=False)
 
 PACKAGE_XML = """<?xml version="1.0"?>
 <package format="3">

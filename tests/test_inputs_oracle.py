@@ -52,23 +52,28 @@ def test_the_oracle_writes_nothing_when_every_access_was_declared(tmp_path: Path
 def test_the_oracle_exempts_the_standard_library_only(tmp_path: Path) -> None:
     """What the interpreter's standard library reads is exempt; nothing else of its prefix is
     (for a venv made from /usr/bin/python3, `sys.base_prefix` is /usr: its headers, CMake
-    modules and .pc files are inputs a plan must declare)."""
+    modules and .pc files are inputs a plan must declare), and its site-packages never are,
+    wherever they lie (the ROS wheels, ament_index_python's resources)."""
     import sysconfig
 
     stdlib_file = os.path.join(sysconfig.get_paths()["stdlib"], "os.py")
     beside = next(p for p in (Path(sys.base_prefix) / "include").rglob("*.h"))
+    site = Path(sysconfig.get_paths()["purelib"])
+    in_site = next(site.glob("*.dist-info")) / "METADATA"
     oracle_file = tmp_path / "oracle.txt"
     oracle = InputsOracle(str(oracle_file), str(tmp_path))
     oracle.install()
     try:
         os.stat(stdlib_file)
         os.stat(beside)
+        os.stat(in_site)
+        os.listdir(site)
     finally:
         oracle.uninstall()
     oracle.report_undeclared({}, set(), ())
-    flagged = [line.split("\t")[0] for line in oracle_file.read_text().splitlines()
-               if not line.startswith("#")]
-    assert flagged == [str(beside)]
+    flagged = sorted(line.split("\t")[0] for line in oracle_file.read_text().splitlines()
+                     if not line.startswith("#"))
+    assert flagged == sorted([str(beside), str(in_site), str(site)])
 
 
 def test_the_inputs_oracle_is_on_for_the_suites_recorded_runs(tmp_path: Path) -> None:

@@ -1,8 +1,9 @@
 """The build-step oracle (builder/step_trace.py): with WSBUILD_STEP_TRACE naming a file, each
-command step of a build runs under strace, and each file a step read that the package's record
-does not hold is written to that file, naming the package, the step and the file. The suite runs
-the builds of its up-to-date, early-cutoff and churn tests under it (tests/conftest.py's
-`traced_steps`)."""
+command step of a build (and the warm helper that reads a setup.py) runs under strace, and each
+file a step read that the package's record does not hold is written to that file, naming the
+package, the step and the file; nothing is exempt for where it lies. The suite runs the builds
+of its up-to-date, observed-inputs, early-cutoff and churn tests under it (tests/conftest.py's
+`traced_steps`), and a finding fails the test that caused it."""
 
 from __future__ import annotations
 
@@ -14,22 +15,36 @@ from test_build_helpers import wsbuild as run
 
 from wsbuild.builder.step_trace import CHECKED_SUFFIX, step_reads
 
-#: a custom command that reads a file outside the package no list of CMake's or Ninja's names
-#: (no DEPENDS, no depfile): the record cannot hold it, and Ninja would not rebuild on it
+#: a custom command whose program reads a file outside the package by raw system calls, which
+#: no C library function sees (the observer interposes the C library's): the record cannot
+#: hold it, strace sees it
 SNEAKY = """
 cmake_minimum_required(VERSION 3.16)
-project(sneaky NONE)
+project(sneaky C)
+add_executable(rawcat rawcat.c)
 add_custom_command(OUTPUT copied.txt
-  COMMAND cat ${CMAKE_CURRENT_SOURCE_DIR}/../../outside/secret_input.txt > copied.txt)
+  COMMAND rawcat ${CMAKE_CURRENT_SOURCE_DIR}/../../outside/secret_input.txt > copied.txt
+  DEPENDS rawcat)
 add_custom_target(copy ALL DEPENDS copied.txt)
 install(FILES ${CMAKE_CURRENT_BINARY_DIR}/copied.txt package.xml DESTINATION share/sneaky)
+"""
+RAWCAT = """#include <fcntl.h>
+#include <sys/syscall.h>
+#include <unistd.h>
+int main(int argc, char **argv) {
+    char buffer[256];
+    long fd = syscall(SYS_openat, AT_FDCWD, argv[1], O_RDONLY);
+    long n = fd < 0 ? 0 : syscall(SYS_read, fd, buffer, sizeof buffer);
+    syscall(SYS_write, 1, buffer, n > 0 ? n : 0);
+    return argc > 1 ? 0 : 1;
+}
 """
 
 
 def test_a_step_that_reads_a_file_no_list_names_is_named(tmp_path: Path) -> None:
     ws = tmp_path / "ws"
     secret = write(ws / "outside" / "secret_input.txt", "hidden\n")
-    write_cmake(ws / "src", "sneaky", SNEAKY)
+    write_cmake(ws / "src", "sneaky", SNEAKY, files={"rawcat.c": RAWCAT})
     oracle = tmp_path / "steps.txt"
     result = run("build", cwd=ws, env=clean_env(WSBUILD_STEP_TRACE=str(oracle)))
     assert result.returncode == 0, output(result)
@@ -41,8 +56,9 @@ def test_a_step_that_reads_a_file_no_list_names_is_named(tmp_path: Path) -> None
 
 
 def test_what_the_record_holds_is_not_named_and_every_step_is_checked(tmp_path: Path) -> None:
-    """A C++ package reading a header and a CMake file from outside, and a Python package built
-    by the PEP 517 fallback (a command step): every read is in their records."""
+    """A C++ package reading a header and a CMake file from outside, a Python package built
+    by the PEP 517 fallback (a command step) and one by the fast path (the warm helper, traced
+    from its start): every read is in their records, the underlay's and the system's too."""
     ws = tmp_path / "ws"
     header = write(ws / "third_party" / "answer.h", "#define ANSWER 42\n")
     write(ws / "cmake" / "flags.cmake", "add_compile_definitions(FLAG=1)\n")
@@ -58,6 +74,7 @@ def test_what_the_record_holds_is_not_named_and_every_step_is_checked(tmp_path: 
     pkg = write_ament_python(ws / "src", "wheel_built", modules={"main.py": "X = 1\n"})
     write(pkg / "pyproject.toml", '[build-system]\nrequires = ["setuptools"]\n'
           'build-backend = "setuptools.build_meta"\n')
+    write_ament_python(ws / "src", "fast_path", modules={"main.py": "X = 1\n"})
     oracle = tmp_path / "steps.txt"
     result = run("build", cwd=ws, env=clean_env(WSBUILD_STEP_TRACE=str(oracle)))
     assert result.returncode == 0, output(result)
@@ -65,6 +82,8 @@ def test_what_the_record_holds_is_not_named_and_every_step_is_checked(tmp_path: 
     checked = {line.split("\t")[3]: line.split("\t") for line in
                Path(f"{oracle}{CHECKED_SUFFIX}").read_text().splitlines()}
     assert int(checked["asker"][0]) == 3 and int(checked["asker"][1]) > 100, checked
+    # the fast path's setup.py read in a helper traced from its start: setuptools' modules
+    assert int(checked["fast_path"][0]) >= 1 and int(checked["fast_path"][1]) > 100, checked
 
 
 def test_the_suites_step_oracle_is_on_where_a_test_asks(traced_steps: Path,

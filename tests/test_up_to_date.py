@@ -589,25 +589,6 @@ def test_an_environment_variable_the_build_reads_rebuilds_with_its_new_value(
         assert _program(ws, "bot") == "burger"
 
 
-def test_a_build_of_a_package_from_another_user_is_restored_naming_what_differed(
-        tmp_path: Path) -> None:
-    """HOME and USER differ between machines and users: they stay out of the key a cache entry
-    is found by, and a restore says they differed."""
-    ws = tmp_path / "ws"
-    _cmake_program(ws / "src", "shared_pkg", "",
-                   '#include <cstdio>\nint main() { std::puts("shared"); return 0; }\n')
-    _build(ws, env=_env(HOME=str(tmp_path / "alice"), USER="alice"))
-    for base in ("build", "install"):
-        shutil.rmtree(ws / base)
-    result = _build(ws, env=_env(HOME=str(tmp_path / "bob"), USER="bob"))
-    assert _restored(result) == ["shared_pkg"], output(result)
-    log = (ws / "log" / "latest_build" / "shared_pkg" / "command.log").read_text()
-    assert "built where HOME, USER differed" in log, log
-    # the restored record is this user's: the next build has nothing to do
-    assert "0 packages finished" in _build(ws, env=_env(HOME=str(tmp_path / "bob"),
-                                                        USER="bob")).stdout
-
-
 def test_sourcing_the_workspace_rebuilds_nothing_and_a_test_run_changes_no_source(
         tmp_path: Path) -> None:
     """What `source install/setup.bash` adds to the environment is the workspace's own

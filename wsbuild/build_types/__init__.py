@@ -30,9 +30,12 @@ if TYPE_CHECKING:
     from wsbuild.build_types.test_runner import TestRunner
 
 from wsbuild import inputs
+from wsbuild.build_types.step_observer import StepObserver
 from wsbuild.errors import ManifestError, WsbuildError
 from wsbuild.prefix.hooks import EnvironmentHooks
 from wsbuild.workspace.model import Package
+
+__all__ = ["StepObserver"]  # re-exported: the context's `observe` is one
 
 ENTRY_POINT_GROUP = "wsbuild.build_types"
 
@@ -143,30 +146,6 @@ Problems = Callable[[list[str]], list[str]]
 class Runner(Protocol):
     def __call__(self, command: Sequence[str], *, cwd: Path,
                  env: Mapping[str, str] | None = None, problems: Problems | None = None) -> None: ...
-
-
-class StepObserver(Protocol):
-    """How an in-process step has the processes it asks of a warm helper observed (the
-    observe/steps.py): the helper starts with the observer loaded and idle,
-    each request writes into a directory of its own."""
-
-    def helper_environment(self, env: Mapping[str, str], directory: Path) -> dict[str, str]:
-        """The environment a warm helper process starts with, writing what it reads while it
-        starts into `directory`."""
-        ...
-
-    def directory(self, label: str) -> Path:
-        """A new directory for the processes of one request of step `label`."""
-        ...
-
-    def request_environment(self, env: Mapping[str, str], directory: Path) -> dict[str, str]:
-        """`env` as the processes of one request run with it, writing into `directory`."""
-        ...
-
-    def add(self, label: str, directory: Path, env: Mapping[str, str]) -> None:
-        """What the processes that wrote into `directory` read, for step `label`, which
-        ran with `env`."""
-        ...
 
 
 @dataclass(frozen=True, slots=True)

@@ -19,7 +19,6 @@ from __future__ import annotations
 import functools
 import json
 import os
-import re
 import shutil
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
@@ -58,51 +57,6 @@ LOCAL_GATE_VAR = "WSBUILD_LOCAL_GATE_CMAKE"
 #: what CMake's Ninja generator runs every time, the same from the same (see
 #: `CMakeBuildType.deterministic_targets`)
 CMAKE_OWN_TARGETS = ("*CMakeFiles/VerifyGlobs.cmake_force", "*CMakeFiles/cmake.verify_globs")
-#: seconds `ninja -n` / `make -n` may take after a build
-_WORK_LEFT_SECONDS = 60
-#: what `make -n` prints for CMake's own bookkeeping in a Makefile project
-_MAKE_BOOKKEEPING = ("--check-build-system", "cmake_progress_start", "cmake_depends",
-                     "cmake_echo_color", "make -s -f", "make -f", "make[", "make:")
-
-
-#: `cmake -E` commands that make the same files from the same files (ament_cmake_python's
-#: always-run copy of generated Python code): work left of only these is no volatile build,
-#: what they copy from is in the build directory, made from what the record holds
-_SAME_FROM_SAME = re.compile(r"^(?:cd \S+ && )?\S*cmake -E (?:copy|copy_directory|"
-                             r"copy_if_different|make_directory|echo|echo_append|true)\b"
-                             r"(?:(?! && | ; |\|).)*$")
-
-
-def _work_left(output: str, generator: str, deterministic: Sequence[str]) -> list[str]:
-    """The commands of `ninja -n -d explain` / `make -n` the build would run (not CMake's
-    bookkeeping, not a copy CMake makes the same every time, not a target of `deterministic`
-    (fnmatch patterns of the outputs Ninja explains))."""
-    import fnmatch
-
-    left: list[str] = []
-    outputs: list[str] = []
-    for line in output.splitlines():
-        if generator != NINJA:
-            command = line.strip()
-            if command and not any(mark in command for mark in _MAKE_BOOKKEEPING) \
-                    and _SAME_FROM_SAME.match(command) is None:
-                left.append(command)
-            continue
-        explained = re.match(r"ninja explain: (?:output )?(\S+)", line)
-        if explained:
-            outputs.append(explained.group(1))
-            continue
-        if not line.startswith("["):
-            continue
-        command = line.split("] ", 1)[-1]
-        known = outputs and all(any(fnmatch.fnmatch(out, pattern) for pattern in deterministic)
-                                for out in outputs)
-        outputs = []
-        if not known and _SAME_FROM_SAME.match(command) is None:
-            left.append(command)
-    return left
-
-
 #: what a C/C++ toolchain reads from the environment at the first configure only: a change
 #: configures from scratch
 COMPILER_ENVIRONMENT = ("CC", "CXX", "CFLAGS", "CXXFLAGS", "CPPFLAGS", "LDFLAGS")
@@ -386,44 +340,15 @@ class CMakeBuildType:
                     reads=(ctx.source_dir, ctx.build_dir), writes=(ctx.build_dir,))
 
     def work_left(self, ctx: PackageContext) -> str:
-        """What the build system would still run right after the build (a custom target with
-        no output, an always-out-of-date rule: `ninja -n`, `make -n` less CMake's own
-        bookkeeping); "" when nothing, or when the generator cannot be asked."""
-        import subprocess
+        """What the build system still runs right after the build (cmake_work_left.py)."""
+        from wsbuild.build_types.cmake_work_left import work_left
 
-        own = cmake_options(ctx)
-        generator = self.generator(ctx)
         ninja = self.ninja(ctx)
-        if generator == NINJA and ninja is not None:
-            command = [str(ninja.path), "-C", str(ctx.build_dir), "-n", "-d", "explain"]
-        elif generator == DEFAULT_GENERATOR:
-            command = ["make", "-C", str(ctx.build_dir), "-n"]
-        else:
-            return ""
-        if own.target:
-            command.append(own.target)
-        env = {k: v for k, v in ctx.environ.items() if k not in ("MAKEFLAGS", "MFLAGS")}
-        try:
-            # Ninja explains on stderr, in the order of what it prints on stdout
-            done = subprocess.run(command, env=env, stdout=subprocess.PIPE,
-                                  stderr=subprocess.STDOUT, text=True,
-                                  timeout=_WORK_LEFT_SECONDS, check=False,
-                                  stdin=subprocess.DEVNULL)
-        except (OSError, subprocess.SubprocessError):
-            return ""
-        left = _work_left(done.stdout, generator, self.deterministic_targets)
-        if not left:
-            return ""
-        shown = re.sub(r"^cd \S+ && ", "", left[0])
-        if len(shown) > 120:  # paths by their names: what runs, not where
-            shown = re.sub(r"/\S*/", "", shown)
-        shown = shown if len(shown) <= 120 else shown[:117] + "..."
-        return f"right after the build, {generator} still runs: {shown}"
+        return work_left(ctx.build_dir, self.generator(ctx), ninja.path if ninja else None,
+                         cmake_options(ctx).target, ctx.environ, self.deterministic_targets)
 
-    #: always-run targets (by their output, as `ninja -d explain` names it, fnmatch patterns)
-    #: known to make the same files from what they read (which the record holds): CMake's
-    #: own check of `file(GLOB … CONFIGURE_DEPENDS)`, which configures again only when a glob
-    #: finds other files
+    #: always-run targets (their outputs as `ninja -d explain` names them) that make the same
+    #: files from what they read: CMake's check of `file(GLOB … CONFIGURE_DEPENDS)`
     deterministic_targets: tuple[str, ...] = CMAKE_OWN_TARGETS
 
     def keeps_earlier_work(self, ctx: PackageContext) -> bool:

@@ -1,7 +1,8 @@
 """One package's build as the plan decided it, one method per phase: restore from the build
-cache, or stage → run the build type's steps → register → commit into install/ → write its
-record → store into the build cache. Each package build runs in its own worker thread and
-shares only read-only run resources with the others."""
+cache or cut off (builder/reuse.py), or stage → run the build type's steps, observed
+(builder/observing.py), with the times make and Ninja need (builder/times.py) → register →
+commit into install/ → write its record → store into the build cache. Each package build runs
+in its own worker thread and shares only read-only run resources with the others."""
 
 from __future__ import annotations
 
@@ -11,7 +12,6 @@ import time
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from pathlib import Path
-from typing import TYPE_CHECKING
 
 from wsbuild.build_types import (
     PackageContext,
@@ -33,18 +33,15 @@ from wsbuild.engine.jobs import JobResult, Outcome, StepStarted
 from wsbuild.engine.jobserver import Jobserver
 from wsbuild.engine.process import env_delta, format_command, run_command
 from wsbuild.errors import WsbuildError
-from wsbuild.inputs import ABSENT
-from wsbuild.events import CacheRestored, Emit
+from wsbuild.events import Emit
 from wsbuild.record.installed import Installed
 from wsbuild.record.model import PackageRecord
+from wsbuild.record.undeclared import undeclared_lines
 from wsbuild.redaction import redact
 from wsbuild.session import Session
 from wsbuild.workspace.model import DepCategory
 from wsbuild.workspace.selection import Selection
-from wsbuild.words import did_you_mean
 
-if TYPE_CHECKING:
-    from wsbuild.record.dirty import Environment
 
 
 @dataclass(frozen=True, slots=True)
@@ -89,6 +86,9 @@ class PackageBuild:
     volatile: str = ""
     #: this build reuses what the last one left in the build directory (builder/records.py)
     _kept_earlier_work: bool = False
+    #: files outside the package whose time this build set forward, with their content's
+    #: digest then (not changed since: what the steps read, however new their times)
+    touched: dict[str, str] = field(default_factory=dict)
 
     @property
     def name(self) -> str:
@@ -156,8 +156,10 @@ class PackageBuild:
             raise
         record = self.write_record(installed)
         self.traces.check(self.name, record, self.planned.source_dir,
-                          outputs=(self.build_dir, self.prefix, self._ctx().stage_prefix))
-        undeclared = self._undeclared(record)
+                          outputs=(self.build_dir, self.prefix, self._ctx().stage_prefix),
+                          exempt=self._not_inputs())
+        undeclared = undeclared_lines(self.name, self._installs_read(record),
+                                      self.run.selection.graph.build_closure(self.name))
         if undeclared and self.run.strict_dependencies:
             return JobResult(self.name, Outcome.FAILED, self._seconds(), log_dir=self.log_dir,
                              message="\n".join(undeclared) + "\n  (--strict-dependencies)")
@@ -170,36 +172,23 @@ class PackageBuild:
 
     def restore(self) -> JobResult | None:
         """Install the build cache's entry the plan found, once this machine proves it again
-        with its dependencies as this run left them; None when it is refused (the package is
-        then built). The package's record becomes the entry's (builder/records.py)."""
-        from wsbuild.builder.records import restored_record
-        from wsbuild.record.model import write_record
+        (builder/reuse.py); None when it is refused (the package is then built)."""
+        from wsbuild.builder.reuse import restore
 
-        planned = self.planned
-        assert planned.cache_key is not None and planned.cache_entry is not None
-        session = self.run.session
-        key = planned.cache_entry.key or planned.cache_key
-        restored = session.cache.restore(
-            key, planned.cache_entry.found, self.prefix, self.merged_record,
-            inputs_key=planned.inputs_key, dependencies=self._dependency_keys(),
-            digests=session.digests)
-        if isinstance(restored, str):
-            self._log(f"Not restored from the build cache: {restored}")
-            return None
-        entry, entry_record, installed = restored
-        write_record(self.build_dir, restored_record(
-            planned, entry_record, installed,
-            install_base=self.run.selection.workspace.install_base, digests=session.digests))
-        (self.build_dir / BUILDING_MARKER).unlink(missing_ok=True)
-        self._log(f"Restored from the build cache ({entry.source}, archive {entry.digest})")
-        self.run.emit(CacheRestored(self.name, entry.source))
-        return JobResult(self.name, Outcome.FINISHED, self._seconds(), log_dir=self.log_dir,
-                         message="restored from cache")
+        return restore(self)
+
+    def _cut_off(self) -> JobResult | None:
+        """Up to date after all when nothing it read of its dependencies (built before it in
+        this run) changed (builder/reuse.py); None when something did."""
+        from wsbuild.builder.reuse import cut_off
+
+        return cut_off(self)
 
     def stage(self) -> None:
         """Mark the build unfinished, make a fresh stage and the package's context (the one
         the plan decided its steps from, with the run's own resources: builder/context.py)."""
         from wsbuild.builder.context import make_context
+        from wsbuild.builder.times import redo_for_backdated
         from wsbuild.prefix import stage as staging
 
         self._mark_unfinished()
@@ -219,24 +208,24 @@ class PackageBuild:
             options=self.planned.options.applied_to(self.run.options),
             stage_prefix=self.stage_prefix, run_environ=run_environ, run=self._run_command,
             warn=self.warnings.append, jobserver_fifo=self.run.jobserver.fifo,
-            redo=(*(reason.redo if reason is not None else ()), *self.redo_for_backdated()),
+            redo=(*(reason.redo if reason is not None else ()), *redo_for_backdated(
+                self.planned, self.build_dir, self.run.selection.workspace.root,
+                self.run.session.digests, self._log)),
             observe=self.observations)
         # decided before the steps run (they change what the build directory holds)
         self._kept_earlier_work = keeps is not None and keeps(self.context)
 
     def _observations(self, run_environ: Mapping[str, str]) -> StepObservations:
-        """A fresh record of what this build's steps read (observe/steps.py): what wsbuild
-        sets for this run only and a compiler cache's own state are no input."""
-        from wsbuild.observe.steps import OBSERVE_DIR
+        """A fresh record of what this build's steps read (builder/observing.py)."""
+        from wsbuild.builder.observing import observations_of
 
-        compilers = self.run.compilers
-        observations = StepObservations(
-            self.build_dir / OBSERVE_DIR, self.run.session.observer,
-            run_only=set(run_environ),
-            tool_state=compilers.state_dirs() if compilers is not None else (),
-            tool_variables=compilers.own_variables if compilers is not None else {})
-        observations.start()
-        return observations
+        return observations_of(self, run_environ)
+
+    def _not_inputs(self) -> tuple[Path, ...]:
+        """What the build-step oracle does not hold to the record (builder/observing.py)."""
+        from wsbuild.builder.observing import not_inputs
+
+        return not_inputs(self)
 
     def _work_left(self) -> str:
         """What the build system would still do right after the steps (its build type's
@@ -298,55 +287,13 @@ class PackageBuild:
                              env_delta=delta) from None
 
     def _advance_changed_files(self) -> None:
-        """Files whose content changed while their modification time did not advance get the
-        current time, since make and Ninja compare times only and would keep the outputs built
-        from the old content: the package's own sources edited so (`cp -p`, `touch -d`, some
-        sync tools), and what its last build read inside the workspace (a dependency's
-        installed header: CMake installs a file with its source's time cut to the second).
-        Files outside the workspace are not wsbuild's to touch: `redo_for_backdated` builds
-        the package from scratch instead."""
-        planned = self.planned
-        changed = [planned.source_dir / rel for rel in planned.backdated]
-        changed += [Path(path) for path in self._changed_outside(inside=True)]
-        for path in changed:
-            try:
-                os.utime(path)
-            except OSError:
-                continue
-            self._log(f"Set the modification time of {path} to now: its content changed, its "
-                      "time did not advance, and the build system compares times only")
+        """Files whose content changed while their time did not advance get the current time
+        (builder/times.py), so make and Ninja see what the record sees."""
+        from wsbuild.builder.times import advance_changed_files
 
-    def _changed_outside(self, *, inside: bool) -> list[str]:
-        """The files the last build read whose content changed since, inside the workspace
-        (`inside`) or outside it whose modification time did not advance past the one the
-        last build saw (make and Ninja would not see them change)."""
-        previous = self.planned.previous
-        if previous is None:
-            return []
-        digests = self.run.session.digests
-        root = str(self.run.selection.workspace.root.absolute()) + os.sep
-        found = []
-        for path, seen in previous.outside.files.items():
-            if (path + os.sep).startswith(root) != inside:
-                continue
-            signature = digests.signature(path)
-            if signature == seen.signature or signature == ABSENT \
-                    or digests.file(path, signature) == seen.digest:
-                continue
-            if inside or (len(seen.signature) > 3 and signature[3] <= seen.signature[3]):
-                found.append(path)
-        return found
-
-    def redo_for_backdated(self) -> tuple[str, ...]:
-        """The steps to redo because a file the last build read outside the workspace changed
-        with a modification time that did not advance (`cp -p`, `tar x`): the build, from
-        scratch (its build type's reading of "build" in `redo`)."""
-        backdated = self._changed_outside(inside=False)
-        if backdated:
-            self._log(f"{backdated[0]} changed, its modification time did not advance and it "
-                      "lies outside the workspace: building from scratch")
-            return ("build",)
-        return ()
+        self.touched.update(advance_changed_files(
+            self.planned, self.build_dir, self.run.selection.workspace.root,
+            self.run.session.digests, self._log))
 
     def register(self) -> None:
         """package.xml, the index marker and the environment hooks, into the stage."""
@@ -406,7 +353,7 @@ class PackageBuild:
             earlier=self.planned.previous if keeps is not None and self._kept_earlier_work
             else None,
             declared=build_type.external_inputs(ctx), dependencies=self._dependency_keys(),
-            installed=installed, where=where,
+            installed=installed, where=where, touched=self.touched,
             install_base=self.run.selection.workspace.install_base,
             environment=session.environment,
             digests=session.digests, started_ns=self.started_ns, volatile=self.volatile,
@@ -420,8 +367,7 @@ class PackageBuild:
         return record
 
     def _installs_read(self, record: PackageRecord) -> dict[str, str]:
-        """The workspace packages whose install the record's steps read (record/undeclared.py):
-        package -> the first path read."""
+        """The workspace packages whose install the record's steps read (but its own)."""
         from wsbuild.record.undeclared import installs_read
 
         selection = self.run.selection
@@ -430,57 +376,10 @@ class PackageBuild:
         found.pop(self.name, None)
         return found
 
-    def _undeclared(self, record: PackageRecord) -> list[str]:
-        """A line for each workspace package whose install the steps read though the package
-        does not declare it (its own `package.xml` names no dependency on it): the next plan
-        orders it after that package (builder/plan.py), and the user should declare it."""
-        closure = self.run.selection.graph.build_closure(self.name)
-        found = self._installs_read(record)
-        return [f"{self.name} read {path} but does not declare {package}: add "
-                f"`<depend>{package}</depend>` to its package.xml"
-                for package, path in sorted(found.items()) if package not in closure]
-
     def _dependency_keys(self) -> dict[str, str]:
         from wsbuild.builder.records import dependency_keys
 
         return dependency_keys(self.planned, self.run.selection.workspace.build_base)
-
-    def _cut_off(self) -> JobResult | None:
-        """A package planned to build only if what it read of its dependencies (built before
-        it in this run) changed: up to date when nothing did, its record refreshed."""
-        from wsbuild.builder.records import cut_off_record
-        from wsbuild.record.dirty import cutoff_note
-        from wsbuild.record.model import write_record
-
-        planned = self.planned
-        if planned.reason is None or not planned.reason.cutoff or planned.previous is None:
-            return None
-        dependencies = self._dependency_keys()
-        record = cut_off_record(planned, dependencies,
-                                install_base=self.run.selection.workspace.install_base,
-                                digests=self.run.session.digests,
-                                environment=self._environment_now())
-        if record is None:
-            return None
-        write_record(self.build_dir, record)
-        return JobResult(self.name, Outcome.UP_TO_DATE, self._seconds(),
-                         message=cutoff_note(planned.previous, dependencies))
-
-    def _environment_now(self) -> Environment:
-        """What the package's steps would see now, its dependencies (built before it in this
-        run) applied: a dependency's hook may set what a step reads."""
-        from wsbuild.builder.context import make_context
-        from wsbuild.record.dirty import Environment
-
-        session = self.run.session
-        ctx = make_context(self.run.selection, session, self.name, prefix=self.prefix,
-                           options=self.planned.options.applied_to(self.run.options))
-        environ = dict(ctx.environ)
-        for step in self.planned.steps:
-            if step.command is not None:
-                environ.update(step.command.env)
-        return Environment(environ, own_install=str(self.run.selection.workspace.install_base),
-                           ignored=session.options.not_inputs)
 
     def store(self, record: PackageRecord) -> None:
         """Into the build cache (when on) with its record, for the next machine or branch that
@@ -575,25 +474,11 @@ class PackageBuild:
 
     def _with_unresolved(self, result: JobResult) -> JobResult:
         """A failed package's report ends with the build dependencies it declared that were
-        not found: the likely cause, next to the error."""
-        unresolved = self.run.unresolved.get(self.name, ())
-        if result.outcome is not Outcome.FAILED or not unresolved:
-            return result
-        known = self._known_packages()
-        lines = [f"  declares build dependency {dep}, which was not found"
-                 + (f" ({hint})" if (hint := did_you_mean(dep, known)) else "")
-                 for dep in unresolved]
-        return replace(result, message="\n".join([result.message, *lines]))
+        not found (builder/failure.py)."""
+        from wsbuild.builder.failure import with_unresolved
 
-    def _known_packages(self) -> set[str]:
-        """The names a misspelt dependency may have meant: the workspace's packages and those
-        of the underlays' ament index."""
-        from wsbuild.workspace.resolve import ament_index
-
-        session = self.run.session
-        prefixes = [Path(p) for p in session.environ.get("AMENT_PREFIX_PATH", "").split(
-            os.pathsep) if p] + session.underlay_prefixes
-        return {*self.run.selection.packages, *ament_index(prefixes)}
+        return with_unresolved(result, self.run.unresolved.get(self.name, ()),
+                               self.run.selection, self.run.session)
 
     def _log(self, line: str) -> None:
         with open(self.log_dir / "command.log", "a") as handle:

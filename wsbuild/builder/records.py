@@ -38,21 +38,23 @@ def built_record(planned: PackagePlan, *, observations: StepObservations,
                  where: Where, install_base: Path, environment: Environment, digests: Digests,
                  started_ns: int, test_tree: bool = False, volatile: str = "",
                  compiler_variables: Sequence[str] = (),
-                 earlier: PackageRecord | None = None) -> PackageRecord:
+                 earlier: PackageRecord | None = None,
+                 touched: Mapping[str, str] | None = None) -> PackageRecord:
     """The record of a package just built: what the plan saw, its dependencies' keys, and what
     its steps were observed to read (with what the build type declares its in-process steps
     read and what its build system watches itself, `declared`). A path that changed while
     the package built is held as racy (record/outside.py). `compiler_variables`: read by the
     compiles of its build step, where nothing is observed (sccache's server). `earlier`: the
     last record, when this build reused what the last one left (an incremental CMake build:
-    what the compiles that did not run again read still counts)."""
+    what the compiles that did not run again read still counts). `touched`: files whose time
+    the build set forward, with their digest then (record/outside.py's racy rule)."""
     if declared is not None and not isinstance(declared, ReadOutside):
         declared = ReadOutside(files=tuple(declared))  # a third-party type's list of files
     declared = declared or ReadOutside()
     reads = observed_reads(
         observations, where, digests, files=declared.files, listings=declared.listings,
         tracked=set(declared.files) | set(declared.listings), started_ns=started_ns,
-        own=own_entries(str(install_base), installed),
+        own=own_entries(str(install_base), installed), settled=touched,
         extra_variables={"build": compiler_variables} if compiler_variables else None)
     ignored = (*environment.ignored, *observations.run_only)
     names = set(reads.seen)

@@ -1,26 +1,29 @@
 """The build-step oracle of the test suite: with WSBUILD_STEP_TRACE naming a file, every command
 step of a package's build runs under `strace -f` (Debian's strace, filtered by seccomp-bpf to
-open, openat and execve), and once the package's record is written, each file a step read that
-the record does not hold is appended to that file, naming the package, the step and the file
-(Shake's lint, Bazel's sandbox). Never on in a user's run.
+open, openat and execve), and so does the warm helper that reads a Python package's setup.py
+(a helper of its own, traced from its start: what it imported then is the package's too);
+once the package's record is written, each file a step read that the record does not hold is
+appended to that file, naming the package, the step and the file (Shake's lint, Bazel's
+sandbox). Never on in a user's run. It is the independent check of the observer (observe/):
+strace sees the system calls, the observer what the C library and Python are asked.
 
-A read counts when a step opened a file for reading and got it: failed opens and directory
-listings are the searches of include, module and package paths (`find_package`, the compiler's
-`-I`), which no build system records either (a glob that must be redone, CMake's
-`CONFIGURE_DEPENDS`, is in the record by its build system's list). The record holds a read
-when the file is one of the package's own files, or the record's outside files hold it. Not files the record must hold (`TOOLS`): what the
-package's build writes (its build directory, its stage and install prefix, what a step
-created), the programs the steps ran and the shared libraries and files those programs are
-made of (the compilers' own directories, CMake's modules, the interpreter's standard library
-and installed distributions: the record holds the programs by content, the interpreter by
-path and version), and the machine's own state (/proc, /sys, /dev, /etc, locales)."""
+A read counts when a step opened a file for reading and got it (failed opens and directory
+listings are searches, which the record holds as probes and listings; strace is not asked
+about them). The record holds a read when the file is one of the package's own files, or the
+record's outside files hold it (by its path, or by where the path leads). Nothing is exempt for
+where it lies: not the underlay's site-packages, headers or CMake files, not the compilers'
+directories, not the system's. Left out are only what is no input by what it is: what the
+package's build writes (its build directory, stage and install prefix, what a step wrote),
+the machine's running state (`/proc`, `/sys`, `/dev`), the observer's own files, a compiler
+cache's storage (a cache returns what the compiler would make from what it reads: the sources
+and headers it hashes are reads of its own process), and a file gone by the end (a step's own
+temporary). A record of steps not fully observed is not checked (such a package builds every
+time); the checked file says so."""
 
 from __future__ import annotations
 
 import os
 import re
-import sys
-import sysconfig
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -34,14 +37,8 @@ CHECKED_SUFFIX = ".checked"
 #: an open that succeeded: the syscall, its arguments, and the path strace -y resolved
 _OPEN = re.compile(r"^\d+\s+(?:open|openat|openat2)\((?P<args>.*)\) = \d+<(?P<path>.*)>$")
 _EXECVE = re.compile(r'^\d+\s+execve\("(?P<path>(?:[^"\\]|\\.)*)",.* = 0$')
-_MULTIARCH = getattr(sys.implementation, "_multiarch", "x86_64-linux-gnu")
-#: directories whose files are the machine's or the tools', never a package's inputs
-_SYSTEM = ("/proc/", "/sys/", "/dev/", "/etc/", "/run/", "/usr/lib/locale/",
-           "/usr/share/locale/", "/usr/lib/gcc/", "/usr/libexec/gcc/", "/usr/share/zoneinfo/",
-           f"/usr/lib/{_MULTIARCH}/gconv/", "/usr/lib/bfd-plugins/",
-           f"/usr/lib/{_MULTIARCH}/bfd-plugins/")
-#: shared libraries, and the C library's startup files and archive the linker adds itself
-_TOOL_FILE = re.compile(r"(\.so(\.\d+)*|/[A-Za-z]?crt[^/]*\.o|/libc_nonshared\.a)$")
+#: the machine's running state
+_PSEUDO = ("/proc/", "/sys/", "/dev/")
 
 
 def trace_file() -> str | None:
@@ -94,45 +91,44 @@ def step_reads(trace: Path) -> StepReads:
     return StepReads(tuple(read), tuple(directories), frozenset(written), frozenset(programs))
 
 
-def _tool_roots() -> tuple[str, ...]:
-    """The interpreter's standard library and installed distributions, CMake's modules, and
-    the compiler caches' own files."""
-    paths = sysconfig.get_paths()
-    roots = {paths["stdlib"], paths["platstdlib"], paths["purelib"], paths["platlib"],
-             sys.base_prefix + os.sep + "lib"}
-    roots.update(str(p) for p in Path("/usr/share").glob("cmake-*"))
-    home = Path.home()
-    caches = Path(os.environ.get("XDG_CACHE_HOME") or home / ".cache")
-    roots.update(str(p) for p in (caches / "ccache", caches / "sccache", home / ".ccache"))
-    roots.update(os.environ[v] for v in ("CCACHE_DIR", "SCCACHE_DIR") if os.environ.get(v))
-    return tuple(sorted(root.rstrip(os.sep) + os.sep for root in roots))
-
-
 def unrecorded(record: PackageRecord, traces: Mapping[str, Path], *, source_dir: Path,
-               outputs: Iterable[Path]) -> tuple[list[tuple[str, str]], int]:
+               outputs: Iterable[Path], exempt: Iterable[Path] = ()
+               ) -> tuple[list[tuple[str, str]], int]:
     """(step, path) of every read of the traced steps that `record` does not hold, and how many
-    reads were checked; `outputs`: the package's build directory, stage and prefix."""
-    own = os.path.realpath(source_dir) + os.sep
-    inside = tuple({os.path.realpath(p) + os.sep for p in outputs}
-                   | {os.path.normpath(p) + os.sep for p in outputs})
-    held = {os.path.realpath(p) for p in record.outside.files} | set(record.outside.files)
-    # an own file that is a symlink out of the package is read where it points
-    held |= {os.path.realpath(source_dir / rel.partition("\0")[0]) for rel in record.own}
-    tools = _tool_roots() + _SYSTEM
+    reads were checked; `outputs`: the package's build directory, stage and prefix; `exempt`:
+    the observer's files and a compiler cache's storage."""
+    def prefixes(paths: Iterable[Path]) -> tuple[str, ...]:
+        return tuple({os.path.realpath(p) + os.sep for p in paths}
+                     | {os.path.normpath(p) + os.sep for p in paths})
+
+    inside = prefixes(outputs) + prefixes(exempt) + _PSEUDO
+    held = set(record.outside.files) | {os.path.realpath(p) for p in record.outside.files}
+    for rel in record.own:
+        path = source_dir / rel.partition("\0")[0]
+        held.update((os.path.normpath(path), os.path.realpath(path)))
     found: list[tuple[str, str]] = []
     checked = 0
     for step, trace in traces.items():
         reads = step_reads(trace)
-        programs = reads.programs
         for path in reads.read:
             checked += 1
-            if (path + os.sep).startswith(inside) or (path + os.sep).startswith(own) \
-                    or (path + os.sep).startswith(tools) or path in programs \
-                    or _TOOL_FILE.search(path) or path in reads.written or path in held \
+            if (path + os.sep).startswith(inside) or path in reads.written \
+                    or path in held or os.path.realpath(path) in held \
+                    or _source_of(path) in held \
                     or not os.path.lexists(path):  # a step's own temporary (cc1's /tmp/cc*.s)
                 continue
             found.append((step, path))
     return found, checked
+
+
+_PYC = re.compile(r"^(?P<dir>.*)/__pycache__/(?P<name>[^/.]+)\.[^/]+?\.pyc$")
+
+
+def _source_of(path: str) -> str | None:
+    """The source of a compiled Python module (what the record holds for it: observe/log.py),
+    None for any other file."""
+    match = _PYC.match(path) if path.endswith(".pyc") else None
+    return f"{match.group('dir')}/{match.group('name')}.py" if match else None
 
 
 @dataclass(slots=True)
@@ -141,6 +137,10 @@ class StepTraces:
 
     file: str | None = field(default_factory=trace_file)
     traces: dict[str, Path] = field(default_factory=dict)
+
+    @property
+    def on(self) -> bool:
+        return self.file is not None
 
     def command(self, argv: Sequence[str], step: str, build_dir: Path,
                 env: Mapping[str, str]) -> tuple[Sequence[str], Mapping[str, str]]:
@@ -152,26 +152,30 @@ class StepTraces:
 
         directory = private_directory(build_dir / ".wsbuild" / "trace")
         output = directory / f"{len(self.traces) + 1:02d}-{step or 'step'}.strace"
-        self.traces[f"{step or 'step'} ({argv[0]})"] = output
+        self.traces[f"{step or 'step'} ({Path(argv[0]).name})"] = output
         preloaded = {name: env[name] for name in ("LD_PRELOAD",) if name in env}
         return traced(argv, output, preloaded), {k: v for k, v in env.items()
                                                   if k not in preloaded}
 
     def check(self, package: str, record: PackageRecord, source_dir: Path,
-              outputs: Iterable[Path]) -> None:
+              outputs: Iterable[Path], exempt: Iterable[Path] = ()) -> None:
         """What the traced steps read that the record lacks, into the oracle's file."""
         if self.file is None or not self.traces:
             return
+        if not record.complete:
+            report(self.file, package, [], 0, len(self.traces), note="not fully observed")
+            return
         found, checked = unrecorded(record, self.traces, source_dir=source_dir,
-                                    outputs=outputs)
+                                    outputs=outputs, exempt=exempt)
         report(self.file, package, found, checked, len(self.traces))
 
 
 def report(file: str, package: str, found: list[tuple[str, str]], checked: int,
-           steps: int) -> None:
+           steps: int, note: str = "") -> None:
     """Append the unrecorded reads to the oracle's file, and what was checked beside it."""
     if found:
         with open(file, "a", encoding="utf-8") as handle:
             handle.writelines(f"{package}\t{step}\t{path}\n" for step, path in found)
     with open(file + CHECKED_SUFFIX, "a", encoding="utf-8") as handle:
-        handle.write(f"{steps}\t{checked}\t{len(found)}\t{package}\n")
+        handle.write(f"{steps}\t{checked}\t{len(found)}\t{package}"
+                     + (f"\t{note}" if note else "") + "\n")

@@ -124,7 +124,12 @@ class InputsOracle:
         """Append to the oracle's file every access no declaration covers (`seen`: declared
         paths, `listed`: declared listings; `outputs`: what the run writes, not inputs)."""
         prefixes = tuple(path + os.sep for path in outputs if path)
-        allowed = _interpreter_paths()
+        stdlib, sites = _interpreter_paths(), _sites()
+
+        def exempt(path: str) -> bool:
+            probe = path + os.sep
+            return probe.startswith(stdlib) and not probe.startswith(sites)
+
         # realpath() of the interpreter (sysconfig, site) lstats each of its ancestors
         interpreter_ancestors = {
             spelling[:i + 1] for spelling in (sys.base_prefix + os.sep, sys.executable + os.sep,
@@ -134,13 +139,13 @@ class InputsOracle:
         lines = []
         for (path, follow), caller in sorted(self.traced.items()):
             if path in declared or path in listed or path.rpartition("/")[0] in listed \
-                    or (path + os.sep).startswith(allowed) \
+                    or exempt(path) \
                     or (path + os.sep).startswith(prefixes) \
                     or (not follow and path + os.sep in interpreter_ancestors):
                 continue
             lines.append(f"{path}\t{'stat' if follow else 'lstat'}\t{caller}\n")
         for path, caller in sorted(self.traced_listed.items()):
-            if path in listed or path in declared or (path + os.sep).startswith(allowed) \
+            if path in listed or path in declared or exempt(path) \
                     or (path + os.sep).startswith(prefixes):
                 continue
             lines.append(f"{path}\tlisting\t{caller}\n")
@@ -178,11 +183,22 @@ def _links_of(path: str) -> set[str]:
 
 def _interpreter_paths() -> tuple[str, ...]:
     """The one exemption: the interpreter's own standard library (the record's key names the
-    interpreter by its path and version). Nothing else: for a venv made from /usr/bin/python3
+    interpreter by its path and version), the base interpreter's `lib/pythonX.Y` without its
+    site-packages. Nothing else: a venv's `lib/pythonX.Y` holds its site-packages (the ROS
+    wheels, ament_index_python's resources), and for a venv made from /usr/bin/python3
     `sys.base_prefix` is /usr, whose headers, CMake modules and .pc files a plan must
     declare."""
     import sysconfig
 
     paths = sysconfig.get_paths()
-    return tuple(sorted({paths["stdlib"].rstrip(os.sep) + os.sep,
-                         paths["platstdlib"].rstrip(os.sep) + os.sep}))
+    return (paths["stdlib"].rstrip(os.sep) + os.sep,)
+
+
+def _sites() -> tuple[str, ...]:
+    """The interpreter's site directories: never exempt, wherever they lie."""
+    import site
+    import sysconfig
+
+    paths = sysconfig.get_paths()
+    found = {paths[key] for key in ("purelib", "platlib")} | set(site.getsitepackages())
+    return tuple(sorted(path.rstrip(os.sep) + os.sep for path in found))

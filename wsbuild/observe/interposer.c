@@ -12,7 +12,8 @@
  *   D <path>       a directory listed (opendir, scandir), every time
  *   T <path>       a tree walked (fts_open, nftw, ftw): every directory below it listed
  *   G <pattern>    a glob(3) pattern expanded
- *   E <name>       an environment variable read (getenv, secure_getenv, setlocale)
+ *   E <name>       an environment variable read (getenv, secure_getenv, setlocale, tzset)
+ *   C <locale>     the locale setlocale chose from the environment (its files are read)
  *   X <path>       about to exec this program in this process
  *   F <path>       that exec failed (the process goes on)
  *   Y <pid> <path> a child spawned to run this program (posix_spawn)
@@ -32,6 +33,10 @@
 #include <ftw.h>
 #include <fts.h>
 #include <glob.h>
+#include <grp.h>
+#include <netdb.h>
+#include <pwd.h>
+#include <time.h>
 #include <limits.h>
 #include <link.h>
 #include <locale.h>
@@ -318,6 +323,12 @@ static void note_listing(int dirfd, const char *path) {
 
 static void note_fd_listing(int fd) { note_listing(fd, ""); }
 
+/* a file the C library reads on its own (its configuration), when it is there */
+static void note_if_there(const char *path) {
+    if (active && syscall(SYS_faccessat, AT_FDCWD, path, F_OK) == 0)
+        emit('R', path, 1);
+}
+
 static int note_loaded(struct dl_phdr_info *info, size_t size, void *data) {
     (void)size;
     (void)data;
@@ -348,6 +359,32 @@ static void start_logging(void) {
     }
     emit('R', exe, 1);
     dl_iterate_phdr(note_loaded, NULL);
+    note_if_there("/etc/ld.so.cache"); /* read by the dynamic loader before this library */
+}
+
+/* At exit: the files mapped into the process, which the C library may have loaded on its
+ * own (the name service's and iconv's modules), unseen by the dlopen wrapper. */
+__attribute__((destructor)) static void wsobserve_fini(void) {
+    if (!active)
+        return;
+    int fd = (int)syscall(SYS_openat, AT_FDCWD, "/proc/self/maps", O_RDONLY | O_CLOEXEC);
+    if (fd < 0)
+        return;
+    static char maps[1 << 16];
+    long got = syscall(SYS_read, fd, maps, sizeof maps - 1);
+    syscall(SYS_close, fd);
+    if (got <= 0)
+        return;
+    maps[got] = 0;
+    for (char *line = maps; line && *line;) {
+        char *end = strchr(line, '\n');
+        if (end)
+            *end = 0;
+        char *path = strchr(line, '/');
+        if (path && !strstr(path, " (deleted)"))
+            emit('R', path, 1);
+        line = end ? end + 1 : NULL;
+    }
 }
 
 static void fork_prepare(void) { lock(); }
@@ -1167,6 +1204,88 @@ EXPORT void *dlopen(const char *file, int mode) {
     return handle;
 }
 
+/* ------------------------------------------------ what the C library reads on its own */
+/* The name service reads /etc/passwd, /etc/group and /etc/nsswitch.conf; the resolver its
+ * files; the time functions the time zone (TZ, /etc/localtime): inside the C library, where
+ * no wrapper sees the opens. A call to one of them writes down what it reads. */
+
+static void note_users(void) {
+    note_if_there("/etc/nsswitch.conf");
+    note_if_there("/etc/passwd");
+    note_if_there("/etc/group");
+}
+
+static void note_hosts(void) {
+    note_if_there("/etc/nsswitch.conf");
+    note_if_there("/etc/hosts");
+    note_if_there("/etc/host.conf");
+    note_if_there("/etc/resolv.conf");
+    note_if_there("/etc/gai.conf");
+}
+
+static void note_zone(void) {
+    if (!active)
+        return;
+    emit('E', "TZ", 1);
+    note_if_there("/etc/localtime");
+}
+
+#define USERS0(ret, name, params, args) \
+    EXPORT ret name params { REAL(name); note_users(); return real_##name args; }
+
+USERS0(struct passwd *, getpwuid, (uid_t uid), (uid))
+USERS0(struct passwd *, getpwnam, (const char *n), (n))
+USERS0(int, getpwuid_r, (uid_t uid, struct passwd *p, char *b, size_t s, struct passwd **r),
+       (uid, p, b, s, r))
+USERS0(int, getpwnam_r, (const char *n, struct passwd *p, char *b, size_t s, struct passwd **r),
+       (n, p, b, s, r))
+USERS0(struct group *, getgrgid, (gid_t gid), (gid))
+USERS0(struct group *, getgrnam, (const char *n), (n))
+USERS0(int, getgrgid_r, (gid_t gid, struct group *g, char *b, size_t s, struct group **r),
+       (gid, g, b, s, r))
+USERS0(int, getgrnam_r, (const char *n, struct group *g, char *b, size_t s, struct group **r),
+       (n, g, b, s, r))
+USERS0(struct passwd *, getpwent, (void), ())
+USERS0(struct group *, getgrent, (void), ())
+USERS0(int, getgrouplist, (const char *u, gid_t g, gid_t *gs, int *n), (u, g, gs, n))
+
+EXPORT int getaddrinfo(const char *node, const char *service, const struct addrinfo *hints,
+                       struct addrinfo **res) {
+    REAL(getaddrinfo);
+    note_hosts();
+    return real_getaddrinfo(node, service, hints, res);
+}
+
+EXPORT struct hostent *gethostbyname(const char *name) {
+    REAL(gethostbyname);
+    note_hosts();
+    return real_gethostbyname(name);
+}
+
+EXPORT void tzset(void) {
+    REAL(tzset);
+    note_zone();
+    real_tzset();
+}
+
+EXPORT struct tm *localtime(const time_t *t) {
+    REAL(localtime);
+    note_zone();
+    return real_localtime(t);
+}
+
+EXPORT struct tm *localtime_r(const time_t *t, struct tm *out) {
+    REAL(localtime_r);
+    note_zone();
+    return real_localtime_r(t, out);
+}
+
+EXPORT time_t mktime(struct tm *tm) {
+    REAL(mktime);
+    note_zone();
+    return real_mktime(tm);
+}
+
 /* ---------------------------------------------------------------------- the environment */
 
 EXPORT char *getenv(const char *name) {
@@ -1196,6 +1315,7 @@ EXPORT char *setlocale(int category, const char *locale) {
         emit('E', "LC_ALL", 1);
         emit('E', "LANG", 1);
         emit('E', "LANGUAGE", 1);
+        emit('E', "LOCPATH", 1);
         if (category == LC_ALL) {
             for (size_t i = 0; i < sizeof CATEGORY_NAMES / sizeof *CATEGORY_NAMES; i++)
                 if (CATEGORY_NAMES[i])
@@ -1206,5 +1326,8 @@ EXPORT char *setlocale(int category, const char *locale) {
             emit('E', CATEGORY_NAMES[category], 1);
         }
     }
-    return real_setlocale(category, locale);
+    char *chosen = real_setlocale(category, locale);
+    if (active && chosen != NULL && locale != NULL && locale[0] == 0)
+        emit('C', chosen, 1); /* the locale's files are read inside the C library */
+    return chosen;
 }

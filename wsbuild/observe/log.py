@@ -169,6 +169,9 @@ class _Reader:
         if kind == "H":
             image.hooked = True
             return
+        if kind == "C":
+            self.reads.update(locale_files(text))
+            return
         if kind == "U":
             self.unobserved.append(f"{image.exe or 'a Python process'}: {text}")
             return
@@ -276,6 +279,41 @@ def read_observation(log_dir: Path, *, ignored: Iterable[Path | str] = (),
         except OSError as exc:
             reader.unobserved.append(f"{log_dir / name}: {exc.strerror}")
     return reader.observation()
+
+
+#: where the C library keeps its compiled locales
+LOCALES = "/usr/lib/locale"
+
+
+#: what the C library reads besides a locale's own files when it loads one: the names a locale
+#: may be given (locale.alias) and its character set converters' index
+LOCALE_SUPPORT = ("/etc/locale.alias", "/usr/share/locale/locale.alias",
+                  "/usr/lib/*/gconv/gconv-modules.cache", "/usr/lib/gconv/gconv-modules.cache")
+
+
+def locale_files(chosen: str) -> set[str]:
+    """The files the C library reads for the locale setlocale chose (`C.UTF-8`, or one name
+    per category, `LC_CTYPE=…;LC_NUMERIC=…`): its compiled locale's directory, the locale
+    archive, and what it reads to find and convert it (`LOCALE_SUPPORT`)."""
+    import glob as globbing
+
+    names = {part.partition("=")[2] or part for part in chosen.split(";")}
+    found: set[str] = set()
+    if names - {"C", "POSIX", ""}:
+        found.update(p for pattern in LOCALE_SUPPORT for p in globbing.glob(pattern))
+    for name in names - {"C", "POSIX", ""}:
+        language, dot, codeset = name.partition(".")
+        spellings = {name}
+        if dot:
+            spellings.add(f"{language}.{codeset.lower().replace('-', '')}")
+        for spelling in spellings:
+            directory = os.path.join(LOCALES, spelling)
+            for root, dirs, files in os.walk(directory):
+                found.update(os.path.join(root, f) for f in (*dirs, *files))
+        archive = os.path.join(LOCALES, "locale-archive")
+        if os.path.exists(archive):
+            found.add(archive)
+    return found
 
 
 def _unescape(text: str) -> str:

@@ -10,7 +10,7 @@ observed, and the package is built every time (its record says why)."""
 from __future__ import annotations
 
 import shutil
-from collections.abc import Iterable, Mapping
+from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -19,6 +19,9 @@ from wsbuild.observe.library import Observer
 from wsbuild.observe.log import Observation, read_observation
 from wsbuild.observe.step_environment import observed, unobserved
 
+#: runs a program under the build-step oracle: (argv, step label, env) -> (argv, env)
+Tracer = Callable[[Sequence[str], str, Mapping[str, str]],
+                  tuple[Sequence[str], Mapping[str, str]]]
 #: under the package's build directory: its build's steps, its tests'
 OBSERVE_DIR = Path(".wsbuild") / "observe"
 OBSERVE_TEST_DIR = Path(".wsbuild") / "observe-test"
@@ -50,6 +53,8 @@ class StepObservations:
     #: variables a tool (by executable name) reads only to find its configuration and state
     tool_state: tuple[Path, ...] = ()
     tool_variables: Mapping[str, frozenset[str]] = field(default_factory=dict)
+    #: runs a program under the suite's build-step oracle (builder/step_trace.py), or None
+    tracer: Tracer | None = None
     _open: dict[str, tuple[str, Path, Mapping[str, str]]] = field(default_factory=dict)
     _count: int = 0
 
@@ -105,6 +110,17 @@ class StepObservations:
             observation = Observation(unobserved=(f"nothing was observed: {observer}",))
             seen = dict(env)
         self.steps.append(StepRead(label, observation, seen))
+
+    @property
+    def tracing(self) -> bool:
+        """Whether programs run under the build-step oracle (`trace`)."""
+        return self.tracer is not None
+
+    def trace(self, argv: Sequence[str], label: str, env: Mapping[str, str]
+              ) -> tuple[Sequence[str], Mapping[str, str]] | None:
+        """`argv` and `env` run under the build-step oracle as step `label`'s, when it is on
+        (a warm helper so traced serves one request only); else None."""
+        return self.tracer(argv, label, env) if self.tracer is not None else None
 
     def request_environment(self, env: Mapping[str, str], directory: Path) -> dict[str, str]:
         """`env` as the processes of a warm helper's request run with it."""

@@ -77,8 +77,8 @@ def observed_reads(observations: StepObservations, where: Where, digests: Digest
                    files: Iterable[str] = (), listings: Iterable[str] = (),
                    tracked: Collection[str] = (), started_ns: int = 0,
                    own: OwnEntries = no_own_entries,
-                   extra_variables: Mapping[str, Sequence[str]] | None = None
-                   ) -> ObservedReads:
+                   extra_variables: Mapping[str, Sequence[str]] | None = None,
+                   settled: Mapping[str, str] | None = None) -> ObservedReads:
     """What the record holds of `observations`: the outside reads (with `files` and
     `listings` a build type declares besides: what its in-process steps read, what its build
     system watches), digested (a path changed since `started_ns` held as racy); the values
@@ -96,7 +96,7 @@ def observed_reads(observations: StepObservations, where: Where, digests: Digest
     probes = _probes((p for p in observation.present | observation.absent if keep(p)),
                      held=read | listed | set(searches))
     outside = take(read, listed, digests, searches=searches, probes=probes,
-                   started_ns=started_ns, own=own)
+                   started_ns=started_ns, own=own, settled=settled)
     seen, variable_readers = _variables(observations, extra_variables or {})
     read_by = {**_readers(observations, keep, tracked), **variable_readers}
     return ObservedReads(outside, seen, read_by, observation)

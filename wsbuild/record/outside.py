@@ -273,11 +273,14 @@ def listing_digest(path: str, own: Collection[str] = ()) -> str:
 def take(files: Iterable[str], listings: Iterable[str], digests: Digests, *,
          searches: Mapping[str, Collection[str]] | None = None,
          probes: Mapping[str, Collection[str]] | None = None,
-         started_ns: int = 0, own: OwnEntries = no_own_entries) -> OutsideReads:
+         started_ns: int = 0, own: OwnEntries = no_own_entries,
+         settled: Mapping[str, str] | None = None) -> OutsideReads:
     """What a finished build read, as the record holds it (`own`: the package's own entries of
     each listed directory, left out; `searches` and `probes`: directory -> names). A path
     changed since `started_ns` (the build's start) may have changed after the build read it:
-    it is held as racy, so the next check builds again."""
+    it is held as racy, so the next check builds again; but a file of `settled` (path -> its
+    digest before the steps ran: a time the build set forward itself) with that digest
+    still."""
     files, listings = sorted(set(files)), sorted(set(listings))
 
     def racy(signature: tuple[int, ...], directory_counts: bool) -> bool:
@@ -289,10 +292,10 @@ def take(files: Iterable[str], listings: Iterable[str], digests: Digests, *,
         signature = digests.signature(path)
         # a file's content may have changed after the build read it; a directory read as a
         # file counts by its type only, which its entries' changes leave alone
-        if racy(signature, listing):
-            return Seen(signature, RACY_DIGEST)
         digest = digests.listing(path, signature, own(path)) if listing \
             else digests.file(path, signature)
+        if racy(signature, listing) and (listing or (settled or {}).get(path) != digest):
+            return Seen(signature, RACY_DIGEST)
         return Seen(signature, digest)
 
     def looked(kind: str, path: str, names: Collection[str]) -> Looked:

@@ -39,3 +39,11 @@ def _owner(parts: list[str], packages: Collection[str], merged: bool) -> str | N
     if len(parts) >= 2 and parts[-2] == "packages" and parts[-1] in packages:
         return parts[-1]
     return None
+
+
+def undeclared_lines(package: str, read: dict[str, str], declared: Collection[str]) -> list[str]:
+    """What to tell the user of each package whose install `package`'s steps read (`read`:
+    package -> the first path read) that it does not declare."""
+    return [f"{package} read {path} but does not declare {other}: add "
+            f"`<depend>{other}</depend>` to its package.xml"
+            for other, path in sorted(read.items()) if other not in declared]

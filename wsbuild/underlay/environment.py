@@ -77,7 +77,7 @@ def cmake_prefixes(prefix: Path) -> list[Path]:
     prefix = Path(os.path.abspath(prefix))
     result = [prefix]
     for site in site_packages_dirs(prefix):
-        if (site / "pybind11" / "share" / "cmake" / "pybind11").is_dir():
+        if inputs.is_dir(site / "pybind11" / "share" / "cmake" / "pybind11"):
             result.append(site / "pybind11")
     return result
 

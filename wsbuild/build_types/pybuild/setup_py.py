@@ -232,19 +232,26 @@ class _Helper:
     observes nothing until a request names where to write."""
 
     def __init__(self, python_executable: str, environ: Mapping[str, str],
-                 observe: StepObserver | None = None) -> None:
-        env = dict(environ)
+                 observe: StepObserver | None = None, label: str = "") -> None:
+        env: Mapping[str, str] = dict(environ)
+        argv: Sequence[str] = [python_executable, str(HELPER_SCRIPT)]
         self.started: Path | None = None
         self.environ = dict(environ)
+        #: it runs under the test suite's build-step oracle: it serves one request only
+        self.disposable = False
         if observe is not None:
             self.started = Path(tempfile.mkdtemp(prefix="wsbuild-helper-"))
             env = observe.helper_environment(environ, self.started)
+            traced = observe.trace(argv, label, env) if label else None
+            if traced is not None:
+                argv, env = traced
+                self.disposable = True
         # Its own session: a terminal Ctrl-C is wsbuild's to handle, and `close` can stop the
         # helper together with a setup.py it is running by signalling the process group.
         self.process = subprocess.Popen(
-            [python_executable, str(HELPER_SCRIPT)],
-            stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=subprocess.DEVNULL,
-            env=env, cwd="/", start_new_session=True, text=True, encoding="utf-8",
+            list(argv), stdin=subprocess.PIPE, stdout=subprocess.PIPE,
+            stderr=subprocess.DEVNULL, env=dict(env), cwd="/", start_new_session=True,
+            text=True, encoding="utf-8",
         )
         self.hello = self._receive()
 
@@ -306,7 +313,7 @@ class HelperPool:
         """Send one request; the answer of a helper that could not import setuptools has
         `ready: False`. With `observe`, an observed helper serves it, and what it read when
         it started is added to step `label`'s observations."""
-        helper = self._acquire(python_executable, environ, observe)
+        helper = self._acquire(python_executable, environ, observe, label)
         if observe is not None and helper.started is not None and label:
             observe.add(label, helper.started, helper.environ)
         if not helper.ready:
@@ -321,7 +328,10 @@ class HelperPool:
             # interrupted mid-request: the helper's state is unknown
             self._discard(python_executable, helper)
             raise
-        self._release(python_executable, helper)
+        if helper.disposable:
+            self._discard(python_executable, helper)
+        else:
+            self._release(python_executable, helper)
         return answer
 
     def pids(self) -> tuple[int, ...]:
@@ -338,12 +348,13 @@ class HelperPool:
             helper.close()
 
     def _acquire(self, python_executable: str, environ: Mapping[str, str],
-                 observe: StepObserver | None = None) -> _Helper:
+                 observe: StepObserver | None = None, label: str = "") -> _Helper:
         kind = self._kind(python_executable, observe)
+        traced = observe is not None and bool(label) and observe.tracing
         with self._cond:
             while True:
                 idle = self._idle.setdefault(kind, [])
-                if idle:
+                if idle and not traced:  # a traced request gets a helper of its own
                     return idle.pop()
                 if self._count.get(kind, 0) < self.max_helpers:
                     self._count[kind] = self._count.get(kind, 0) + 1
@@ -353,7 +364,7 @@ class HelperPool:
                 atexit.register(self.shutdown)
                 self._atexit = True
         try:
-            helper = _Helper(python_executable, environ, observe)
+            helper = _Helper(python_executable, environ, observe, label)
         except BaseException:
             with self._cond:
                 self._count[kind] -= 1
