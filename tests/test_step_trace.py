@@ -8,6 +8,7 @@ of its up-to-date, observed-inputs, early-cutoff and churn tests under it (tests
 from __future__ import annotations
 
 import os
+import shutil
 from pathlib import Path
 
 from test_build_helpers import clean_env, output, write, write_ament_python, write_cmake
@@ -116,3 +117,22 @@ def test_a_trace_is_read_as_opens_for_reading_directories_writes_and_programs(
     assert reads.directories == ("/glob",)
     assert reads.written == frozenset({"/b/out.o"})
     assert os.path.realpath("/usr/bin/cc") in reads.programs
+
+
+def test_the_sample_workspaces_interfaces_library_and_app_read_nothing_their_records_lack(
+        traced_steps: Path, tmp_path: Path) -> None:
+    """sample_ws's rosidl interfaces (generators in Python importing numpy and the underlay's
+    libraries), its C++ library (gtest archived by `ar`, which loads the linker plugins and
+    the libraries they need) and its app, built from scratch with every step traced: every
+    read is in their records (the fixture fails the test on any finding)."""
+    ws = tmp_path / "ws"
+    shutil.copytree(Path(__file__).parents[1] / "sample_ws" / "src", ws / "src",
+                    ignore=shutil.ignore_patterns("__pycache__", ".pytest_cache"))
+    result = run("build", "--no-cache", "--packages-up-to", "demo_cpp_app", "demo_interfaces",
+                 cwd=ws)
+    assert result.returncode == 0, output(result)
+    checked = {line.split("\t")[3]: line.split("\t") for line in
+               Path(f"{traced_steps}{CHECKED_SUFFIX}").read_text().splitlines()}
+    for package in ("demo_interfaces", "demo_cpp_lib", "demo_cpp_app"):
+        steps, reads = int(checked[package][0]), int(checked[package][1])
+        assert steps == 3 and reads > 500, (package, checked[package])

@@ -362,28 +362,45 @@ static void start_logging(void) {
     note_if_there("/etc/ld.so.cache"); /* read by the dynamic loader before this library */
 }
 
-/* At exit: the files mapped into the process, which the C library may have loaded on its
- * own (the name service's and iconv's modules), unseen by the dlopen wrapper. */
+/* At exit: the libraries loaded, as the loader named them, and the files mapped into the
+ * process, which the C library may have loaded on its own (the name service's and iconv's
+ * modules, the locale archive), unseen by the dlopen wrapper. The maps are read in pieces: a
+ * process with many libraries has more than any fixed buffer holds. */
+static void note_mapped(char *line) {
+    char *path = strchr(line, '/');
+    if (path && !strstr(path, " (deleted)"))
+        emit('R', path, 1);
+}
+
 __attribute__((destructor)) static void wsobserve_fini(void) {
     if (!active)
         return;
+    dl_iterate_phdr(note_loaded, NULL);
     int fd = (int)syscall(SYS_openat, AT_FDCWD, "/proc/self/maps", O_RDONLY | O_CLOEXEC);
     if (fd < 0)
         return;
     static char maps[1 << 16];
-    long got = syscall(SYS_read, fd, maps, sizeof maps - 1);
-    syscall(SYS_close, fd);
-    if (got <= 0)
-        return;
-    maps[got] = 0;
-    for (char *line = maps; line && *line;) {
-        char *end = strchr(line, '\n');
-        if (end)
+    size_t held = 0;
+    for (;;) {
+        long got = syscall(SYS_read, fd, maps + held, sizeof maps - 1 - held);
+        if (got <= 0)
+            break;
+        held += (size_t)got;
+        maps[held] = 0;
+        char *line = maps;
+        for (char *end; (end = strchr(line, '\n')) != NULL; line = end + 1) {
             *end = 0;
-        char *path = strchr(line, '/');
-        if (path && !strstr(path, " (deleted)"))
-            emit('R', path, 1);
-        line = end ? end + 1 : NULL;
+            note_mapped(line);
+        }
+        held = (size_t)(maps + held - line);
+        memmove(maps, line, held);
+        if (held == sizeof maps - 1) /* a line longer than the buffer: not a path */
+            held = 0;
+    }
+    syscall(SYS_close, fd);
+    if (held) {
+        maps[held] = 0;
+        note_mapped(maps);
     }
 }
 
@@ -1200,6 +1217,9 @@ EXPORT void *dlopen(const char *file, int mode) {
         if (dlinfo(handle, RTLD_DI_LINKMAP, &map) == 0 && map && map->l_name &&
             map->l_name[0] == '/')
             emit('R', map->l_name, 1);
+        /* and the libraries it needed, which the loader opened on its own (a plugin that is
+         * closed before exit takes them out of the maps the destructor reads) */
+        dl_iterate_phdr(note_loaded, NULL);
     }
     return handle;
 }
