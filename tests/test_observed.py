@@ -93,7 +93,7 @@ def _from_scratch(ws: Path, tmp_path: Path, env: dict[str, str] | None = None) -
         if extra.name not in ("src", "build", "install", "log"):
             shutil.copytree(extra, fresh / extra.name, symlinks=True) if extra.is_dir() \
                 else shutil.copy2(extra, fresh / extra.name)
-    _build(fresh, "--cache", "off", env=env)
+    _build(fresh, "--no-cache", env=env)
     return fresh
 
 
@@ -254,6 +254,71 @@ def test_a_file_cmake_reads_at_configure_time_rebuilds_and_is_never_restored_sta
     assert _program(ws, "configured") == "three"
 
 
+def test_a_file_of_the_packages_own_read_at_configure_time_configures_again(
+        tmp_path: Path) -> None:
+    """version.txt in the package, read by file(READ): CMake does not watch it, so its edit
+    has the package configured again (a build alone printed the old version)."""
+    ws = tmp_path / "ws"
+    pkg = _cmake_program(ws / "src", "versioned", """
+        file(READ ${CMAKE_CURRENT_SOURCE_DIR}/version.txt VERSION_TEXT)
+        string(STRIP "${VERSION_TEXT}" VERSION_TEXT)
+        add_compile_definitions(VERSION_TEXT="${VERSION_TEXT}")
+        """, '#include <cstdio>\nint main() { std::puts(VERSION_TEXT); }\n',
+                         files={"version.txt": "1.0\n"})
+    _settled(ws)
+    write(pkg / "version.txt", "1.1\n")
+    result = _build(ws)
+    assert _finished(result) == ["versioned"], output(result)
+    assert _program(ws, "versioned") == "1.1", output(result)
+    assert _finished(_build(ws)) == []
+
+
+def test_a_header_that_appears_where_find_path_looked_first_is_found(tmp_path: Path) -> None:
+    """find_path() looked in `first` (nothing there) and found answer.h in `second`; CMake
+    keeps that in its cache and never looks again. When answer.h appears in `first`, the
+    package is configured from a fresh cache and compiles the new header, as a build from
+    scratch does; the next build is a no-op."""
+    ws = tmp_path / "ws"
+    first, second = ws / "vendor" / "first", ws / "vendor" / "second"
+    first.mkdir(parents=True)
+    write(second / "answer.h", '#define ANSWER "second"\n')
+    _cmake_program(ws / "src", "found", f"""
+        find_path(ANSWER_DIR answer.h PATHS {first} {second} NO_DEFAULT_PATH)
+        include_directories(${{ANSWER_DIR}})
+        """, PRINT_MACRO.format(header="answer.h", macro="ANSWER"))
+    _settled(ws)
+    write(first / "answer.h", '#define ANSWER "first"\n')
+    result = _build(ws)
+    assert _finished(result) == ["found"], output(result)
+    assert _program(ws, "found") == "first" == _program(_from_scratch(ws, tmp_path), "found")
+    time.sleep(1.1)
+    assert _finished(_build(ws)) == []
+
+
+def test_a_variable_the_configure_stopped_reading_costs_no_rebuild(tmp_path: Path) -> None:
+    """mode.txt decides whether the configure reads $FLAVOR; after it says `fixed`, the
+    package is configured again from a fresh cache and no longer reads the variable, so a
+    change of FLAVOR builds nothing (the earlier configure's reads went with its cache)."""
+    ws = tmp_path / "ws"
+    pkg = _cmake_program(ws / "src", "moded", """
+        file(STRINGS ${CMAKE_CURRENT_SOURCE_DIR}/mode.txt MODE)
+        if(MODE STREQUAL "env")
+          set(TASTE "$ENV{FLAVOR}")
+        else()
+          set(TASTE "fixed")
+        endif()
+        add_compile_definitions(TASTE="${TASTE}")
+        """, '#include <cstdio>\nint main() { std::puts(TASTE); }\n',
+                         files={"mode.txt": "env\n"})
+    _settled(ws, env=clean_env(FLAVOR="salty"))
+    write(pkg / "mode.txt", "fixed\n")
+    assert _finished(_build(ws, env=clean_env(FLAVOR="salty"))) == ["moded"]
+    assert _program(ws, "moded") == "fixed"
+    time.sleep(1.1)
+    result = _build(ws, env=clean_env(FLAVOR="sour"))
+    assert _finished(result) == [], output(result)
+
+
 def test_a_glob_with_a_wildcard_in_a_directory_sees_a_new_directory(tmp_path: Path) -> None:
     ws = tmp_path / "ws"
     robots = ws / "robots"
@@ -315,6 +380,28 @@ def test_a_variable_is_an_input_where_a_step_read_it_whatever_its_name(tmp_path:
     assert _version(ws, "stamped") == "1.0.8"
     assert _program(ws, "flavored") == "sour" and _program(ws, "generated") == "bitter"
     assert _version(ws, "mapped") == f"2.0.{len(base['MAP_FILE'])}"
+
+
+def test_a_variable_read_when_the_build_step_configures_again_configures_again(
+        tmp_path: Path) -> None:
+    """A CMakeLists.txt that reads $ENV{FLAVOR} and a file CMake watches (configure_file):
+    after an edit of that file the build step itself runs CMake's configure again (reading
+    the variable as the build step's); a later change of the variable alone still configures
+    again, and the program says the new value (churn found it printing the old one)."""
+    ws = tmp_path / "ws"
+    _cmake_program(ws / "src", "tasted", 'add_compile_definitions(FLAVOR="$ENV{FLAVOR}")\n'
+                   "configure_file(version.h.in version.h)",
+                   '#include <cstdio>\n#include "version.h"\n'
+                   'int main() { std::printf("%s %s\\n", FLAVOR, VERSION); }\n',
+                   files={"version.h.in": '#define VERSION "1"\n'})
+    _settled(ws, env=clean_env(FLAVOR="salty"))
+    write(ws / "src" / "tasted" / "version.h.in", '#define VERSION "2"\n')
+    assert _finished(_build(ws, env=clean_env(FLAVOR="salty"))) == ["tasted"]
+    assert _program(ws, "tasted") == "salty 2"
+    time.sleep(1.1)
+    result = _build(ws, env=clean_env(FLAVOR="sour"))
+    assert _finished(result) == ["tasted"], output(result)
+    assert _program(ws, "tasted") == "sour 2", output(result)
 
 
 def test_a_variable_a_dependencys_hook_sets_is_read_by_its_dependent_as_it_is_now(

@@ -17,9 +17,6 @@ names (`WSBUILD_LOCAL_GATE_CMAKE`, given to CMake as `CMAKE_PROJECT_INCLUDE`).
 from __future__ import annotations
 
 import functools
-import json
-import os
-import shutil
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -44,6 +41,9 @@ from wsbuild.build_types.cmake_facts import (
     read_cmake_state,
     user_generator,
 )
+from wsbuild.build_types.cmake_actions import (
+    empty, forget_cache, forget_configure_record, park_install, remove_cache, remove_tree, stage_direct_install,
+    take_destdir, write_configure_record)
 from wsbuild.build_types.cmake_options import CMAKE_OPTIONS, CMakeOptions
 from wsbuild.prefix.hooks import EnvironmentHooks
 
@@ -69,6 +69,11 @@ def _compiler_digests(environ: Mapping[str, str]) -> dict[str, str | None]:
     digests = variable_digests(environ, COMPILER_ENVIRONMENT)
     return {name: None if digests[name] == UNSET else digests[name]
             for name in COMPILER_ENVIRONMENT}
+
+
+def _redone(ctx: PackageContext) -> set[str]:
+    """The steps whose last run read what changed, where CMake does not watch it."""
+    return set(ctx.redo)
 
 
 def _defines(cmake_args: Sequence[str], name: str) -> bool:
@@ -239,9 +244,11 @@ class CMakeBuildType:
         compilers' variables differ from the last configure's, and when the last configure
         read a file or a variable that changed since (`ctx.redo`: the package's record says
         which step read what changed; CMake itself watches only its own list of files, not
-        what `file(READ)` or `$ENV{}` read)."""
+        what `file(READ)` or `$ENV{}` read). What the build step read counts too: a build
+        step runs CMake's configure again when a file CMake watches changed, and what that
+        configure read is the build step's."""
         own = cmake_options(ctx)
-        if own.clean_cache or own.force_configure or "configure" in ctx.redo:
+        if own.clean_cache or own.force_configure or {"configure", "build"} & _redone(ctx):
             return True
         state = self.state(ctx)
         return not state.cache or self._record(ctx) != state.record
@@ -264,20 +271,28 @@ class CMakeBuildType:
         if state.cache and why:
             description, warning = why
             steps.append(Step(
-                "clean cache", functools.partial(_remove_cache, warning=warning),
+                "clean cache", functools.partial(remove_cache, warning=warning),
                 description=f"remove the cache {description}",
                 by_hand=Command(("rm", "-rf", "--", "CMakeCache.txt", "CMakeFiles"), build_dir),
                 writes=(build_dir / "CMakeCache.txt", build_dir / "CMakeFiles")))
+        elif state.cache and {"configure", "build"} & _redone(ctx):
+            steps.append(Step(
+                "forget cache", forget_cache,
+                description="remove CMakeCache.txt: the last configure read what changed, and "
+                            "CMake keeps what find_* and check_* found there (they look again; "
+                            "the objects stay)",
+                by_hand=Command(("rm", "-f", "--", "CMakeCache.txt"), build_dir),
+                writes=(build_dir / "CMakeCache.txt",)))
         switched = self.install_mode_switched(ctx)
         if switched:
             steps.append(Step(
-                "empty build directory", functools.partial(_empty, why=switched),
+                "empty build directory", functools.partial(empty, why=switched),
                 description=f"empty the build directory (but wsbuild's records): it was built "
                             f"{switched}", writes=(build_dir,)))
         record = build_dir / CONFIGURE_RECORD
         if state.record is not None:
             steps.append(Step(
-                "forget configure", _forget_configure_record,
+                "forget configure", forget_configure_record,
                 description="drop the last configure's record (a failed configure is tried "
                             "again)",
                 by_hand=Command(("rm", "-f", "--", str(record)), build_dir), writes=(record,)))
@@ -315,7 +330,7 @@ class CMakeBuildType:
         """After a configure: the record of what it used, which decides the next one."""
         record = ctx.build_dir / CONFIGURE_RECORD
         return Step("configure record",
-                    functools.partial(_write_configure_record, record=self._record(ctx)),
+                    functools.partial(write_configure_record, record=self._record(ctx)),
                     description="write what this configure used (its arguments, digests of "
                                 "the environment)", writes=(record,))
 
@@ -329,7 +344,7 @@ class CMakeBuildType:
         own = cmake_options(ctx)
         if own.target:
             command += ["--target", own.target]
-        if own.clean_first or "build" in ctx.redo:
+        if own.clean_first or "build" in _redone(ctx):
             # the last build read a variable or a file that changed and that the generator
             # does not watch (a compiler's CPATH, a custom command's own input): only a build
             # of everything again reads it again
@@ -359,6 +374,18 @@ class CMakeBuildType:
         return bool(state.cache) and not (state.cache and self._from_scratch(ctx, state)) \
             and not self.install_mode_switched(ctx)
 
+    def steps_run_afresh(self, ctx: PackageContext) -> frozenset[str]:
+        """The steps whose earlier reads no longer count after this build, even where it
+        keeps earlier work: the install (it installs everything every time), the configure
+        when it starts from a fresh cache, the build when it builds everything again."""
+        afresh = {"install"}
+        redone = _redone(ctx)
+        if {"configure", "build"} & redone:
+            afresh.add("configure")
+        if "build" in redone or cmake_options(ctx).clean_first:
+            afresh.add("build")
+        return frozenset(afresh)
+
     def _build_env(self, ctx: PackageContext) -> tuple[dict[str, str], dict[str, str]]:
         """What configure and build set on top of the package environment (kept in reproduce
         lines), and what only this run has (Ninja's jobserver FIFO)."""
@@ -386,13 +413,13 @@ class CMakeBuildType:
             # the shared prefix cannot be swapped: stage through DESTDIR instead
             destdir = ctx.build_dir / ".wsbuild" / "destdir"
             return [
-                Step("clear destdir", functools.partial(_remove_tree, path=destdir),
+                Step("clear destdir", functools.partial(remove_tree, path=destdir),
                      description="remove what an earlier install left in DESTDIR",
                      writes=(destdir,)),
                 Step("install", command=Command(command, ctx.build_dir,
                                                 run_env={"DESTDIR": str(destdir)}),
                      reads=(ctx.build_dir,), writes=(destdir,)),
-                Step("stage", functools.partial(_take_destdir, destdir=destdir),
+                Step("stage", functools.partial(take_destdir, destdir=destdir),
                      description="move what the install put into DESTDIR into the stage",
                      reads=(destdir,))]
         if ctx.options.merge_install:
@@ -411,75 +438,8 @@ class CMakeBuildType:
                  reads=(prefix,), writes=(prefix,))]
 
 
-#: what stays when a build directory is emptied: wsbuild's own records and markers
-_KEPT_IN_BUILD_DIRECTORY = frozenset({".wsbuild", "COLCON_IGNORE", "AMENT_IGNORE"})
-
-
-def empty_build_directory(build_dir: Path) -> None:
-    """Remove what CMake and the build wrote into `build_dir` (a configure from scratch)."""
-    for entry in os.scandir(build_dir):
-        if entry.name in _KEPT_IN_BUILD_DIRECTORY:
-            continue
-        if entry.is_dir(follow_symlinks=False):
-            shutil.rmtree(entry.path)
-        else:
-            os.unlink(entry.path)
-
-
-def _remove_cache(ctx: PackageContext, *, warning: str) -> None:
-    if warning:
-        ctx.warn(warning)
-    (ctx.build_dir / "CMakeCache.txt").unlink(missing_ok=True)
-    shutil.rmtree(ctx.build_dir / "CMakeFiles", ignore_errors=True)
-
-
-def _empty(ctx: PackageContext, *, why: str) -> None:
-    ctx.warn(f"{ctx.build_dir} was built {why}: building it from scratch")
-    empty_build_directory(ctx.build_dir)
-
-
-def _forget_configure_record(ctx: PackageContext) -> None:
-    (ctx.build_dir / CONFIGURE_RECORD).unlink(missing_ok=True)
-
-
-def _write_configure_record(ctx: PackageContext, *, record: Mapping[str, object]) -> None:
-    from wsbuild.files import atomic_write, private_directory
-
-    path = ctx.build_dir / CONFIGURE_RECORD
-    private_directory(path.parent)
-    atomic_write(path, json.dumps(record, indent=1) + "\n", mode=0o600)
-
-
-def _remove_tree(ctx: PackageContext, *, path: Path) -> None:
-    if path.exists():
-        shutil.rmtree(path)
-
-
-def _take_destdir(ctx: PackageContext, *, destdir: Path) -> None:
-    staged = destdir / str(ctx.install_prefix).lstrip(os.sep)
-    if staged.exists():
-        shutil.rmtree(ctx.stage_prefix)
-        os.rename(staged, ctx.stage_prefix)
-    shutil.rmtree(destdir, ignore_errors=True)
-
-
 def _keep_installed_in_place(ctx: PackageContext) -> None:
     ctx.outputs.installed_in_place = tuple(_manifest_files(ctx))
-
-
-def park_install(ctx: PackageContext) -> None:
-    """Before an install that writes straight into the final prefix: the previous install
-    aside, a fresh prefix (prefix/stage.py)."""
-    from wsbuild.prefix.stage import park_previous_install
-
-    park_previous_install(ctx.install_prefix, ctx.stage_prefix)
-
-
-def stage_direct_install(ctx: PackageContext) -> None:
-    """After it: the new install into the stage, the previous one back."""
-    from wsbuild.prefix.stage import stage_direct_install as stage
-
-    stage(ctx.install_prefix, ctx.stage_prefix)
 
 
 def configure_problems(lines: list[str]) -> list[str]:

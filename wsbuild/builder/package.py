@@ -352,6 +352,8 @@ class PackageBuild:
             self.planned, observations=self.observations,
             earlier=self.planned.previous if keeps is not None and self._kept_earlier_work
             else None,
+            afresh=build_type.steps_run_afresh(ctx)
+            if hasattr(build_type, "steps_run_afresh") else (),
             declared=build_type.external_inputs(ctx), dependencies=self._dependency_keys(),
             installed=installed, where=where, touched=self.touched,
             install_base=self.run.selection.workspace.install_base,

@@ -5,9 +5,10 @@ new keys)."""
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
+from collections.abc import Collection, Mapping, Sequence
 from dataclasses import replace
 from pathlib import Path
+from typing import TypeVar
 
 from wsbuild.build_types import ReadOutside
 from wsbuild.builder.plan import PackagePlan
@@ -18,6 +19,8 @@ from wsbuild.record.installed import Installed
 from wsbuild.record.model import PENDING, PackageRecord, read_record
 from wsbuild.record.observed import Where, observed_reads
 from wsbuild.record.outside import Digests, OutsideReads, own_entries, refreshed
+
+T = TypeVar("T")
 
 
 def dependency_keys(planned: PackagePlan, build_base: Path) -> dict[str, str]:
@@ -38,7 +41,7 @@ def built_record(planned: PackagePlan, *, observations: StepObservations,
                  where: Where, install_base: Path, environment: Environment, digests: Digests,
                  started_ns: int, test_tree: bool = False, volatile: str = "",
                  compiler_variables: Sequence[str] = (),
-                 earlier: PackageRecord | None = None,
+                 earlier: PackageRecord | None = None, afresh: Collection[str] = (),
                  touched: Mapping[str, str] | None = None) -> PackageRecord:
     """The record of a package just built: what the plan saw, its dependencies' keys, and what
     its steps were observed to read (with what the build type declares its in-process steps
@@ -46,7 +49,8 @@ def built_record(planned: PackagePlan, *, observations: StepObservations,
     the package built is held as racy (record/outside.py). `compiler_variables`: read by the
     compiles of its build step, where nothing is observed (sccache's server). `earlier`: the
     last record, when this build reused what the last one left (an incremental CMake build:
-    what the compiles that did not run again read still counts). `touched`: files whose time
+    what the compiles that did not run again read still counts), but what only the steps
+    it ran `afresh` read. `touched`: files whose time
     the build set forward, with their digest then (record/outside.py's racy rule)."""
     if declared is not None and not isinstance(declared, ReadOutside):
         declared = ReadOutside(files=tuple(declared))  # a third-party type's list of files
@@ -65,7 +69,7 @@ def built_record(planned: PackagePlan, *, observations: StepObservations,
     outside, read_by = reads.outside, reads.read_by
     if earlier is not None:
         outside, values, seen_values, read_by = _with_earlier(
-            earlier, outside, values, seen_values, read_by)
+            earlier, outside, values, seen_values, read_by, afresh)
     listed_names = reads.observation.variable_names or (
         earlier is not None and bool(earlier.environment_names))
     return planned.record(
@@ -78,17 +82,39 @@ def built_record(planned: PackagePlan, *, observations: StepObservations,
 
 
 def _with_earlier(earlier: PackageRecord, reads: OutsideReads, values: dict[str, str],
-                  seen: dict[str, str], read_by: dict[str, str]
+                  seen: dict[str, str], read_by: dict[str, str], afresh: Collection[str]
                   ) -> tuple[OutsideReads, dict[str, str], dict[str, str], dict[str, str]]:
     """What an incremental build read, with what the earlier builds whose work it reused
     read and it did not read again (unchanged since, or this build would have redone the
-    step that read it)."""
+    step that read it). What only the steps this build ran `afresh` read before no longer
+    counts (a configure from a fresh cache, a build of everything: they read again what
+    they need)."""
+    labels: dict[str, str] = {}
+    gone: set[str] = set()
+    for read, by in earlier.read_by.items():
+        kept = [label for label in by.split(",") if label not in afresh]
+        if kept:
+            labels[read] = ",".join(kept)
+        else:
+            gone.add(read)
+    for read, by in read_by.items():
+        before = labels[read].split(",") if read in labels else []
+        labels[read] = ",".join(dict.fromkeys([*before, *by.split(",")]))
+
+    def still(entries: Mapping[str, T]) -> dict[str, T]:
+        return {path: value for path, value in entries.items() if path not in gone}
+
     old = earlier.outside
-    merged_reads = OutsideReads({**old.files, **reads.files}, {**old.listings, **reads.listings},
-                                {**old.searches, **reads.searches},
-                                {**old.probes, **reads.probes})
-    return (merged_reads, {**earlier.environment, **values},
-            {**earlier.environment_seen, **seen}, {**earlier.read_by, **read_by})
+    merged_reads = OutsideReads({**still(old.files), **reads.files},
+                                {**still(old.listings), **reads.listings},
+                                {**still(old.searches), **reads.searches},
+                                {**still(old.probes), **reads.probes})
+    variables = {f"${name}" for name in earlier.environment} & gone
+    return (merged_reads,
+            {**{n: v for n, v in earlier.environment.items() if f"${n}" not in variables},
+             **values},
+            {**{n: v for n, v in earlier.environment_seen.items() if f"${n}" not in variables},
+             **seen}, labels)
 
 
 def restored_record(planned: PackagePlan, entry: PackageRecord,

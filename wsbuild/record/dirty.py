@@ -138,7 +138,7 @@ def dirty_reason(old: PackageRecord | None, now: PackageNow, *, install_base: Pa
         changed = now.own.changed or sorted(set(old.own) ^ set(now.own.files))
         shown = ", ".join(changed[:3]) + (" …" if len(changed) > 3 else "")
         return Reason(Dirty.SOURCE, f"source changed: {shown}" if shown else "source changed",
-                      tuple(changed))
+                      tuple(changed), redo=_redo(old, changed))
     changed_deps = sorted(n for n in set(old.dependencies) | set(now.dependencies)
                           if old.dependencies.get(n) != now.dependencies.get(n))
     always = _always(old)

@@ -6,7 +6,8 @@ It holds:
 - `own`: the package's own files by content digest (record/own_files.py);
 - `outside`: what its steps read outside the package: files by content, listings by entries,
   searches by the entries they match, probes by what is at each path (record/outside.py),
-  and `read_by`: which step first read each (a build type redoes from there);
+  and `read_by`: which steps read each, and each own file, where no build system watches
+  it (a build type redoes from there);
 - `environment`: the variables its steps read, each by a digest of its value as the step
   would get it before its dependencies' hooks (what a plan compares), and
   `environment_seen`: the same variables as the steps saw them (what early cutoff compares
@@ -88,8 +89,8 @@ class PackageRecord:
     unobserved: tuple[str, ...] = ()
     #: why its build system still had work right after its build ("" when it had none)
     volatile: str = ""
-    #: outside path or `$NAME` -> the labels of the steps that read it, where no build system
-    #: watches it (comma-separated)
+    #: outside path, own file's name or `$NAME` -> the labels of the steps that read it,
+    #: where no build system watches it (comma-separated)
     read_by: Mapping[str, str] = field(default_factory=dict)
     #: the workspace packages whose install its steps read (its declared dependencies or not:
     #: a plan starts it after them, record/undeclared.py)

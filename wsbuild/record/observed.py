@@ -13,7 +13,8 @@ outside what the package itself makes and owns.
   one whose content or listing is held anyway;
 - each variable a step read, by the value it saw (its first reader's), with the labels of the
   steps that read it; each path no build system watches (not in `tracked`), with the labels
-  of the steps that read it (`read_by`: a build type redoes them when it changes)."""
+  of the steps that read it, an own file by its name (`read_by`: a build type redoes them
+  when it changes)."""
 
 from __future__ import annotations
 
@@ -60,6 +61,14 @@ class Where:
 
         return keeps
 
+    def own_name(self, path: str) -> str | None:
+        """The name a path inside the package has among its own files (None: not one)."""
+        source = str(self.source_dir).rstrip("/") + "/"
+        if not path.startswith(source):
+            return None
+        rel = path[len(source):]
+        return rel if rel and not any(part in LEFT_OUT for part in rel.split("/")) else None
+
 
 @dataclass(frozen=True, slots=True)
 class ObservedReads:
@@ -98,7 +107,7 @@ def observed_reads(observations: StepObservations, where: Where, digests: Digest
     outside = take(read, listed, digests, searches=searches, probes=probes,
                    started_ns=started_ns, own=own, settled=settled)
     seen, variable_readers = _variables(observations, extra_variables or {})
-    read_by = {**_readers(observations, keep, tracked), **variable_readers}
+    read_by = {**_readers(observations, keep, tracked, where), **variable_readers}
     return ObservedReads(outside, seen, read_by, observation)
 
 
@@ -124,19 +133,35 @@ def _variables(observations: StepObservations, extra: Mapping[str, Sequence[str]
 
 
 def _readers(observations: StepObservations, keep: Callable[[str], bool],
-             tracked: Collection[str]) -> dict[str, str]:
+             tracked: Collection[str], where: Where) -> dict[str, str]:
     """Each path a step read that its build system does not watch itself (not in `tracked`)
-    -> the labels of the steps that read it."""
+    -> the labels of the steps that read it; a file of the package's own by its name among
+    them (a `file(READ)` at configure time: CMake does not watch it either)."""
     readers: dict[str, list[str]] = {}
+
+    def read(path: str, label: str) -> None:
+        labels = readers.setdefault(path, [])
+        if label not in labels:
+            labels.append(label)
+
     for step in observations.steps:
         observation = step.observation
         for paths in (observation.reads, observation.listings, observation.searches):
             for path in paths:
-                labels = readers.setdefault(path, [])
-                if step.label not in labels:
-                    labels.append(step.label)
-    return {p: ",".join(labels) for p, labels in readers.items()
-            if p not in tracked and keep(p)}
+                read(path, step.label)
+        # a path looked at or for is held in its directory's probes
+        for path in observation.present | observation.absent:
+            path = path.rstrip("/") or "/"
+            read(path if where.own_name(path) else path.rpartition("/")[0] or "/",
+                 step.label)
+    found: dict[str, str] = {}
+    for path, labels in readers.items():
+        if path in tracked:
+            continue
+        name = path if keep(path) else where.own_name(path)
+        if name is not None:
+            found[name] = ",".join(labels)
+    return found
 
 
 def _probes(paths: Iterable[str], held: Collection[str]) -> dict[str, list[str]]:

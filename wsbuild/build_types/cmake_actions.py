@@ -1,0 +1,85 @@
+"""What the CMake build types' steps that run in wsbuild do (each a `Step(label, action)` of
+cmake.py's recipe, shown by `--dry-run`): drop a cache (with or without CMake's files) or
+empty a build directory, forget and write the last configure's record, take a DESTDIR stage,
+park the previous install around an install into the final prefix."""
+
+from __future__ import annotations
+
+import json
+import os
+import shutil
+from collections.abc import Mapping
+from pathlib import Path
+
+from wsbuild.build_types import PackageContext
+from wsbuild.build_types.cmake_facts import CONFIGURE_RECORD
+
+#: what stays when a build directory is emptied: wsbuild's own records and markers
+KEPT_IN_BUILD_DIRECTORY = frozenset({".wsbuild", "COLCON_IGNORE", "AMENT_IGNORE"})
+
+
+def empty_build_directory(build_dir: Path) -> None:
+    """Remove what CMake and the build wrote into `build_dir` (a configure from scratch)."""
+    for entry in os.scandir(build_dir):
+        if entry.name in KEPT_IN_BUILD_DIRECTORY:
+            continue
+        if entry.is_dir(follow_symlinks=False):
+            shutil.rmtree(entry.path)
+        else:
+            os.unlink(entry.path)
+
+
+def remove_cache(ctx: PackageContext, *, warning: str) -> None:
+    if warning:
+        ctx.warn(warning)
+    (ctx.build_dir / "CMakeCache.txt").unlink(missing_ok=True)
+    shutil.rmtree(ctx.build_dir / "CMakeFiles", ignore_errors=True)
+
+
+def forget_cache(ctx: PackageContext) -> None:
+    (ctx.build_dir / "CMakeCache.txt").unlink(missing_ok=True)
+
+
+def empty(ctx: PackageContext, *, why: str) -> None:
+    ctx.warn(f"{ctx.build_dir} was built {why}: building it from scratch")
+    empty_build_directory(ctx.build_dir)
+
+
+def forget_configure_record(ctx: PackageContext) -> None:
+    (ctx.build_dir / CONFIGURE_RECORD).unlink(missing_ok=True)
+
+
+def write_configure_record(ctx: PackageContext, *, record: Mapping[str, object]) -> None:
+    from wsbuild.files import atomic_write, private_directory
+
+    path = ctx.build_dir / CONFIGURE_RECORD
+    private_directory(path.parent)
+    atomic_write(path, json.dumps(record, indent=1) + "\n", mode=0o600)
+
+
+def remove_tree(ctx: PackageContext, *, path: Path) -> None:
+    if path.exists():
+        shutil.rmtree(path)
+
+
+def take_destdir(ctx: PackageContext, *, destdir: Path) -> None:
+    staged = destdir / str(ctx.install_prefix).lstrip(os.sep)
+    if staged.exists():
+        shutil.rmtree(ctx.stage_prefix)
+        os.rename(staged, ctx.stage_prefix)
+    shutil.rmtree(destdir, ignore_errors=True)
+
+
+def park_install(ctx: PackageContext) -> None:
+    """Before an install that writes straight into the final prefix: the previous install
+    aside, a fresh prefix (prefix/stage.py)."""
+    from wsbuild.prefix.stage import park_previous_install
+
+    park_previous_install(ctx.install_prefix, ctx.stage_prefix)
+
+
+def stage_direct_install(ctx: PackageContext) -> None:
+    """After it: the new install into the stage, the previous one back."""
+    from wsbuild.prefix.stage import stage_direct_install as stage
+
+    stage(ctx.install_prefix, ctx.stage_prefix)
