@@ -105,13 +105,12 @@ class Session:
         """The step observer (observe/library.py), built when a step first needs it; else
         why there is none."""
         if self._observer is None:
-            from wsbuild.cache.settings import default_cache_dir
-            from wsbuild.observe.library import observer
+            from wsbuild.observe.library import home, observer
 
             if os.environ.get(OBSERVE_VARIABLE) == "0":  # benchmarks/: the cost of observing
                 self._observer = f"observing is off ({OBSERVE_VARIABLE}=0)"
             else:
-                self._observer = observer(default_cache_dir(os.environ), self.environ)
+                self._observer = observer(home(os.environ), self.environ)
         return self._observer
 
     @property

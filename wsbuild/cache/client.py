@@ -18,7 +18,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from wsbuild.cache.archive import RefusedEntry, file_digest, pack, unpack
-from wsbuild.cache.key import CacheKey
+from wsbuild.cache.key import MAX_VARIANTS, CacheKey, variant_list, with_variant
 from wsbuild.cache.local import LocalCache
 from wsbuild.cache.action_result import ActionResult, parse_action_result
 from wsbuild.cache.settings import CacheSettings, default_cache_dir
@@ -31,30 +31,6 @@ Warn = Callable[[str], None]
 
 #: the largest package record an entry may carry (a C++ package's: tens of KiB)
 MAX_RECORD_BYTES = 64 * 1024 * 1024
-#: how many variants of one key the cache remembers (the most recent ones)
-MAX_VARIANTS = 16
-
-
-def _variant_list(data: bytes | None) -> list[tuple[str, ...]]:
-    """A key's variants document: a JSON list of lists of variable names; [] when it is not
-    one."""
-    import json
-
-    try:
-        value = json.loads(data) if data else []
-    except ValueError:
-        return []
-    if not isinstance(value, list):
-        return []
-    return [tuple(names) for names in value[:MAX_VARIANTS]
-            if isinstance(names, list) and all(isinstance(n, str) for n in names)]
-
-
-def _with_variant(known: list[tuple[str, ...]], names: tuple[str, ...]) -> bytes:
-    import json
-
-    merged = [names, *(n for n in known if n != names)][:MAX_VARIANTS]
-    return json.dumps([list(n) for n in merged]).encode()
 
 
 @dataclass(frozen=True, slots=True)
@@ -156,13 +132,13 @@ class BuildCache:
     def variants(self, key: CacheKey) -> list[tuple[str, ...]]:
         """The variable names of the variants stored under `key` (most recent first), locally
         and on the server."""
-        found = _variant_list(self.local.get_action(key.variants_address))
+        found = variant_list(self.local.get_action(key.variants_address))
         remote = self.remote
         if remote is not None:
             from wsbuild.cache.http import CacheUnavailable
 
             try:
-                more = _variant_list(remote.get_action(key.variants_address))
+                more = variant_list(remote.get_action(key.variants_address))
             except CacheUnavailable as error:
                 self._remote_off(str(error))
                 more = []
@@ -323,8 +299,8 @@ class BuildCache:
         for address in key.addresses:
             self.local.put_action(address, record)
         if key.variant:
-            known = _variant_list(self.local.get_action(key.variants_address))
-            self.local.put_action(key.variants_address, _with_variant(known, variables))
+            known = variant_list(self.local.get_action(key.variants_address))
+            self.local.put_action(key.variants_address, with_variant(known, variables))
         with self._lock:
             self._stored = True
             upload = self._uploads_on
@@ -373,8 +349,8 @@ class BuildCache:
             for address in addresses:
                 remote.put_action(address, record)
             if key.variant:  # a race with another uploader loses one variant: a miss, no more
-                known = _variant_list(remote.get_action(key.variants_address))
-                remote.put_action(key.variants_address, _with_variant(known, variables))
+                known = variant_list(remote.get_action(key.variants_address))
+                remote.put_action(key.variants_address, with_variant(known, variables))
         except CacheRejected as error:
             self._uploads_off(str(error))
         except CacheUnavailable as error:

@@ -107,3 +107,33 @@ def platform_id() -> str:
         pass
     libc = " ".join(platform.libc_ver())
     return f"{sys.platform} {platform.machine()} {release.strip()} {libc}".strip()
+
+
+#: the most variants (sets of variables read) a key's list keeps, most recent first
+MAX_VARIANTS = 16
+
+
+def variant_list(data: bytes | None) -> list[tuple[str, ...]]:
+    """A key's variants document (at its `variants_address`): a JSON list of lists of
+    variable names; [] when it is not one."""
+    found = parse_variants(data)
+    return found if found is not None else []
+
+
+def parse_variants(data: bytes | None) -> list[tuple[str, ...]] | None:
+    """The variants document `data` holds, None when it is not one."""
+    try:
+        value = json.loads(data) if data else None
+    except ValueError:
+        return None
+    if not isinstance(value, list) or not all(
+            isinstance(names, list) and all(isinstance(n, str) for n in names)
+            for names in value):
+        return None
+    return [tuple(names) for names in value[:MAX_VARIANTS]]
+
+
+def with_variant(known: list[tuple[str, ...]], names: tuple[str, ...]) -> bytes:
+    """The variants document with `names` first."""
+    merged = [names, *(n for n in known if n != names)][:MAX_VARIANTS]
+    return json.dumps([list(n) for n in merged]).encode()

@@ -14,7 +14,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from wsbuild.cache.archive import file_digest
-from wsbuild.cache.key import is_digest
+from wsbuild.cache.key import is_digest, parse_variants
 from wsbuild.cache.settings import DEFAULT_MAX_BYTES
 
 #: temporary files older than this belong to a killed run
@@ -108,8 +108,14 @@ class LocalCache:
 
     # -- housekeeping --------------------------------------------------------------------
     def stats(self) -> CacheStats:
+        """What the cache holds: its entries (each stored build once, though it is found
+        under its key and its variant) and blobs."""
+        from wsbuild.cache.action_result import parse_action_result
+
         blobs = list(_files(self.cas))
-        return CacheStats(self.root, entries=sum(1 for _ in _files(self.ac)), blobs=len(blobs),
+        entries = {(record.digest, record.record_digest) for path, _, _ in _files(self.ac)
+                   if (record := parse_action_result(_read(path))) is not None}
+        return CacheStats(self.root, entries=len(entries), blobs=len(blobs),
                           bytes=sum(size for _, size, _ in blobs), max_bytes=self.max_bytes)
 
     def prune(self, max_bytes: int | None = None) -> Pruned:
@@ -170,7 +176,10 @@ class LocalCache:
                 problems.append(f"cas/{path.name}: content does not match its digest (removed)")
                 path.unlink(missing_ok=True)
         for path, _, _ in _files(self.ac):
-            record = parse_action_result(_read(path))
+            data = _read(path)
+            record = parse_action_result(data)
+            if record is None and parse_variants(data) is not None:
+                continue  # a key's list of its variants
             if record is None:
                 problems.append(f"ac/{path.name}: not a wsbuild cache record (removed)")
                 path.unlink(missing_ok=True)

@@ -1,7 +1,8 @@
 """The observer's two parts as a step loads them: the interposed C library, compiled from
 `interposer.c` at first use with the machine's C compiler (the one CMake packages need anyway)
-into a private directory of the user's cache, and the Python hook beside it. Compiled once per
-source and compiler: later runs find it by their digest.
+into a private directory of the user's cache (`$XDG_CACHE_HOME/wsbuild-observe`, else
+`~/.cache/wsbuild-observe`: beside the build cache, never in it), and the Python hook beside it.
+Compiled once per source and compiler: later runs find it by their digest.
 
 Where there is no C compiler, or it fails, nothing is observed: every package is then built
 each time (its record says why), never taken for up to date on trust."""
@@ -16,6 +17,8 @@ import threading
 from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
+
+from wsbuild.files import private_directory
 
 #: the sources, beside this module
 SOURCE = Path(__file__).with_name("interposer.c")
@@ -40,9 +43,16 @@ class Observer:
     hook_dir: Path
 
 
+def home(environ: Mapping[str, str]) -> Path:
+    """Where the observer is compiled: `$XDG_CACHE_HOME/wsbuild-observe`, else
+    `~/.cache/wsbuild-observe`."""
+    base = environ.get("XDG_CACHE_HOME") or str(Path.home() / ".cache")
+    return Path(base) / "wsbuild-observe"
+
+
 def observer(cache_dir: Path, environ: Mapping[str, str]) -> Observer | str:
-    """The observer, compiled into `cache_dir/observe/<digest>` when it is not there yet;
-    else why there is none (one line). Thread-safe, once per process and directory."""
+    """The observer, compiled into `cache_dir/<digest>` when it is not there yet; else why
+    there is none (one line). Thread-safe, once per process and directory."""
     key = str(cache_dir)
     with _lock:
         known = _found.get(key)
@@ -73,13 +83,14 @@ def _build(cache_dir: Path, environ: Mapping[str, str]) -> Observer | str:
                       .encode())
     except OSError as exc:
         return f"cannot read the step observer's sources ({exc.strerror})"
-    directory = cache_dir / "observe" / digest.hexdigest()
+    directory = cache_dir / digest.hexdigest()
     made = Observer(directory / LIBRARY, directory / "pyhook")
     if made.library.is_file() and (made.hook_dir / HOOK.name).is_file():
         return made
     try:
-        for parent in (cache_dir, cache_dir / "observe"):
-            parent.mkdir(mode=0o700, exist_ok=True)
+        private_directory(cache_dir)  # with its parents (a first ~/.cache)
+        if os.stat(cache_dir).st_uid != os.getuid():
+            return f"{cache_dir} is not the user's own: the step observer is not built there"
         building = Path(f"{directory}.{os.getpid()}.tmp")
         shutil.rmtree(building, ignore_errors=True)
         (building / "pyhook").mkdir(mode=0o700, parents=True)
