@@ -234,11 +234,14 @@ def test_a_setup_py_with_its_own_cmdclass_is_observed_through_its_wheel_build(
 
 def test_a_file_cmake_reads_at_configure_time_rebuilds_and_is_never_restored_stale(
         tmp_path: Path) -> None:
+    """The file is named by a path up out of the package (`../../shared/greeting.txt`), as
+    turtlebot3's and churn's are: the `..` is the kernel's, not a file of the package's."""
     ws = tmp_path / "ws"
     config = write(ws / "shared" / "greeting.txt", "one\n")
-    _cmake_program(ws / "src", "configured", f"""
-        file(STRINGS "{config}" GREETING LIMIT_COUNT 1)
-        add_compile_definitions(GREETING="${{GREETING}}")
+    _cmake_program(ws / "src", "configured", """
+        file(STRINGS "${CMAKE_CURRENT_SOURCE_DIR}/../../shared/greeting.txt" GREETING
+             LIMIT_COUNT 1)
+        add_compile_definitions(GREETING="${GREETING}")
         """, '#include <cstdio>\nint main() { std::puts(GREETING); }\n')
     _settled(ws)
     config.write_text("two\n")

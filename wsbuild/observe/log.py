@@ -177,14 +177,17 @@ class _Reader:
             return
         if kind == "K":
             directory, _, name = text.partition("\x1f")
+            directory = plain(directory)
             if self.keep(directory) and name:
                 self.searches.setdefault(directory, set()).update((name, f"{name}.*"))
             return
         if kind in "QP":
+            text = plain(text)
             image.searched.add(text)
             if kind == "P" and self.keep(text):
                 self.searches.setdefault(text, set()).add("*.pth")
             return
+        text = plain(text)
         if not self.keep(text):
             return
         if kind == "R":
@@ -255,6 +258,20 @@ class _Reader:
             programs=frozenset(self.programs), variables=frozenset(self.variables),
             every_variable=self.every, variable_names=self.names,
             unobserved=tuple(dict.fromkeys(self.unobserved)))
+
+
+def plain(path: str) -> str:
+    """`path` without `.`, `..` and doubled slashes, as the kernel resolved it (its directory's
+    symlinks followed for a `..`, its last name kept: `src/pkg/../../shared/a.txt` is
+    `shared/a.txt`, whatever `pkg` is)."""
+    if "/." not in path and "//" not in path:
+        return path
+    head, tail = os.path.split(path)
+    if tail in (".", ".."):
+        return os.path.realpath(path)
+    if "/." not in head + "/" and "//" not in path:
+        return path  # a name that starts with a dot
+    return os.path.join(os.path.realpath(head), tail)
 
 
 def read_observation(log_dir: Path, *, ignored: Iterable[Path | str] = (),
