@@ -9,6 +9,7 @@ import json
 import os
 from pathlib import Path
 
+from wsbuild import inputs
 from wsbuild.record.dirty import Environment, PackageNow, dirty_reason
 from wsbuild.record.environment import UNSET, changed_names, variable_digests
 from wsbuild.record.installed import damaged_install, installed_entries
@@ -169,6 +170,40 @@ def test_the_keys_derive_from_the_record_and_a_record_round_trips(tmp_path: Path
     directory = tmp_path / "build" / ".wsbuild"
     assert directory.stat().st_mode & 0o777 == 0o700
     assert (directory / "record.json").stat().st_mode & 0o777 == 0o600
+
+
+def test_a_plan_reads_the_records_from_one_memo_while_each_file_is_the_one_it_holds(
+        tmp_path: Path) -> None:
+    """Records written and read are noted in build/.wsbuild/records.memo (private to the
+    user), each with its file's stat signature; a later process takes the record from the
+    memo, with what two records read outside held once, until its file is replaced."""
+    from wsbuild.record import memo
+
+    base = tmp_path / "build"
+    header = _write(tmp_path / "ext.h")
+    records = {}
+    for name in ("a", "b"):
+        pkg = _write(tmp_path / name / "CMakeLists.txt").parent
+        records[name] = _record(pkg, outside=take([str(header)], [], Digests()))
+        write_record(base / name, records[name])
+    memo.save_memos()
+    path = base / memo.MEMO_FILE
+    assert path.stat().st_mode & 0o777 == 0o600
+    memo._memos.clear()  # a new process
+    loaded = memo.memo_of(base, 2)
+    for name, record in records.items():
+        held = loaded.get(name, inputs.signature(base / name / ".wsbuild" / "record.json"))
+        assert held is not None and held[1] == record.outside
+        assert read_record(base / name) == record
+    first, second = (loaded.get(n, inputs.signature(base / n / ".wsbuild" / "record.json"))
+                     for n in ("a", "b"))
+    assert first is not None and second is not None
+    assert first[1].files[str(header)] is second[1].files[str(header)]  # held once
+    # another record in a's file: read from the file, not the memo
+    changed = _record(tmp_path / "a", environment={"PATH": "other"})
+    write_record(base / "a", changed)
+    memo._memos.clear()
+    assert read_record(base / "a") == changed
 
 
 def test_the_one_dirty_check_names_what_changed_first(tmp_path: Path) -> None:

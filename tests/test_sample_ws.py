@@ -404,3 +404,20 @@ def test_an_edit_rebuilds_only_its_package_and_shows_when_run(workspace: Workspa
     run = workspace.bash(f"{WSBUILD} run demo_nodes_py change_mode_client")
     assert run.returncode == 2
     assert "edited usage: change_mode_client MODE" in run.stderr
+
+
+def test_the_interfaces_built_again_from_clean_keep_every_header(workspace: Workspace) -> None:
+    """`--cmake-clean-first` (and a rebuild of everything for a changed variable the build
+    step read) cleans before the configure: the visibility headers rosidl writes at configure
+    time are installed again (a clean after it deleted them for good)."""
+    header = (workspace.root / "install" / "demo_interfaces" / "include" / "demo_interfaces"
+              / "demo_interfaces" / "msg" / "rosidl_generator_cpp__visibility_control.hpp")
+    assert header.is_file()
+    result = subprocess.run(
+        [sys.executable, "-m", "wsbuild", "build", "--packages-select", "demo_interfaces",
+         "--cmake-clean-first"],
+        cwd=workspace.root, env=_environment(), capture_output=True, text=True, timeout=600)
+    output = result.stdout + result.stderr
+    assert result.returncode == 0, output
+    assert _built_packages(output) == ["demo_interfaces"], output
+    assert header.is_file(), output

@@ -126,6 +126,10 @@ class Session:
         return self._jobserver
 
     def close(self) -> None:
+        if not self.options.dry_run:
+            from wsbuild.record.memo import save_memos
+
+            save_memos()
         if self._jobserver is not None:
             self._jobserver.close()
             self._jobserver = None

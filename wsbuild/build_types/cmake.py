@@ -120,6 +120,9 @@ class CMakeBuildType:
         """Configure when needed (with what must go first and the record after it), build,
         install: decided from the context's facts and state, reading nothing."""
         steps = []
+        clean = self.clean_step(ctx)
+        if clean is not None:
+            steps.append(clean)
         if self.needs_configure(ctx):
             steps += self.prepare_configure_steps(ctx)
             steps.append(self.configure_step(ctx))
@@ -246,9 +249,10 @@ class CMakeBuildType:
         which step read what changed; CMake itself watches only its own list of files, not
         what `file(READ)` or `$ENV{}` read). What the build step read counts too: a build
         step runs CMake's configure again when a file CMake watches changed, and what that
-        configure read is the build step's."""
+        configure read is the build step's. A clean goes before a configure (`clean_step`)."""
         own = cmake_options(ctx)
-        if own.clean_cache or own.force_configure or {"configure", "build"} & _redone(ctx):
+        if own.clean_cache or own.force_configure or own.clean_first \
+                or {"configure", "build"} & _redone(ctx):
             return True
         state = self.state(ctx)
         return not state.cache or self._record(ctx) != state.record
@@ -339,16 +343,28 @@ class CMakeBuildType:
         leftovers break this build ("" when not): plain CMake has only one."""
         return ""
 
+    def clean_step(self, ctx: PackageContext) -> Step | None:
+        """The generator's `clean` target, before the configure, when everything is built
+        again: asked for (--cmake-clean-first), or the last build read a variable or a file
+        that changed and that the generator does not watch (a compiler's CPATH, a custom
+        command's own input). Cleaning after the configure (`cmake --build --clean-first`)
+        would delete what the configure wrote that a build rule names (rosidl's visibility
+        headers), which no build writes again; so the configure runs after the clean."""
+        if not (cmake_options(ctx).clean_first or "build" in _redone(ctx)):
+            return None
+        state = self.state(ctx)
+        if not state.cache or self._from_scratch(ctx, state):
+            return None  # nothing built yet, or the configure starts from scratch anyway
+        env, run_env = self._build_env(ctx)
+        return Step("clean", command=Command(
+            ("cmake", "--build", str(ctx.build_dir), "--target", "clean"), ctx.build_dir,
+            env=env, run_env=run_env), reads=(ctx.build_dir,), writes=(ctx.build_dir,))
+
     def build_step(self, ctx: PackageContext) -> Step:
         command = ["cmake", "--build", str(ctx.build_dir), *self.parallel_args(ctx)]
         own = cmake_options(ctx)
         if own.target:
             command += ["--target", own.target]
-        if own.clean_first or "build" in _redone(ctx):
-            # the last build read a variable or a file that changed and that the generator
-            # does not watch (a compiler's CPATH, a custom command's own input): only a build
-            # of everything again reads it again
-            command.append("--clean-first")
         env, run_env = self._build_env(ctx)
         return Step("build", command=Command(tuple(command), ctx.build_dir, env=env,
                                              run_env=run_env),
@@ -378,7 +394,7 @@ class CMakeBuildType:
         """The steps whose earlier reads no longer count after this build, even where it
         keeps earlier work: the install (it installs everything every time), the configure
         when it starts from a fresh cache, the build when it builds everything again."""
-        afresh = {"install"}
+        afresh = {"install", "clean"}
         redone = _redone(ctx)
         if {"configure", "build"} & redone:
             afresh.add("configure")

@@ -21,7 +21,8 @@ CMAKE_CLEAN_CACHE = TypeOption(
     forces_build=True, help="remove CMakeCache.txt before configuring", secondary=True)
 CMAKE_CLEAN_FIRST = TypeOption(
     "--cmake-clean-first", "cmake_clean_first", kind="switch", in_key=False,
-    forces_build=True, help="build the 'clean' target first", secondary=True)
+    forces_build=True, help="build the 'clean' target first (then configure and build)",
+    secondary=True)
 CMAKE_FORCE_CONFIGURE = TypeOption(
     "--cmake-force-configure", "cmake_force_configure", kind="switch", in_key=False,
     forces_build=True, help="configure even when nothing changed")

@@ -131,22 +131,46 @@ def record_path(build_dir: Path) -> Path:
 
 
 def read_record(build_dir: Path) -> PackageRecord | None:
-    """The package's record; None when there is none, or one this version cannot read."""
+    """The package's record; None when there is none, or one this version cannot read. Taken
+    from the build base's memo while its file is the one the memo holds (record/memo.py)."""
+    from wsbuild.record.memo import memo_of
+
+    path = build_dir / RECORD_FILE
+    signature = inputs.signature(path)
+    if signature == inputs.ABSENT:
+        return None
+    memo = memo_of(build_dir.parent, FORMAT)
+    held = memo.get(build_dir.name, signature)
+    if held is not None:
+        return decode(held[0], sealed=False, outside=held[1])
     try:
-        data = json.loads(inputs.read_text(build_dir / RECORD_FILE))
+        data = json.loads(inputs.read_text(path))
     except (OSError, ValueError):
         return None
-    return decode(data, sealed=False)
+    record = decode(data, sealed=False)
+    if record is not None and inputs.signature(path) == signature:
+        memo.put(build_dir.name, signature, data, record.outside)
+    return record
+
+
+#: a record holds thousands of these: made without NamedTuple's checks (a malformed value
+#: raises, and the record reads as none)
+_new = tuple.__new__
 
 
 def _seen(value: object) -> Seen:
     signature, digest = value  # type: ignore[misc]
-    return Seen(tuple(int(x) for x in signature), str(digest))
+    if type(digest) is not str:
+        raise TypeError("a digest is a string")
+    return _new(Seen, (tuple(signature), digest))
 
 
 def _looked(value: object) -> Looked:
     names, signature, digest = value  # type: ignore[misc]
-    return Looked(tuple(str(names).split("/")) if names else (), _seen((signature, digest)))
+    if type(digest) is not str or type(names) is not str:
+        raise TypeError("a digest and names are strings")
+    return _new(Looked, (tuple(names.split("/")) if names else (),
+                         _new(Seen, (tuple(signature), digest))))
 
 
 def encode_outside(outside: OutsideReads) -> dict[str, object]:
@@ -164,10 +188,10 @@ def encode_outside(outside: OutsideReads) -> dict[str, object]:
 
 def decode_outside(data: Mapping[str, Mapping[str, object]]) -> OutsideReads:
     """What was read outside, from its JSON values (raises KeyError, TypeError, ValueError)."""
-    return OutsideReads({str(p): _seen(v) for p, v in data["files"].items()},
-                        {str(p): _seen(v) for p, v in data["listings"].items()},
-                        {str(p): _looked(v) for p, v in data["searches"].items()},
-                        {str(p): _looked(v) for p, v in data["probes"].items()})
+    return OutsideReads({p: _seen(v) for p, v in data["files"].items()},
+                        {p: _seen(v) for p, v in data["listings"].items()},
+                        {p: _looked(v) for p, v in data["searches"].items()},
+                        {p: _looked(v) for p, v in data["probes"].items()})
 
 
 def encode(record: PackageRecord) -> dict[str, object]:
@@ -197,10 +221,12 @@ def encode(record: PackageRecord) -> dict[str, object]:
     }
 
 
-def decode(data: object, *, sealed: bool = True) -> PackageRecord | None:
+def decode(data: object, *, sealed: bool = True,
+           outside: OutsideReads | None = None) -> PackageRecord | None:
     """A record from its JSON values; None when it is not one. `sealed`: its keys computed
     here (a build cache entry's: never taken from the data), else the ones it carries (the
-    package's own record, written by `write_record`)."""
+    package's own record, written by `write_record`). `outside`: its outside reads, decoded
+    already (the memo's)."""
     if not isinstance(data, dict) or data.get("format") != FORMAT:
         return None
     try:
@@ -214,7 +240,7 @@ def decode(data: object, *, sealed: bool = True) -> PackageRecord | None:
             environment_names=str(data["environment_names"]),
             dependencies={str(k): str(v) for k, v in data["dependencies"].items()},
             dependency_inputs={str(k): str(v) for k, v in data["dependency_inputs"].items()},
-            outside=decode_outside(data["outside"]),
+            outside=outside if outside is not None else decode_outside(data["outside"]),
             read_by={str(k): str(v) for k, v in data["read_by"].items()},
             installs_read=tuple(str(name) for name in data["installs_read"]),
             complete=bool(data["complete"]),
@@ -234,7 +260,13 @@ def decode(data: object, *, sealed: bool = True) -> PackageRecord | None:
 
 def write_record(build_dir: Path, record: PackageRecord) -> None:
     """Write the record, its keys computed (its directory 0700, the file 0600)."""
+    from wsbuild.record.memo import memo_of
+
     record = record.sealed()
     directory = private_directory(build_dir / RECORD_FILE.parent)
-    atomic_write(directory / RECORD_FILE.name,
-                 json.dumps(encode(record), separators=(",", ":")), mode=0o600)
+    text = json.dumps(encode(record), separators=(",", ":"))
+    atomic_write(directory / RECORD_FILE.name, text, mode=0o600)
+    signature = inputs.signature(directory / RECORD_FILE.name)
+    # the memo holds the values as the file gives them back (JSON has no tuples)
+    memo_of(build_dir.parent, FORMAT).put(build_dir.name, signature, json.loads(text),
+                                          record.outside)

@@ -386,6 +386,11 @@ def _distributions_from_metadata(paths: Iterable[str]) -> dict[str, str]:
             name = dist.metadata["Name"]
         except (KeyError, OSError):
             continue
+        finally:  # what importlib.metadata looked at and read of it
+            location = getattr(dist, "_path", None)
+            if location is not None:
+                for file_name in ("METADATA", "PKG-INFO"):
+                    inputs.declare_file(os.path.join(location, file_name))
         if name:
             found.setdefault(normalize_distribution(name), f"{name} {dist.version}")
     return found

@@ -1,0 +1,147 @@
+"""The records of a build base's packages in one file, `build/.wsbuild/records.memo`, so that a
+plan reads them at once: derived from each package's `record.json` and never instead of it.
+
+A record is taken from the memo only while its `record.json` has the stat signature the memo
+noted with it (a build writes a new file: another inode, another signature); otherwise it is
+read from its file and the memo notes it anew. What many records read outside (the
+interpreter's modules, the system's headers, CMake's modules) is held once in the memo and
+shared by the records in memory, where each `record.json` holds its own copy (it stands alone:
+a build cache entry carries it).
+
+The memo is written when a run that is not a dry run ends and a record was read from its file
+or written (record/model.py's `write_record` notes the new one). It is marshal data of this
+interpreter's version, private to the user (0600); one of another version, or unreadable, is
+no memo."""
+
+from __future__ import annotations
+
+import marshal
+import os
+import sys
+import threading
+from pathlib import Path
+
+from wsbuild import inputs
+from wsbuild.files import atomic_write, private_directory
+from wsbuild.record.outside import Looked, OutsideReads, Seen
+
+#: under the build base
+MEMO_FILE = Path(".wsbuild") / "records.memo"
+#: bumped whenever the memo's shape changes
+_VERSION = 1
+_new = tuple.__new__
+_KINDS = ("files", "listings", "searches", "probes")
+
+_lock = threading.Lock()
+_memos: dict[str, RecordsMemo] = {}
+
+
+class RecordsMemo:
+    """One build base's memo, loaded once per process."""
+
+    def __init__(self, path: Path, record_format: int) -> None:
+        self.path = path
+        self.header = [_VERSION, record_format, sys.version]
+        #: package -> (record.json's signature, the record's JSON values but its outside
+        #: reads, those as (path, seen) pairs of each kind)
+        self._records: dict[str, tuple[tuple[int, ...], dict[str, object],
+                                       tuple[tuple[tuple[str, Seen | Looked], ...], ...]]] = {}
+        self.changed = False
+        self._load()
+
+    def _load(self) -> None:
+        try:
+            data = marshal.loads(inputs.read_bytes(self.path))
+        except (OSError, EOFError, ValueError, TypeError):
+            return
+        try:
+            if not isinstance(data, dict) or data.get("format") != self.header:
+                return
+            shared = [_entry(*value) for value in data["entries"]]
+            for name, (signature, values, ids) in data["records"].items():
+                self._records[name] = (tuple(signature), values, tuple(
+                    tuple(shared[i] for i in kind) for kind in ids))
+        except (KeyError, TypeError, ValueError, IndexError):
+            self._records.clear()
+
+    def get(self, package: str, signature: tuple[int, ...]
+            ) -> tuple[dict[str, object], OutsideReads] | None:
+        """The record's JSON values (but its outside reads) and its outside reads, when the
+        memo holds the record of the file with `signature`."""
+        with _lock:
+            held = self._records.get(package)
+        if held is None or held[0] != signature or signature == inputs.ABSENT:
+            return None
+        _, values, kinds = held
+        return values, OutsideReads(*(dict(kind) for kind in kinds))
+
+    def put(self, package: str, signature: tuple[int, ...], values: dict[str, object],
+            outside: OutsideReads) -> None:
+        """Note the record read from (or just written to) the file with `signature`."""
+        kept = {k: v for k, v in values.items() if k != "outside"}
+        kinds = tuple(tuple(getattr(outside, kind).items()) for kind in _KINDS)
+        with _lock:
+            self._records[package] = (signature, kept, kinds)
+            self.changed = True
+
+    def save(self) -> None:
+        """Write the memo when it changed (the outside reads each held once)."""
+        with _lock:
+            if not self.changed:
+                return
+            index: dict[tuple[str, Seen | Looked], int] = {}
+            entries: list[tuple[object, ...]] = []
+            records = {}
+            for name, (signature, values, kinds) in sorted(self._records.items()):
+                ids = []
+                for kind in kinds:
+                    found = []
+                    for pair in kind:
+                        at = index.get(pair)
+                        if at is None:
+                            at = index[pair] = len(entries)
+                            entries.append(_flat(*pair))
+                        found.append(at)
+                    ids.append(found)
+                records[name] = (list(signature), values, ids)
+            self.changed = False
+        data = marshal.dumps({"format": self.header, "entries": entries, "records": records})
+        try:
+            private_directory(self.path.parent)
+            atomic_write(self.path, data, mode=0o600)
+        except OSError:
+            pass  # a memo is never worth failing the run: the next plan reads the files
+
+
+def _flat(path: str, seen: Seen | Looked) -> tuple[object, ...]:
+    if isinstance(seen, Looked):
+        return (path, list(seen.seen.signature), seen.seen.digest, "/".join(seen.names))
+    return (path, list(seen.signature), seen.digest, None)
+
+
+def _entry(path: str, signature: list[int], digest: str, names: str | None
+           ) -> tuple[str, Seen | Looked]:
+    seen = _new(Seen, (tuple(signature), digest))
+    if names is None:
+        return path, seen
+    return path, _new(Looked, (tuple(names.split("/")) if names else (), seen))
+
+
+def memo_of(build_base: Path, record_format: int) -> RecordsMemo:
+    """The memo of `build_base`, loaded at first use in this process."""
+    key = os.path.abspath(build_base)
+    with _lock:
+        memo = _memos.get(key)
+    if memo is None:
+        loaded = RecordsMemo(Path(key) / MEMO_FILE, record_format)
+        with _lock:
+            memo = _memos.setdefault(key, loaded)
+    return memo
+
+
+def save_memos() -> None:
+    """Write every memo this process changed (at the end of a run that is not a dry run)."""
+    with _lock:
+        memos = list(_memos.values())
+    for memo in memos:
+        memo.save()
