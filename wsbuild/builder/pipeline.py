@@ -95,11 +95,19 @@ def run_build(selection: Selection, request: BuildRequest, emit: Emit) -> list[J
     with open_session(selection.workspace, session_options(request), emit) as session:
         selection, shard, plan = _shard_and_plan(selection, request, session)
         # a shard's run asks a server (the other shards' packages): never replayed
-        no_op = plan.refusal is None and not plan.to_do() and shard is None
+        # and so does the assembling job (what the shards noted)
+        no_op = plan.refusal is None and not plan.to_do() and shard is None \
+            and request.assemble is None
         emit(PlanMade(no_op=no_op))
         if plan.refusal is not None:
             raise plan.refusal.error
         _warn(plan, emit)
+        if request.assemble is not None:  # every package built and tested by a shard
+            from wsbuild.builder.shard_cover import check_assembly
+
+            for line in check_assembly(plan, selection, request.assemble,
+                                       session.cache.settings):
+                emit(Notice(line))
         assert session.run_log is not None
         if shard is not None:  # its note for the other shards (builder/shard_run.py)
             from wsbuild.builder import shard_run

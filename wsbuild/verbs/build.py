@@ -22,6 +22,7 @@ from wsbuild.verbs.arguments import (
 if TYPE_CHECKING:  # the modules of the work are imported when the verb runs, not to parse
     from wsbuild.build_types import TypeOption
     from wsbuild.builder.request import BuildRequest
+    from wsbuild.builder.shard_cover import Assembly
     from wsbuild.builder.shards import ShardSpec
     from wsbuild.cache.settings import CacheSettings
     from wsbuild.reporter import Console
@@ -134,6 +135,10 @@ def _cache_arguments(cache: argparse._ArgumentGroup) -> None:
     secondary(cache.add_argument(
         "--shard", metavar="K/N",
         help="build the K-th of N jobs' share, meeting the others in the cache (docs/ci.md)"))
+    secondary(cache.add_argument(
+        "--assemble", metavar="N",
+        help="the job after N `--shard` jobs: restore everything, fail naming any package no "
+             "shard built and tested (docs/ci.md)"))
 
 
 def _split_args(values: list[str] | None) -> tuple[str, ...]:
@@ -195,6 +200,7 @@ def request_from_args(args: argparse.Namespace) -> BuildRequest:
         report=not args.no_report,
         distribute=distribute_spec(args.distribute, os.environ),
         shard=_shard_from_args(args),
+        assemble=_assembly_from_args(args),
     )
 
 
@@ -213,6 +219,27 @@ def _shard_from_args(args: argparse.Namespace) -> ShardSpec | None:
             "writes and without --symlink-install",
             hint="give --cache http://cache.example:8080/ or set WSBUILD_CACHE (docs/ci.md)")
     return spec
+
+
+def _assembly_from_args(args: argparse.Namespace) -> Assembly | None:
+    """--assemble N, with the CI run the shards belonged to; like --shard, it needs the
+    server the shards shared."""
+    if getattr(args, "assemble", None) is None:
+        return None
+    from wsbuild.builder.shard_cover import Assembly
+    from wsbuild.builder.shards import parse_shard_count, shard_run_id
+
+    count = parse_shard_count(args.assemble, option="--assemble")
+    if args.shard is not None:
+        raise WsbuildError("--assemble and --shard exclude each other",
+                           hint="--shard K/N in each job of the matrix, --assemble N in the "
+                                "job after it")
+    settings = _cache_settings_from_args(args)
+    if settings is None or not settings.url:
+        raise WsbuildError(
+            f"--assemble {count} needs the build cache server the shards shared",
+            hint="give --cache http://cache.example:8080/ or set WSBUILD_CACHE (docs/ci.md)")
+    return Assembly(count, shard_run_id(os.environ))
 
 
 def _cache_settings_from_args(args: argparse.Namespace) -> CacheSettings | None:

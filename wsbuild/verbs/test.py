@@ -4,6 +4,7 @@ and the runs around testing/test_run.py and testing/junit.py."""
 from __future__ import annotations
 
 import argparse
+import os
 import sys
 from dataclasses import dataclass
 from pathlib import Path
@@ -178,9 +179,9 @@ def test_verb_request_from_args(args: argparse.Namespace) -> TestVerbRequest:
     test = request_from_args(args, workspace_root(args.workspace_dir))
     shard = None
     if args.shard is not None:
-        from wsbuild.builder.shards import parse_shard
+        from wsbuild.builder.shards import parse_shard, shard_run_id
 
-        shard = parse_shard(args.shard)
+        shard = parse_shard(args.shard, run=shard_run_id(os.environ))
     return TestVerbRequest(
         load=load_request_from_args(args, cache=cache_selection_from_args(args, test=test)),
         test=test, metadata=metadata_from_args(args), console=console_from_args(args),
@@ -206,12 +207,13 @@ def run_test_verb(args: argparse.Namespace) -> int:
     print_notes(dict.fromkeys((loaded.chosen_because, *notes) if loaded.chosen_because
                               else notes))
     selection = Selection(loaded.workspace, loaded.packages, loaded.graph, loaded.selected)
+    shard_run = ""
     if verb.shard is not None:  # the packages `build --shard` built here
-        import os
-
+        from wsbuild.builder.shard_cover import run_of
         from wsbuild.builder.shard_run import test_selection
         from wsbuild.cache.settings import settings_from_environment
 
+        shard_run = run_of(selection, verb.shard.run)
         selection, line = test_selection(selection, verb.shard, request.workers,
                                          settings_from_environment(os.environ))
         print_notes([line])
@@ -232,7 +234,20 @@ def run_test_verb(args: argparse.Namespace) -> int:
         reporter.stop()
     if run.interrupted:
         raise Interrupted("tests interrupted")
+    if verb.shard is not None:  # what this shard tested, for the assembling job
+        _note_tested(verb.shard, shard_run, selection)
     return 1 if run.failed else 0
+
+
+def _note_tested(shard: ShardSpec, run: str, selection: Selection) -> None:
+    from wsbuild.builder.shard_cover import note_tested
+    from wsbuild.cache.settings import settings_from_environment
+
+    settings = settings_from_environment(os.environ)
+    problems = note_tested(settings if settings.enabled else None, run, shard.count,
+                           shard.index, selection.selected,
+                           selection.workspace.build_base / ".wsbuild")
+    print_warnings([f"cache: {problem}" for problem in problems])
 
 
 def _build_test_trees(selection: Selection, request: TestRequest, reporter: Reporter) -> None:
