@@ -30,6 +30,14 @@ if TYPE_CHECKING:
 
 
 
+#: why the proof refuses an entry that no wsbuild could use (not one that another machine's
+#: files or dependencies disprove): a server answering with these is named once per run
+NO_RECORD = "the entry carries no package record"
+UNREADABLE_RECORD = "the entry's package record cannot be read"
+OTHER_INPUTS = "the entry's package record is not of these inputs"
+UNUSABLE = frozenset({NO_RECORD, UNREADABLE_RECORD, OTHER_INPUTS})
+
+
 @dataclass(frozen=True, slots=True)
 class Proven:
     """An entry this machine proved while the run was planned, and its package record."""
@@ -50,7 +58,7 @@ def disproof(found: Found, inputs_key: str, dependencies: Mapping[str, str], dig
     from wsbuild.record.model import decode
 
     if found.package_record is None:
-        return None, "the entry carries no package record"
+        return None, NO_RECORD
     try:
         import json
 
@@ -58,9 +66,9 @@ def disproof(found: Found, inputs_key: str, dependencies: Mapping[str, str], dig
     except ValueError:
         record = None
     if record is None:
-        return None, "the entry's package record cannot be read"
+        return None, UNREADABLE_RECORD
     if record.inputs_key != inputs_key:
-        return None, "the entry's package record is not of these inputs"
+        return None, OTHER_INPUTS
     changed = changed_read(record, digests=digests, install_base=install_base,
                            planning=planning, dependencies=dependencies, waiting=waiting)
     if changed is not None:
@@ -84,6 +92,8 @@ class RunCache:
         self._seconds = {"lookup": 0.0, "restore": 0.0, "store": 0.0}
         self._counts = {"lookup": 0, "restore": 0, "store": 0}
         self._misses: list[str] = []
+        #: the packages whose entry on the server no wsbuild could use (`UNUSABLE`)
+        self._unusable: set[str] = set()
 
     def _account(self, what: str, started: float) -> None:
         with self._lock:
@@ -106,6 +116,28 @@ class RunCache:
 
     def _warn(self, text: str) -> None:
         self._emit(Notice(text, warning=True))
+
+    def _refused(self, key: CacheKey, found: Found, why_not: str) -> None:
+        """Note a refused entry: in the run's log, and counted when it came from the server
+        and no wsbuild could use it."""
+        with self._lock:
+            self._misses.append(f"{key.package}: {why_not}")
+            if why_not in UNUSABLE and not found.from_local:
+                self._unusable.add(key.package)
+
+    def _name_unusable_server(self) -> None:
+        """One warning naming a server that answered with entries no wsbuild could use."""
+        if not self._unusable or self.settings is None:
+            return
+        from wsbuild.redaction import redact
+        from wsbuild.words import plural
+
+        count = len(self._unusable)
+        self._warn(f"cache server {redact(self.settings.url or '')} answered "
+                   f"{plural(count, 'entry', 'entries')} wsbuild cannot use (no package record "
+                   "of these inputs: not a wsbuild cache, or it serves something else at "
+                   f"these addresses); {'it was' if count == 1 else 'they were'} refused "
+                   "before anything was unpacked, and built here")
 
     def key(self, name: str, build_type: str, inputs_key: str, prefix: Path,
             environ: Mapping[str, str]) -> CacheKey | None:
@@ -140,8 +172,11 @@ class RunCache:
                                        waiting=waiting)
         if found is None or record is None:
             self._account("lookup", started)
-            with self._lock:  # for "why was this not restored?": in the log
-                self._misses.append(f"{key.package}: {why_not}")
+            if found is None:
+                with self._lock:  # for "why was this not restored?": in the log
+                    self._misses.append(f"{key.package}: {why_not}")
+            else:
+                self._refused(key, found, why_not)
             return None
         with self._lock:  # counted with the restore that follows
             self._seconds["restore"] += time.perf_counter() - started
@@ -179,8 +214,7 @@ class RunCache:
                                          planning=False)
         if entry_record is None:
             self._account("lookup", started)
-            with self._lock:
-                self._misses.append(f"{key.package}: {why_not}")
+            self._refused(key, found, why_not)
             return why_not
         cache = self._open()
         install_base = self.workspace.install_base
@@ -229,6 +263,7 @@ class RunCache:
         the cache cost into the run's log."""
         if self._cache is None:
             return
+        self._name_unusable_server()
         started = time.perf_counter()
         closing_cache, self._cache = self._cache, None
         closing_cache.close(wait=wait)
