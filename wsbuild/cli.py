@@ -421,7 +421,11 @@ def main(argv: Sequence[str] | None = None, *, recorder: ReplayRecorder | None =
         _print_choices(args.verb)
         return 2
     from wsbuild.engine.process import interrupted_exit_code, stop_signals_interrupt
+    from wsbuild.redaction import remember_environment
     from wsbuild.reporter import Terminal
+
+    # the values of the environment's secrets are hidden in all wsbuild writes
+    remember_environment(os.environ)
     from wsbuild.verbs.colcon import ignored_notes
 
     # where the verb's words go (through the recorder's copies when it is recorded)

@@ -33,7 +33,7 @@ from wsbuild.engine.process import env_delta, format_command, run_command
 from wsbuild.errors import WsbuildError
 from wsbuild.events import CacheRestored, Emit
 from wsbuild.record.model import PackageRecord
-from wsbuild.redaction import redact
+from wsbuild.engine.logs import append_command_log
 from wsbuild.session import Session
 from wsbuild.workspace.model import DepCategory
 from wsbuild.workspace.selection import Selection
@@ -462,8 +462,7 @@ class PackageBuild:
         return {*self.run.selection.packages, *ament_index(prefixes)}
 
     def _log(self, line: str) -> None:
-        with open(self.log_dir / "command.log", "a") as handle:
-            handle.write(redact(line) + "\n")
+        append_command_log(self.log_dir, line)
 
     def _seconds(self) -> float:
         return time.monotonic() - self.started

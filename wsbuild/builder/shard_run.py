@@ -43,6 +43,7 @@ from wsbuild.builder.shards import (
     split_packages,
 )
 from wsbuild.engine.jobs import JobResult, Outcome
+from wsbuild.engine.logs import append_command_log
 from wsbuild.engine.ready_queue import JobGraph
 from wsbuild.events import Emit, Notice
 from wsbuild.words import plural
@@ -403,11 +404,8 @@ def _wait_then_build(shard: ShardPlan, planned: PackagePlan,
 
 
 def _log(log_dir: Path | None, line: str) -> None:
-    if log_dir is None:
-        return
-    log_dir.mkdir(parents=True, exist_ok=True)
-    with open(log_dir / "command.log", "a") as handle:
-        handle.write(line + "\n")
+    if log_dir is not None:
+        append_command_log(log_dir, line)
 
 
 def summary_lines(shard: ShardPlan, results: Sequence[JobResult]) -> list[str]:

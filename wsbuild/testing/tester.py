@@ -31,7 +31,7 @@ from wsbuild.testing.linters import MISSING_LINTER_PREFIX
 from wsbuild.testing.results import PackageStatus, PackageTests, results_dir
 from wsbuild.testing.test_key import TestKeys
 from wsbuild.testing.tooling import tooling_failures
-from wsbuild.redaction import redact
+from wsbuild.engine.logs import append_command_log
 
 if TYPE_CHECKING:
     from wsbuild.testing.request import TestRequest
@@ -226,5 +226,4 @@ def _reusable_later(report: PackageTests) -> bool:
 
 
 def _log(log_dir: Path, line: str) -> None:
-    with open(log_dir / "command.log", "a") as handle:
-        handle.write(redact(line) + "\n")
+    append_command_log(log_dir, line)
