@@ -254,26 +254,36 @@ class PackageBuild:
         """Files whose content changed while their modification time did not advance get the
         current time, since make and Ninja compare times only and would keep the outputs built
         from the old content: the package's own sources edited so (`cp -p`, `touch -d`, some
-        sync tools), and a dependency's installed file it read (CMake installs a file with its
-        source's time cut to the second, so a header edited in the second this package last
-        compiled looks older than its objects; only files of the workspace's install base,
-        wsbuild's own, are touched)."""
+        sync tools), and a dependency's installed file it read whose time is not after this
+        package's last build (CMake installs a file with its source's time cut to the second,
+        so a header edited in the second this package last compiled looks older than its
+        objects; only files of the workspace's install base, wsbuild's own, are touched). The
+        times set are noted as wsbuild's own (`Digests.advanced`): no change the build could
+        have missed."""
+        from wsbuild.record.model import record_path
+
         planned, previous = self.planned, self.planned.previous
+        digests = self.run.session.digests
         changed = [planned.source_dir / rel for rel in planned.backdated]
         if previous is not None:
-            digests = self.run.session.digests
             install_base = str(self.run.selection.workspace.install_base) + os.sep
+            try:  # when the last build ended: its outputs are no newer
+                built_ns = record_path(self.build_dir).stat().st_mtime_ns
+            except OSError:
+                built_ns = time.time_ns()
             for path, seen in previous.outside.files.items():
                 if not path.startswith(install_base):
                     continue
                 signature = digests.signature(path)
-                if signature != seen.signature and digests.file(path, signature) != seen.digest:
+                if signature != seen.signature and digests.file(path, signature) != seen.digest \
+                        and _modified_ns(signature) <= built_ns:
                     changed.append(Path(path))
         for path in changed:
             try:
                 os.utime(path)
             except OSError:
                 continue
+            digests.advanced(str(path))
             self._log(f"Set the modification time of {path} to now: its content changed, its "
                       "time did not advance, and the build system compares times only")
 
@@ -466,6 +476,12 @@ class PackageBuild:
 
     def _seconds(self) -> float:
         return time.monotonic() - self.started
+
+
+def _modified_ns(signature: tuple[int, ...]) -> int:
+    """The modification time in a stat signature (inputs.py: mode, inode, size, mtime, ctime;
+    0 for an absent path)."""
+    return signature[3] if len(signature) > 3 else 0
 
 
 def _shape(step: Step) -> tuple[object, ...]:

@@ -89,6 +89,19 @@ class Digests:
         self._listings: dict[tuple[str, tuple[int, ...], frozenset[str]], str] = {}
         #: the signatures taken while planning
         self._signatures: dict[str, tuple[int, ...]] = {}
+        #: the signatures of the files whose time wsbuild itself set forward in this run
+        self._advanced: dict[str, tuple[int, ...]] = {}
+
+    def advanced(self, path: str) -> None:
+        """Note that wsbuild just set the file's modification time (its content unchanged):
+        while it keeps the signature it has now, that is no change a build may have missed."""
+        signature = inputs.signature(path)
+        with self._lock:
+            self._advanced[path] = signature
+
+    def advanced_to(self, path: str) -> tuple[int, ...] | None:
+        with self._lock:
+            return self._advanced.get(path)
 
     def signature(self, path: str, *, planning: bool = False) -> tuple[int, ...]:
         """The path's stat signature: while planning taken once per process (packages share
@@ -159,7 +172,7 @@ def take(files: Iterable[str], listings: Iterable[str], digests: Digests, *,
     """What a finished build read, as the record holds it (`own`: the package's own entries of
     each listed directory, left out). A path changed since `started_ns` (the build's start)
     may have changed after the build read it: it is held as racy, so the next check builds
-    again."""
+    again; but a file as wsbuild left it when it set its time (`Digests.advanced`)."""
     files, listings = sorted(set(files)), sorted(set(listings))
 
     def seen(path: str, listing: bool) -> Seen:
@@ -167,7 +180,8 @@ def take(files: Iterable[str], listings: Iterable[str], digests: Digests, *,
         # a file's content may have changed after the build read it; a directory read as a
         # file counts by its type only, which its entries' changes leave alone
         if started_ns and signature != inputs.ABSENT and max(signature[3:]) >= started_ns \
-                and (listing or not modes.S_ISDIR(signature[0])):
+                and (listing or not modes.S_ISDIR(signature[0])) \
+                and (listing or digests.advanced_to(path) != signature):
             return Seen(signature, RACY_DIGEST)
         digest = digests.listing(path, signature, own(path)) if listing \
             else digests.file(path, signature)
