@@ -365,6 +365,80 @@ def test_bad_package_xml_is_one_line_naming_file_and_line(tmp_path: Path) -> Non
     assert snapshot(ws / "install") == before
 
 
+AMENT_DATA_CMAKE = """\
+cmake_minimum_required(VERSION 3.14)
+project(amented NONE)
+find_package(ament_cmake REQUIRED)
+install(FILES data.txt DESTINATION share/${PROJECT_NAME})
+ament_package()
+"""
+
+
+@pytest.mark.parametrize(("written", "problem", "fix"), [
+    ("  <sometool_tag>x</sometool_tag>\n",
+     "unknown element <sometool_tag> (not part of package format 3)",
+     "remove it, or put a tool's own element inside <export>"),
+    ("  <deps>std_msgs</deps>\n", "unknown element <deps> (not part of package format 3)",
+     "did you mean <depend>? Else remove it, or put a tool's own element inside <export>"),
+    ('  <author email="a@b.c">Someone</author>\n', "invalid email 'a@b.c' of <author>",
+     'write a full address, e.g. email="you@example.com"'),
+], ids=["unknown-element", "near-a-known-one", "email"])
+def test_what_ament_cmakes_manifest_reader_refuses_is_an_error_before_anything_runs(
+        tmp_path: Path, written: str, problem: str, fix: str) -> None:
+    """ament_cmake reads package.xml with catkin_pkg, which refuses what wsbuild reads past
+    with a warning: for an ament_cmake package that is one line naming the file, the line and
+    the fix before anything runs (install/ as it was); a plain CMake package, whose build
+    reads no package.xml, builds with the warning."""
+    ws = tmp_path / "ws"
+    plain = write_cmake(ws / "src", "plain", DATA_CMAKE.format(name="plain"),
+                        files={"data.txt": "plain\n"})
+    ament = write_cmake(ws / "src", "amented", AMENT_DATA_CMAKE, build_type="ament_cmake",
+                        files={"data.txt": "amented\n"})
+    build(ws)
+    before = snapshot(ws / "install")
+    for pkg in (plain, ament):
+        manifest = pkg / "package.xml"
+        manifest.write_text(manifest.read_text().replace("  <export>", written + "  <export>"))
+    line = (ament / "package.xml").read_text().splitlines().index(written.rstrip("\n")) + 1
+
+    refused = wsbuild("build", cwd=ws)
+    assert refused.returncode == 2, output(refused)
+    assert refused.stderr.splitlines() == [
+        f"wsbuild: error: {ament / 'package.xml'}:{line}: {problem}: ament_cmake's package.xml "
+        f"reader (catkin_pkg) refuses it ({fix})"], output(refused)
+    assert "Starting" not in refused.stdout and snapshot(ws / "install") == before
+
+    alone = wsbuild("build", "--packages-select", "plain", cwd=ws)
+    assert alone.returncode == 0, output(alone)
+    assert f"{plain / 'package.xml'}:{line}: " in alone.stderr, output(alone)
+
+
+WHY_BURIED = """\
+cmake_minimum_required(VERSION 3.14)
+project(buried NONE)
+execute_process(COMMAND sh -c "echo 'ValueError: the reason it failed' >&2; exit 3"
+                RESULT_VARIABLE failed)
+foreach(i RANGE 20)
+  message(STATUS "chatter ${i}")
+endforeach()
+if(failed)
+  message(FATAL_ERROR "the generator failed")
+endif()
+"""
+
+
+def test_a_failures_summary_quotes_the_line_that_says_why(tmp_path: Path) -> None:
+    """The line that says why a step failed came long before its log's last lines: the
+    summary quotes it first, then the tail."""
+    ws = tmp_path / "ws"
+    write_cmake(ws / "src", "buried", WHY_BURIED)
+    result = wsbuild("build", cwd=ws)
+    assert result.returncode == 1, output(result)
+    failed = result.stdout.split("Failed   <<< buried", 1)[1].splitlines()
+    assert failed[1].strip() == "ValueError: the reason it failed", output(result)
+    assert failed[2].strip() == "...", output(result)
+
+
 def test_failed_build_output_names_log_dir_in_the_final_error(tmp_path: Path) -> None:
     ws = tmp_path / "ws"
     _break(_data_package(ws / "src", "victim"), "cmake-syntax")

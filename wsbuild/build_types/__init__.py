@@ -330,6 +330,9 @@ class BuildTypeBase:
     estimate_base: float = 0.3
     #: its own options of `wsbuild build` (TypeOption): none
     options: tuple[TypeOption, ...] = ()
+    #: the tool its build reads package.xml with when that tool refuses what wsbuild only
+    #: warns about (workspace/model.py's `Package.refused`); "": none does
+    manifest_reader: str = ""
 
     def run_facts(self, environ: Mapping[str, str]) -> object:
         """What the type needs to know once per run (the tools it runs): none."""

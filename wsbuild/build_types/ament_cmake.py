@@ -18,6 +18,10 @@ class AmentCMakeBuildType(CMakeBuildType):
     estimate_base: float = 2.0
     #: the CMake options and --ament-cmake-args (cmake_options.py)
     options: tuple[TypeOption, ...] = AMENT_CMAKE_OPTIONS
+    #: what reads package.xml in its build, refusing what wsbuild only warns about (an
+    #: unknown element or attribute, an email without a two-letter domain): the package's
+    #: `refused` problems are errors before its build starts (verbs/load.py)
+    manifest_reader: str = "ament_cmake's package.xml reader (catkin_pkg)"
 
     def installs_in_place(self, ctx: PackageContext) -> bool:
         return ctx.options.symlink_install

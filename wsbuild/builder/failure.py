@@ -3,9 +3,18 @@ tail of its log, and which stderr lines are worth showing."""
 
 from __future__ import annotations
 
+import re
 import signal
 from collections.abc import Sequence
 from pathlib import Path
+
+#: a line that says why a step failed: a compiler's `file:line: error:`, a CMake error, the
+#: last line of a Python traceback (`catkin_pkg.package.InvalidPackage: …`), a tool's
+#: `error:`/`Error:`
+_WHY = re.compile(r"^(\S+:\d+(:\d+)?: (fatal )?error: |CMake Error|(error|ERROR|Error): "
+                  r"|[A-Za-z_][\w.]*(Error|Exception|InvalidPackage|Invalid\w+)( \w+)?: )")
+#: how many lines after the first such line belong to it (an exception's message)
+_WHY_LINES = 4
 
 
 def exit_text(program: str, returncode: int, tail: Sequence[str]) -> str:
@@ -24,11 +33,31 @@ def exit_text(program: str, returncode: int, tail: Sequence[str]) -> str:
 
 
 def log_tail(log_dir: Path, lines: int = 15) -> list[str]:
+    """The last `lines` of the step's log, led by the line that says why it failed (and those
+    that go with it) when that came earlier (`why_lines`), indented."""
     path = log_dir / "stdout_stderr.log"
     if not path.exists():
         return []
     text = path.read_text(errors="replace").splitlines()
-    return [f"    {line}" for line in text[-lines:]]
+    tail = text[-lines:]
+    why = why_lines(text[:-lines] if len(text) > lines else [])
+    lead = [*why, "..."] if why else []
+    return [f"    {line}" for line in (*lead, *tail)]
+
+
+def why_lines(lines: Sequence[str]) -> list[str]:
+    """The first line of `lines` that says why a step failed, with the lines that continue it
+    (up to a blank line, the next such line, or `_WHY_LINES` in all); [] when none does."""
+    for index, line in enumerate(lines):
+        if not _WHY.match(line):
+            continue
+        found = [line]
+        for more in lines[index + 1:index + _WHY_LINES]:
+            if not more.strip() or _WHY.match(more) or more.startswith("-- "):
+                break
+            found.append(more)
+        return found
+    return []
 
 
 def interesting(lines: list[str]) -> list[str]:
