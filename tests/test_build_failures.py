@@ -450,3 +450,30 @@ def test_failed_build_output_names_log_dir_in_the_final_error(tmp_path: Path) ->
     assert Path(match.group(1)).resolve() == (ws / "log" / "latest_build").resolve()
 
 
+
+
+@pytest.mark.parametrize(("verb", "layout", "args", "searched"), [
+    ("build", "empty", (), "."),
+    ("build", "empty src", (), "src"),
+    ("build", "packages elsewhere", ("--base-paths", "nowhere"), "nowhere"),
+    ("test", "empty src", (), "src"),
+])
+def test_no_packages_found_is_one_line_naming_where_and_nothing_is_written(
+        tmp_path: Path, verb: str, layout: str, args: tuple[str, ...], searched: str) -> None:
+    ws = tmp_path / "ws"
+    ws.mkdir()
+    if layout == "empty src":
+        (ws / "src").mkdir()
+    if layout == "packages elsewhere":
+        _data_package(ws / "src", "somewhere")
+    before = sorted(p.relative_to(ws) for p in ws.rglob("*"))
+    result = wsbuild(verb, *args, cwd=ws)
+    assert result.returncode == 2, output(result)
+    where = ws if searched == "." else ws / searched
+    assert result.stderr.splitlines() == [
+        f"wsbuild: error: no packages found in {where}; nothing to do, nothing written ("
+        + (f"{where} does not exist; " if layout == "packages elsewhere" else "")
+        + f"a package is a directory holding a package.xml: create one in {ws / 'src'} with "
+        "`wsbuild pkg create NAME`, or run wsbuild in the workspace that holds yours, or give "
+        "--base-paths)"], output(result)
+    assert sorted(p.relative_to(ws) for p in ws.rglob("*")) == before

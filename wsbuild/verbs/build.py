@@ -296,7 +296,8 @@ def run_build_verb(args: argparse.Namespace) -> int:
 
     verb = build_verb_request_from_args(args)
     terminal = terminal_from_args(args)
-    loaded = load(verb.load, warn=terminal.warnings, remember=not verb.dry_run, strict=True)
+    loaded = load(verb.load, warn=terminal.warnings, remember=not verb.dry_run, strict=True,
+                  need_packages=True)
     request, notes = metas.with_build_arguments(verb.build, verb.metadata, loaded.packages,
                                                 loaded.selected)
     terminal.notes(dict.fromkeys((loaded.chosen_because, *notes) if loaded.chosen_because

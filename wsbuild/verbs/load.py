@@ -99,7 +99,7 @@ def workspace_root(workspace_dir: str | None) -> Path:
 
 def load(request: LoadRequest, *, select: bool = True,
          warn: Callable[[Sequence[str]], None] | None = None,
-         remember: bool = False, strict: bool = False) -> Loaded:
+         remember: bool = False, strict: bool = False, need_packages: bool = False) -> Loaded:
     """Discover the workspace `request` names and apply its selection.
 
     The discovery's warnings are in the result, and handed to `warn` (the verb's output point)
@@ -108,7 +108,8 @@ def load(request: LoadRequest, *, select: bool = True,
     down (the verbs a user runs again and again on an unchanged workspace; never a dry run or
     `clean`, which leave build/ as it is). `strict` (a build): a selected package's manifest
     problem that its build type's package.xml reader refuses is an error (`refuse_manifests`),
-    said before any warning."""
+    said before any warning. `need_packages` (build, test): no package found is an error
+    naming where it looked."""
     workspace = request.bases.workspace(workspace_root(request.workspace_dir))
     cwd = Path.cwd()
     base_paths = (
@@ -127,6 +128,8 @@ def load(request: LoadRequest, *, select: bool = True,
         remember=remember,
     )
     packages = discovery.packages
+    if need_packages and not packages:
+        _no_packages(workspace, paths or base_paths)
     from wsbuild.workspace.versions import check_version_constraints
 
     warnings = (*discovery.warnings, *check_version_constraints(packages))
@@ -143,6 +146,21 @@ def load(request: LoadRequest, *, select: bool = True,
         if warn is not None:
             warn(warnings)
     return loaded
+
+
+def _no_packages(workspace: Workspace, searched: Sequence[Path]) -> None:
+    """The error of a build or test that found no package: where it looked, and how to
+    point it at one."""
+    from wsbuild.errors import WorkspaceError
+
+    where = ", ".join(str(path) for path in searched)
+    missing = [str(path) for path in searched if not path.exists()]
+    hint = (f"{' and '.join(missing)} does not exist; " if missing else "") + (
+        "a package is a directory holding a package.xml: create one in "
+        f"{workspace.root / 'src'} with `wsbuild pkg create NAME`, or run wsbuild in the "
+        "workspace that holds yours, or give --base-paths")
+    raise WorkspaceError(f"no packages found in {where}; nothing to do, nothing written",
+                         hint=hint)
 
 
 def refuse_manifests(packages: Mapping[str, Package], selected: Sequence[str]) -> None:

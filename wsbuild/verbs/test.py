@@ -201,7 +201,7 @@ def run_test_verb(args: argparse.Namespace) -> int:
     from wsbuild.workspace.selection import Selection
 
     verb = test_verb_request_from_args(args)
-    loaded = load(verb.load, warn=print_warnings)
+    loaded = load(verb.load, warn=print_warnings, need_packages=True)
     request, notes = metas.with_test_arguments(verb.test, verb.metadata, loaded.packages,
                                                loaded.selected)
     print_notes(dict.fromkeys((loaded.chosen_because, *notes) if loaded.chosen_because
