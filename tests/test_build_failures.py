@@ -343,6 +343,34 @@ def test_a_misspelt_dependency_that_fails_the_build_gets_a_did_you_mean(tmp_path
     assert result.returncode == 1, output(result)
     assert ("declares build dependency std_msg, which was not found (did you mean "
             "'std_msgs'?)") in result.stdout, output(result)
+    # the warning before the build says the same, not rosdep or apt
+    assert "    std_msg: not found (did you mean 'std_msgs'?)" in result.stdout, output(result)
+    assert "rosdep" not in result.stdout, output(result)
+
+
+@requires_ros
+def test_a_dependency_without_a_wheel_is_named_so_by_pkg_create_and_the_failed_build(
+        tmp_path: Path) -> None:
+    """`rclcpp` is no typo of `rclpy`: it has no wheel. `pkg create` says at once what a C++
+    node then needs, and the build failure says the same instead of a did-you-mean; a
+    dependency nothing knows, on the pip underlay, is for `wsbuild deps install`."""
+    ws = tmp_path / "ws"
+    (ws / "src").mkdir(parents=True)
+    created = wsbuild("pkg", "create", "cpp_pubsub", "--build-type", "ament_cmake",
+                      "--dependencies", "rclcpp", "std_msgs", "some_unheard_of_thing", cwd=ws)
+    assert created.returncode == 0, output(created)
+    advice = ("rclcpp has no PyPI wheel: C++ nodes need `wsbuild deps install --from-source` "
+              "(it fetches it and what it needs from the distro's index and builds them as "
+              "your underlay; it needs the index and the source hosts reachable) or a full "
+              "ROS 2 install (apt, then source it)")
+    assert f"note: {advice}; until then `wsbuild build` of cpp_pubsub fails on it" \
+        in created.stderr, output(created)
+    result = wsbuild("build", cwd=ws)
+    assert result.returncode == 1, output(result)
+    assert f"declares build dependency rclcpp, which was not found: {advice}" in result.stdout
+    assert "did you mean 'rclpy'" not in result.stdout, output(result)
+    assert ("some_unheard_of_thing: not found: `wsbuild deps install` looks for it (a wheel, "
+            "a system package, its sources) and installs it") in result.stdout, output(result)
 
 
 def test_bad_package_xml_is_one_line_naming_file_and_line(tmp_path: Path) -> None:

@@ -106,3 +106,22 @@ def test_a_launch_file_is_recognised_and_ros2_launch_is_named_with_where_it_come
         "install/setup.bash))" in _error(result)
     result = wsbuild("run", "runner_py", "walk.launch.xml", cwd=run_ws)
     assert "none by that name (its launch files: talk.launch.py)" in _error(result)
+
+
+def test_a_launch_file_of_a_package_that_declares_ros2launch_says_what_is_true(
+        tmp_path: Path) -> None:
+    """`pkg create --launch` declared ros2launch: the error says it is declared, has no
+    wheel, and where it comes from online and offline, not to declare it."""
+    ws = tmp_path / "ws"
+    (ws / "src").mkdir(parents=True)
+    created = wsbuild("pkg", "create", "launcher", "--build-type", "ament_python",
+                      "--node-name", "talker", "--launch", cwd=ws)
+    assert created.returncode == 0, output(created)
+    assert wsbuild("build", cwd=ws).returncode == 0
+    launch = next(p.name for p in (ws / "install/launcher/share/launcher").rglob("*launch*")
+                  if p.is_file())
+    error = _error(wsbuild("run", "launcher", launch, cwd=ws))
+    assert "launcher declares it (<exec_depend>ros2launch</exec_depend>), but it has no PyPI " \
+        "wheel; `wsbuild deps install --from-source` fetches it" in error, error
+    assert "offline, install it with ROS 2 (apt install ros-jazzy-ros2launch)" in error
+    assert "declare <exec_depend>" not in error

@@ -146,7 +146,8 @@ def test_unresolved_dependencies_warn_once_and_the_build_goes_on(tmp_path: Path)
         "  launch_only:",
         "    geometry_msgs: pip install ros-jazzy-geometry-msgs",
         "    python3-no-such-module: pip install no-such-module (a rosdep key for a Python package)",
-        "    turtlesim: not found: install it (rosdep, apt) or source the underlay that has it",
+        "    turtlesim: not found: `wsbuild deps install` looks for it (a wheel, a system "
+        "package, its sources) and installs it",
     ]
     assert "rviz2" not in result.stdout  # run time only: not the build's business
     assert result.stdout.count("WARNING: build dependencies") == 1

@@ -37,7 +37,6 @@ from wsbuild.engine.logs import append_command_log
 from wsbuild.session import Session
 from wsbuild.workspace.model import DepCategory
 from wsbuild.workspace.selection import Selection
-from wsbuild.words import did_you_mean
 
 
 @dataclass(frozen=True, slots=True)
@@ -455,21 +454,17 @@ class PackageBuild:
         unresolved = self.run.unresolved.get(self.name, ())
         if result.outcome is not Outcome.FAILED or not unresolved:
             return result
-        known = self._known_packages()
-        lines = [f"  declares build dependency {dep}, which was not found"
-                 + (f" ({hint})" if (hint := did_you_mean(dep, known)) else "")
-                 for dep in unresolved]
+        from wsbuild.builder.pipeline import known_names
+        from wsbuild.underlay.wheels import install_hint
+
+        known = known_names(self.run.selection, self.run.session)
+        pip = self.run.session.underlay.venv is not None
+        lines = []
+        for dep in unresolved:
+            hint = install_hint(dep, known=known, pip_underlay=pip)
+            lines.append(f"  declares build dependency {dep}, which was "
+                         + (hint if hint.startswith("not found") else f"not found: {hint}"))
         return replace(result, message="\n".join([result.message, *lines]))
-
-    def _known_packages(self) -> set[str]:
-        """The names a misspelt dependency may have meant: the workspace's packages and those
-        of the underlays' ament index."""
-        from wsbuild.workspace.resolve import ament_index
-
-        session = self.run.session
-        prefixes = [Path(p) for p in session.environ.get("AMENT_PREFIX_PATH", "").split(
-            os.pathsep) if p] + session.underlay_prefixes
-        return {*self.run.selection.packages, *ament_index(prefixes)}
 
     def _log(self, line: str) -> None:
         append_command_log(self.log_dir, line)

@@ -22,9 +22,11 @@
 
 from __future__ import annotations
 
+import os
 import time
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Callable, Collection, Mapping, Sequence
 from dataclasses import dataclass, replace
+from pathlib import Path
 
 from typing import TYPE_CHECKING
 
@@ -101,7 +103,7 @@ def run_build(selection: Selection, request: BuildRequest, emit: Emit) -> list[J
         emit(PlanMade(no_op=no_op))
         if plan.refusal is not None:
             raise plan.refusal.error
-        _warn(plan, emit)
+        _warn(plan, emit, selection, session)
         if request.assemble is not None:  # every package built and tested by a shard
             from wsbuild.builder.shard_cover import check_assembly
 
@@ -297,18 +299,22 @@ def _after_packages(session: Session, compilers: CompilerCache | None,
     recover_all(session.workspace.install_base)
 
 
-def _warn(plan: BuildPlan, emit: Emit) -> None:
+def _warn(plan: BuildPlan, emit: Emit, selection: Selection, session: Session) -> None:
     """The plan's warnings, once for the run: unresolved build dependencies, overrides."""
     from wsbuild.builder.overrides import override_warning
 
     if plan.unresolved:
-        emit(Notice(unresolved_warning(plan.unresolved), warning=True))
+        emit(Notice(unresolved_warning(plan.unresolved, known_names(selection, session),
+                                       pip_underlay=session.underlay.venv is not None),
+                    warning=True))
     if plan.overrides:
         emit(Notice(override_warning(plan.overrides), warning=True))
 
 
-def unresolved_warning(missing: Mapping[str, Sequence[str]]) -> str:
-    """The warning block: each package, each of its unresolved dependencies, the likely fix."""
+def unresolved_warning(missing: Mapping[str, Sequence[str]], known: Collection[str] = (), *,
+                       pip_underlay: bool = False) -> str:
+    """The warning block: each package, each of its unresolved dependencies, the likely fix
+    (`known`: the names a misspelt one may have meant)."""
     from wsbuild.underlay.wheels import install_hint
 
     lines = [("build dependencies not found in the workspace, an underlay's ament index, "
@@ -316,8 +322,19 @@ def unresolved_warning(missing: Mapping[str, Sequence[str]]) -> str:
               "anyway; --strict-dependencies refuses):")]
     for name, deps in missing.items():
         lines.append(f"  {name}:")
-        lines += [f"    {dep}: {install_hint(dep)}" for dep in deps]
+        lines += [f"    {dep}: {install_hint(dep, known=known, pip_underlay=pip_underlay)}"
+                  for dep in deps]
     return "\n".join(lines)
+
+
+def known_names(selection: Selection, session: Session) -> set[str]:
+    """The names a misspelt dependency may have meant: the workspace's packages and those of
+    the underlays' ament index."""
+    from wsbuild.workspace.resolve import ament_index
+
+    prefixes = [Path(p) for p in session.environ.get("AMENT_PREFIX_PATH", "").split(os.pathsep)
+                if p] + session.underlay_prefixes
+    return {*selection.packages, *ament_index(prefixes)}
 
 
 def _by_name(results: Sequence[JobResult]) -> dict[str, JobResult]:

@@ -131,12 +131,31 @@ def launch_file_error(package: str, name: str, prefix: Path,
     command = f"ros2 launch {package} {name}"
     if "ros2launch" in prefixes:
         hint = f"run it with: {command}  (in a shell that sourced install/setup.bash)"
+    elif _declares(share / "package.xml", "ros2launch"):
+        hint = (f"run it with `{command}`; ros2 launch (the ros2launch package) is not "
+                f"installed: {package} declares it (<exec_depend>ros2launch</exec_depend>), but "
+                "it has no PyPI wheel; `wsbuild deps install --from-source` fetches it and what "
+                "it needs from the distro's index (the index and the source hosts must be "
+                "reachable), then `wsbuild build` builds it; offline, install it with ROS 2 "
+                "(apt install ros-jazzy-ros2launch) and source /opt/ros/jazzy/setup.bash")
     else:
         hint = (f"run it with `{command}`; ros2 launch (the ros2launch package) is not "
                 "installed and has no wheel: declare <exec_depend>ros2launch</exec_depend> "
                 f"in {package}'s package.xml, then `wsbuild deps install --from-source` "
                 "fetches and `wsbuild build` builds it into this workspace")
     return SelectionError(what, hint=hint)
+
+
+def _declares(manifest: Path, dependency: str) -> bool:
+    """Whether the installed package.xml declares `dependency` as a run dependency."""
+    import re
+
+    try:
+        text = manifest.read_text()
+    except OSError:
+        return False
+    return re.search(rf"<(exec_depend|depend|run_depend)(\s[^>]*)?>\s*{re.escape(dependency)}"
+                     r"\s*</", text) is not None
 
 
 def _needs_workspace_environment(environ: Mapping[str, str], prefix: Path,
