@@ -168,8 +168,9 @@ def test_a_failed_package_ends_its_report_with_what_it_declared_and_was_not_foun
     report = result.stdout[result.stdout.index("Failed   <<< needy"):]
     report = report[:report.index("  log: ")]
     assert "frobnicatorConfig.cmake" in report  # CMake's own error first
-    assert report.rstrip().splitlines()[-1] == \
-        "  declares build dependency frobnicator, which was not found"
+    assert report.rstrip().splitlines()[-1] == (
+        "  declares build dependency frobnicator, which was not found: `wsbuild deps install` "
+        "looks for it (a wheel, a system package, its sources) and installs it")
 
 
 def test_strict_dependencies_refuse_before_anything_builds(tmp_path: Path) -> None:
