@@ -61,6 +61,8 @@ class PackageTests:
     tooling: tuple[ToolingFailure, ...] = ()
     #: the result of an earlier run, reused (`log_dir` and `result_files` are that run's)
     cached: bool = False
+    #: what its tests left running when their command ended, stopped: "name (pid)"
+    stopped: tuple[str, ...] = ()
 
 
 @dataclass(frozen=True, slots=True)
@@ -118,6 +120,10 @@ def summary_lines(run: TestRun, *, shown: Path) -> list[str]:
             lines.append(f"  flaky: {result.package} {result.status.value} on attempt "
                          f"{result.attempts} of {result.max_attempts}")
     lines += _missing_linter_lines(run.results)
+    for result in run.results:
+        if result.stopped:
+            lines.append(f"  {result.package}: stopped {plural(len(result.stopped), 'process', 'processes')} "
+                         f"its tests left running: {', '.join(result.stopped)}")
     failed = [r for r in run.results if r.status is PackageStatus.FAILED]
     tested_failed = [r for r in failed
                      if any(not _tooling(r, c) for c in r.problems) or not r.tooling]

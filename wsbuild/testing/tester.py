@@ -57,9 +57,11 @@ class PackageTester:
     def runner(self, name: str) -> TestRunner | None:
         return get_build_type(self.selection.packages[name].build_type).test_runner
 
-    def context(self, name: str, runner: TestRunner, log_dir: Path | None) -> TestContext:
+    def context(self, name: str, runner: TestRunner, log_dir: Path | None,
+                stopped: list[str] | None = None) -> TestContext:
         """What the package's runner works with; without a log directory it may run nothing
-        (the key of a run that only plans)."""
+        (the key of a run that only plans). What its commands left running is stopped when
+        each ends, and named in `stopped`."""
         env = runner.environment(self.environment(name), self.request.python_executable)
         arguments = (*self.request.tool_arguments.get(runner.name, ()),
                      *self.request.package_arguments.get(name, {}).get(runner.name, ()))
@@ -68,7 +70,13 @@ class PackageTester:
                 logged: bool = True) -> Completed:
             if log_dir is None:
                 raise RuntimeError(f"{name}: a run that only plans runs no test command")
-            return _run(command, env, log_dir, on_line, logged)
+            completed = _run(command, env, log_dir, on_line, logged)
+            if completed.stopped:
+                _log(log_dir, f"Stopped what {command.argv[0]} left running: "
+                              f"{', '.join(completed.stopped)}")
+                if stopped is not None:
+                    stopped.extend(completed.stopped)
+            return completed
 
         return TestContext(
             package=self.selection.packages[name], build_dir=self.selection.workspace.build_base / name,
@@ -118,7 +126,8 @@ class PackageTester:
         if runner is None:
             return PackageTests(name, PackageStatus.NO_TESTS, log_dir=log_dir,
                                 message=f"wsbuild cannot test '{package.build_type}' packages")
-        ctx = self.context(name, runner, log_dir)
+        stopped: list[str] = []
+        ctx = self.context(name, runner, log_dir, stopped)
         key = self.key(runner, ctx)
         if self.request.reuse_results:
             cached = self.reusable(name, key, log_dir)
@@ -133,7 +142,8 @@ class PackageTester:
         forget_cached_result(ctx.build_dir)
         ctx.results_dir.mkdir(parents=True, exist_ok=True)
         report = self._attempts(runner, ctx, log_dir, emit)
-        report = replace(report, log_dir=log_dir, seconds=time.monotonic() - started)
+        report = replace(report, log_dir=log_dir, seconds=time.monotonic() - started,
+                         stopped=tuple(stopped))
         if key is not None and _reusable_later(report):
             write_cached_result(ctx.build_dir, CachedResult(
                 key, report.counts, file_stamps(report.result_files), log_dir, report.seconds))
@@ -213,7 +223,7 @@ def _run(command: Command, env: Mapping[str, str], log_dir: Path,
     _log(log_dir, f"Invoking command in '{command.cwd}': "
                   f"{format_command(command.argv, command.cwd, delta)}")
     return run_command(command.argv, cwd=command.cwd, env={**shown, **command.run_env},
-                       log_dir=log_dir if logged else None, on_line=on_line)
+                       log_dir=log_dir if logged else None, on_line=on_line, sweep=True)
 
 
 def _reusable_later(report: PackageTests) -> bool:
