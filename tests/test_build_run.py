@@ -70,6 +70,18 @@ def test_unknown_executable_lists_the_package_executables(run_ws: Path) -> None:
     assert "echo_args" in error and "echo_other" in error
 
 
+def test_run_with_a_package_alone_lists_its_executables(run_ws: Path) -> None:
+    """`wsbuild run PKG` (no executable): what it can run, not argparse's complaint."""
+    result = wsbuild("run", "runner_py", cwd=run_ws)
+    assert result.returncode == 0, output(result)
+    assert result.stdout.splitlines()[0] == \
+        "executables of runner_py (wsbuild run runner_py EXECUTABLE):"
+    assert "  echo_args" in result.stdout.splitlines()
+    assert "required" not in result.stderr
+    empty = wsbuild("run", "no_exes", cwd=run_ws)
+    assert empty.returncode == 2 and "no_exes installs no executables" in _error(empty)
+
+
 def test_package_without_executables_says_so(run_ws: Path) -> None:
     result = wsbuild("run", "no_exes", "anything", cwd=run_ws)
     assert result.returncode == 2, output(result)

@@ -29,7 +29,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     add_workspace_option(parser, found="found from the current directory")
     add_install_base_argument(parser, "install prefix relative to the workspace")
     parser.add_argument("package_name", metavar="PKG")
-    parser.add_argument("executable_name", metavar="EXECUTABLE")
+    # optional: without it, the package's executables are listed
+    parser.add_argument("executable_name", metavar="EXECUTABLE", nargs="?")
     parser.add_argument("arguments", nargs=argparse.REMAINDER, metavar="ARGS",
                         help="passed to the executable, e.g. --ros-args -p name:=value")
 
@@ -85,6 +86,17 @@ def run_executable(args: argparse.Namespace) -> int:
                              f"{install_base})", hint=hint)
     prefix = prefixes[package]
     available = _executables(prefix, package)
+    if executable is None:  # `wsbuild run PKG`: what it can run
+        if not available:
+            raise SelectionError(f"{package} installs no executables in lib/{package}/",
+                                 path=prefix / "lib" / package,
+                                 hint="its launch files run with `ros2 launch`" if any(
+                                     is_launch_file(p.name) for p in
+                                     (prefix / "share" / package).rglob("*")) else None)
+        print(f"executables of {package} (wsbuild run {package} EXECUTABLE):")
+        for name in available:
+            print(f"  {name}")
+        return 0
     if executable not in available and is_launch_file(executable):
         raise launch_file_error(package, executable, prefix, prefixes)
     if executable not in available:
