@@ -239,6 +239,10 @@ def test_from_source_fetches_what_no_installer_has_and_its_dependencies_in_turn(
     assert "from source: not released in the jazzy index" in nowhere
     planned = wsbuild(venv, "deps", "install", "--dry-run", cwd=ws, env=env)
     assert f"  wsb_launch_core: {core} jazzy  (for wsb_launch)" in planned.stdout, output(planned)
+    # the plan was made: a dry run exits 0 though wsb_nowhere stays unresolved, unless --strict
+    assert planned.returncode == 0, output(planned)
+    strict = wsbuild(venv, "deps", "install", "--dry-run", "--strict", cwd=ws, env=env)
+    assert strict.returncode == 1 and strict.stdout == planned.stdout, output(strict)
     # without --from-source, install fetches nothing and says how
     held = wsbuild(venv, "deps", "install", "-y", "--skip-keys", "wsb_nowhere", cwd=ws, env=env)
     assert held.returncode == 1 and not (ws / "src" / "wsb_launch_core").exists(), output(held)

@@ -59,6 +59,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              "source repositories the distro's index names (rosdistro; "
                              "ROSDISTRO_INDEX_URL), their own dependencies in turn, and list "
                              "them in from-source.repos")
+    parser.add_argument("--strict", action="store_true",
+                        help="--dry-run: exit 1 when something would stay unresolved (CI)")
     parser.add_argument("--refresh", action="store_true",
                         help="ask the package index again instead of using its answers "
                              "remembered for a day")
@@ -79,13 +81,15 @@ class DepsRequest:
     skip_keys: tuple[str, ...] = ()
     from_source: bool = False
     refresh: bool = False
+    #: --strict: a dry run that leaves something unresolved exits 1
+    strict: bool = False
 
 
 def deps_request_from_args(args: argparse.Namespace) -> DepsRequest:
     return DepsRequest(action=args.action, dry_run=args.dry_run, assume_yes=args.assume_yes,
                        types=args.types, constraint=args.constraint,
                        skip_keys=tuple(args.skip_keys), from_source=args.from_source,
-                       refresh=args.refresh)
+                       refresh=args.refresh, strict=args.strict)
 
 
 def run_deps(args: argparse.Namespace) -> int:
@@ -104,10 +108,13 @@ def run_deps(args: argparse.Namespace) -> int:
         loaded, names, found = _fetch_sources(request, load_request, loaded, names, found)
     print("\n".join(plan_lines(found, constraint=_constraint(request, found),
                                dry_run=request.dry_run)))
-    if request.dry_run or not (found.plan.steps or found.plan.test_tools):
-        if found.plan.from_source and not request.dry_run:
+    left = found.plan.unresolved or found.plan.from_source
+    if request.dry_run:  # the plan was made: what it leaves unresolved fails only --strict
+        return 1 if request.strict and left else 0
+    if not (found.plan.steps or found.plan.test_tools):
+        if found.plan.from_source:
             _from_source_error(found)
-        return 1 if found.plan.unresolved or found.plan.from_source else 0
+        return 1 if left else 0
     return _install(request, loaded, found, names)
 
 
