@@ -66,6 +66,10 @@ class _HelpAll(argparse.Action):
     def __call__(self, parser, namespace, values, option_string=None):  # type: ignore[no-untyped-def]
         parser.formatter_class = _FullFormatter
         parser.print_help()
+        if any(a.help == argparse.SUPPRESS and a.option_strings[0].startswith("--no-")
+               for a in parser._actions if a.option_strings):
+            print("\nEvery on/off option --X also has --no-X, which turns it off again (one a "
+                  "defaults file or a mixin turned on).")
         parser.exit()
 
 
@@ -184,7 +188,29 @@ def build_parser(*, pkg_arguments: bool = True, verbs: Collection[str] | None = 
     for name in VERBS:
         if verbs is None or name in verbs:
             _ADDERS.get(name, _mirrored_parser)(tree, name)
+    add_negations(parser)
     return parser
+
+
+def add_negations(parser: argparse.ArgumentParser) -> None:
+    """Every on/off option `--X` of every verb gets `--no-X`, which turns it off again (a
+    defaults file or a mixin that turned it on; the last one given wins). Not listed one by
+    one in --help, which says so once."""
+    for action in list(parser._actions):
+        if isinstance(action, argparse._SubParsersAction):
+            for sub in dict.fromkeys(action.choices.values()):
+                add_negations(sub)
+            continue
+        if not isinstance(action, argparse._StoreTrueAction):
+            continue
+        for option in action.option_strings:
+            if not option.startswith("--") or option.startswith("--no-"):
+                continue
+            negation = "--no-" + option[2:]
+            if negation in parser._option_string_actions:
+                continue
+            parser.add_argument(negation, dest=action.dest, action="store_false",
+                                help=argparse.SUPPRESS)
 
 
 def verbs_named(argv: Sequence[str], also: Collection[str] = ()) -> set[str] | None:

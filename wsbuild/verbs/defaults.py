@@ -322,9 +322,10 @@ def check_entries(entries: Iterable[FileEntry], parser: argparse.ArgumentParser)
 
 
 def _suggestion(name: str, valid: Sequence[str], what: str) -> str:
+    """The name meant when one is close (enough: the list of ~70 options would bury it),
+    else the valid names."""
     close = difflib.get_close_matches(name.replace("_", "-"), valid, n=1)
-    listed = f"{what}: {', '.join(valid)}"
-    return f"did you mean '{close[0]}'? {listed}" if close else listed
+    return f"did you mean '{close[0]}'?" if close else f"{what}: {', '.join(valid)}"
 
 
 # ---------------------------------------------------------------------- applying the values
@@ -375,7 +376,8 @@ def _describe_in_help(parser: argparse.ArgumentParser, applying: Sequence[Defaul
     if not applying:
         return
     width = min(40, max(len(d.text) for d in applying))
-    lines = ["defaults in effect (from defaults files; the command line overrides them):"]
+    lines = ["defaults in effect (from defaults files; the command line overrides them, an "
+             "on/off option with its --no- form, e.g. --no-symlink-install):"]
     lines += [f"  {d.text.ljust(width)}  {d.where}" for d in applying]
     extra = "\n".join(lines)
     parser.epilog = f"{parser.epilog.rstrip()}\n\n{extra}" if parser.epilog else extra
