@@ -31,6 +31,7 @@ from wsbuild.testing.linters import MISSING_LINTER_PREFIX
 from wsbuild.testing.results import PackageStatus, PackageTests, results_dir
 from wsbuild.testing.test_key import TestKeys
 from wsbuild.testing.tooling import tooling_failures
+from wsbuild.underlay.lint_programs import missing_program
 from wsbuild.engine.logs import append_command_log
 
 if TYPE_CHECKING:
@@ -161,7 +162,8 @@ class PackageTester:
             label = runner.name if attempt == 1 else f"{runner.name} {attempt}/{attempts}"
             emit(StepStarted(ctx.name, label))
             report = package_result(ctx.name, runner.run(ctx), self.request.python_executable,
-                                    getattr(runner, "tool_cases", frozenset()))
+                                    getattr(runner, "tool_cases", frozenset()),
+                                    require_linters=self.request.strict_linters)
             if REGISTRY.cancelled.is_set():
                 report = replace(report, status=PackageStatus.INTERRUPTED)
                 break
@@ -177,10 +179,13 @@ class PackageTester:
 
 
 def package_result(name: str, outcome: TestOutcome, python_executable: str,
-                   tool_cases: frozenset[str] = frozenset()) -> PackageTests:
+                   tool_cases: frozenset[str] = frozenset(), *,
+                   require_linters: bool = False) -> PackageTests:
     """A package's result from what its runner found: failed when any test failed or erred;
     the tests skipped for a missing linter and the tooling failures named (`tool_cases`: the
-    cases its runner writes when its tool failed)."""
+    cases its runner writes when its tool failed). A linter test whose program is not
+    installed (cppcheck) is not run, as a linter that is not installed: counted as skipped
+    and named with what installs it, unless `require_linters` (then it fails the run)."""
     files: Sequence[ResultFile] = outcome.files
     counts = Counts.total(result.counts for result in files)
     if outcome.no_tests:
@@ -190,11 +195,23 @@ def package_result(name: str, outcome: TestOutcome, python_executable: str,
     problems: list[Case] = []
     for result in files:
         problems += result.problems()
+    unrun: list[tuple[str, str]] = []
+    if not require_linters:
+        for case in [c for c in problems if c.outcome is CaseOutcome.ERROR]:
+            program = missing_program(f"{case.message}\n{case.details}")
+            if program is not None:
+                problems.remove(case)
+                # CTest's test is the case's first name (`cppcheck.xunit.missing_result`)
+                test = case.name.split(".")[0] or case.name
+                unrun.append((test, f"{program.name}: {program.install_command()}"))
+        counts = replace(counts, errors=counts.errors - len(unrun),
+                         skipped=counts.skipped + len(unrun))
     status = PackageStatus.FAILED if counts.failed else PackageStatus.PASSED
     return PackageTests(name, status, counts, tuple(problems),
                         tuple(result.path for result in files),
                         missing_linters=_missing_linters(files),
-                        tooling=tooling_failures(problems, python_executable, tool_cases))
+                        tooling=tooling_failures(problems, python_executable, tool_cases),
+                        missing_programs=tuple(unrun))
 
 
 def _missing_linters(files: Sequence[ResultFile]) -> tuple[str, ...]:
@@ -232,7 +249,8 @@ def _reusable_later(report: PackageTests) -> bool:
     pass like another: which tools are installed is part of its key, so installing the linter
     runs them again."""
     return (report.status is PackageStatus.PASSED and not report.flaky
-            and not report.tooling and not REGISTRY.cancelled.is_set())
+            and not report.tooling and not report.missing_programs
+            and not REGISTRY.cancelled.is_set())
 
 
 def _log(log_dir: Path, line: str) -> None:

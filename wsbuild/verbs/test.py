@@ -75,8 +75,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     secondary(how.add_argument("--no-report", action="store_true",
                                help="write no log/<run>/report.html (timeline, CPU use)"))
     secondary(how.add_argument(
-        "--strict-linters", action="store_true",
-        help="a test of an ament linter that is not installed fails (default: skip)"))
+        "--require-linters", "--strict-linters", action="store_true", dest="strict_linters",
+        help="a test of an ament linter, or of the program it runs, that is not installed "
+             "fails (CI; default: not run, counted as skipped)"))
     how.add_argument("--no-test-cache", action="store_true",
                      help="run every test, even where the last passing result still applies")
     how.add_argument("--shard", metavar="K/N",
