@@ -298,6 +298,42 @@ def test_what_a_test_leaves_running_is_stopped_and_named(tmp_path: Path, verdict
     assert line.startswith("  leaver: stopped 2 processes its tests left running: sleep ("), line
 
 
+EDITED_TEST = """cmake_minimum_required(VERSION 3.14)
+project(edited C)
+enable_testing()
+add_executable(test_answer test/test_answer.c)
+add_test(NAME answer COMMAND test_answer)
+install(FILES package.xml DESTINATION share/edited)
+"""
+
+
+def test_a_test_edited_since_the_build_is_named_or_built_first_with_build(
+        tmp_path: Path) -> None:
+    """A C test edited after the build: `wsbuild test` runs the binary that was built and
+    says in one line that the package changed since it was built; `--build` builds it first,
+    so the edited test runs."""
+    package = write_package(tmp_path / "src", "edited", "cmake")
+    (package / "CMakeLists.txt").write_text(EDITED_TEST)
+    source = package / "test" / "test_answer.c"
+    source.parent.mkdir()
+    source.write_text("int main(void) { return 42 == 42 ? 0 : 1; }\n")
+    built = run_wsbuild("build", cwd=tmp_path)
+    assert built.returncode == 0, built.stdout + built.stderr
+    source.write_text("int main(void) { return 42 == 43 ? 0 : 1; }\n")  # now it fails
+
+    stale = cli("test", cwd=tmp_path)
+    assert stale.returncode == 0, stale.stdout + stale.stderr  # the old binary passes
+    assert stale.stderr.splitlines()[0] == (
+        "wsbuild: warning: edited changed since it was built (source changed: "
+        "test/test_answer.c): its tests run what was built; run `wsbuild build` first, or "
+        "`wsbuild test --build`"), stale.stderr
+    fresh = cli("test", "--build", cwd=tmp_path)
+    assert fresh.returncode == 1, fresh.stdout + fresh.stderr  # the edited test ran
+    assert "building edited first: changed since it was built (--build)" in fresh.stdout
+    again = cli("test", cwd=tmp_path)
+    assert "changed since it was built" not in again.stderr, again.stderr
+
+
 # ------------------------------------------------------------------------------------ ROS
 
 AMENT_PYTEST_XML = """<?xml version="1.0"?>

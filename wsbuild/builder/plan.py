@@ -283,6 +283,28 @@ def plan_package(planning: _Planning, name: str) -> PackagePlan:
                        cache_key=cache_key, **common)
 
 
+def sources_changed(selection: Selection, names: Sequence[str]) -> dict[str, str]:
+    """`wsbuild test`: the packages whose own files changed since their last build, with the
+    one dirty check's words ("source changed: test/test_greeter.cpp"); each is asked with its
+    record's own settings, environment and dependencies, so only its files can differ."""
+    from wsbuild.record.outside import Digests
+
+    ws = selection.workspace
+    outputs = tuple(str(base) for base in (ws.build_base, ws.install_base, ws.log_base))
+    changed: dict[str, str] = {}
+    digests = Digests()
+    for name in names:
+        old = read_record(ws.build_base / name)
+        if old is None:
+            continue
+        own = own_files(selection.packages[name].path, old.own, outputs)
+        now = PackageNow(own, old.settings, old.environment, old.dependencies)
+        reason = dirty_reason(old, now, install_base=ws.install_base, digests=digests)
+        if reason is not None and reason.kind is Dirty.SOURCE:
+            changed[name] = reason.text
+    return changed
+
+
 def _steps(planning: _Planning, name: str, prefix: Path, own_options: PackageOptions
            ) -> tuple[tuple[Step, ...], Mapping[str, str]]:
     """The steps of a package to build (or to restore: a refused entry builds it), decided as

@@ -78,6 +78,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "--require-linters", "--strict-linters", action="store_true", dest="strict_linters",
         help="a test of an ament linter, or of the program it runs, that is not installed "
              "fails (CI; default: not run, counted as skipped)"))
+    how.add_argument("--build", action="store_true", dest="build_first",
+                     help="first build the selected packages whose sources changed since "
+                          "they were built (default: say so, and test what was built)")
     how.add_argument("--no-test-cache", action="store_true",
                      help="run every test, even where the last passing result still applies")
     how.add_argument("--shard", metavar="K/N",
@@ -169,6 +172,8 @@ class TestVerbRequest:
     console: Console
     #: --shard K/N: this job's share of the split (builder/shard_run.py)
     shard: ShardSpec | None = None
+    #: --build: build what changed since it was built first
+    build_first: bool = False
 
 
 def test_verb_request_from_args(args: argparse.Namespace) -> TestVerbRequest:
@@ -186,7 +191,7 @@ def test_verb_request_from_args(args: argparse.Namespace) -> TestVerbRequest:
     return TestVerbRequest(
         load=load_request_from_args(args, cache=cache_selection_from_args(args, test=test)),
         test=test, metadata=metadata_from_args(args), console=console_from_args(args),
-        shard=shard)
+        shard=shard, build_first=args.build_first)
 
 
 def run_test_verb(args: argparse.Namespace) -> int:
@@ -225,8 +230,11 @@ def run_test_verb(args: argparse.Namespace) -> int:
     missing = _missing_ros_pytest(loaded, request.python_executable)
     if missing:
         reporter(Notice(missing, warning=True))
+    changed = _changed_since_built(selection, verb.build_first)
     reporter.start_ticker()
     try:
+        if changed:
+            _build_changed(selection, changed, request, reporter)
         _build_test_trees(selection, request, reporter)
         run = run_tests(selection, request, reporter)  # timings, report: runreport/package_run.py
         if console.summary:
@@ -249,6 +257,46 @@ def _note_tested(shard: ShardSpec, run: str, selection: Selection) -> None:
                            shard.index, selection.selected,
                            selection.workspace.build_base / ".wsbuild")
     print_warnings([f"cache: {problem}" for problem in problems])
+
+
+def _changed_since_built(selection: Selection, build_first: bool) -> list[str]:
+    """The selected packages whose sources changed since they were built: with --build, to
+    build first; else one line each saying so (their tests run what was built)."""
+    from wsbuild.builder.plan import sources_changed
+
+    changed = sources_changed(selection, selection.selected)
+    if build_first:
+        return list(changed)
+    print_warnings([f"{name} changed since it was built ({why}): its tests run what was "
+                    "built; run `wsbuild build` first, or `wsbuild test --build`"
+                    for name, why in changed.items()])
+    return []
+
+
+def _build_changed(selection: Selection, names: list[str], request: TestRequest,
+                   reporter: Reporter) -> None:
+    """--build: the changed packages built as they were last built (their records' options)."""
+    import json
+
+    from wsbuild.builder.pipeline import run_build
+    from wsbuild.builder.request import BuildRequest, RunOptions, options_of_record
+    from wsbuild.events import Notice
+    from wsbuild.record.model import read_record
+    from wsbuild.workspace.selection import Selection as Selected
+
+    groups: dict[str, list[str]] = {}
+    for name in names:
+        record = read_record(selection.workspace.build_base / name)
+        options = record.settings.get("options") if record is not None else None
+        groups.setdefault(json.dumps(options or {}, sort_keys=True), []).append(name)
+    for options, group in groups.items():
+        reporter(Notice(f"building {' '.join(group)} first: changed since it was built "
+                        "(--build)"))
+        run_build(Selected(selection.workspace, selection.packages, selection.graph, group),
+                  BuildRequest(build=options_of_record(json.loads(options)),
+                               run=RunOptions(workers=request.workers, continue_on_error=False,
+                                              wait_for_lock=request.wait_for_lock),
+                               report=False), reporter)
 
 
 def _build_test_trees(selection: Selection, request: TestRequest, reporter: Reporter) -> None:
