@@ -68,6 +68,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     how.add_argument("--dry-run", action="store_true",
                      help="print the plan (order, why each builds, critical path) only")
     how.add_argument("--json", action="store_true", help="with --dry-run: machine-readable")
+    how.add_argument("--commands", action="store_true",
+                     help="with --dry-run: also the commands that build each package")
     how.add_argument("--timings", action="store_true",
                      help="after the summary: where the time went, the report's path")
     secondary(how.add_argument("--no-report", action="store_true",
@@ -263,6 +265,8 @@ class BuildVerbRequest:
     #: --dry-run (--json: as JSON)
     dry_run: bool = False
     json: bool = False
+    #: --dry-run --commands: the commands too
+    commands: bool = False
     #: --install-deps
     install_deps: bool = False
 
@@ -277,10 +281,13 @@ def build_verb_request_from_args(args: argparse.Namespace) -> BuildVerbRequest:
     dry_run = args.dry_run
     if args.json and not dry_run:
         raise WsbuildError("--json goes with --dry-run", hint="wsbuild build --dry-run --json")
+    if args.commands and not dry_run:
+        raise WsbuildError("--commands goes with --dry-run",
+                           hint="wsbuild build --dry-run --commands")
     return BuildVerbRequest(
         load=load_request_from_args(args, cache=cache_selection_from_args(args, build=build)),
         build=build, metadata=metadata_from_args(args), console=console_from_args(args),
-        dry_run=dry_run, json=args.json,
+        dry_run=dry_run, json=args.json, commands=args.commands,
         install_deps=args.install_deps)
 
 
@@ -304,7 +311,7 @@ def run_build_verb(args: argparse.Namespace) -> int:
                                  else notes))
     selection = Selection(loaded.workspace, loaded.packages, loaded.graph, loaded.selected)
     if verb.dry_run:
-        return _dry_run(selection, request, json_output=verb.json)
+        return _dry_run(selection, request, json_output=verb.json, commands=verb.commands)
     if verb.install_deps:
         from wsbuild.verbs.deps import install_for_build
 
@@ -321,12 +328,14 @@ def run_build_verb(args: argparse.Namespace) -> int:
     return 0
 
 
-def _dry_run(selection: Selection, request: BuildRequest, *, json_output: bool) -> int:
+def _dry_run(selection: Selection, request: BuildRequest, *, json_output: bool,
+             commands: bool = False) -> int:
     """Print what the build would do; exit 2 when it would refuse to start."""
     import json
 
     from wsbuild.builder.pipeline import dry_run
     from wsbuild.builder.plan_text import plan_json, plan_lines
+    from wsbuild.words import plural
     from wsbuild.reporter import Reporter
 
     # the plan goes to stdout (JSON for tools): a cache's warnings go to stderr
@@ -334,5 +343,8 @@ def _dry_run(selection: Selection, request: BuildRequest, *, json_output: bool) 
     if json_output:
         print(json.dumps(plan_json(build_plan, steps), indent=2))
     else:
-        print("\n".join(plan_lines(build_plan, steps)))
+        print("\n".join(plan_lines(build_plan, steps if commands else None)))
+        if not commands and steps.packages:
+            print(f"commands: `wsbuild build --dry-run --commands` prints those that build "
+                  f"{plural(len(steps.packages), 'package')}")
     return 2 if build_plan.refusal else 0
