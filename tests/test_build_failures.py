@@ -505,3 +505,20 @@ def test_no_packages_found_is_one_line_naming_where_and_nothing_is_written(
         "`wsbuild pkg create NAME`, or run wsbuild in the workspace that holds yours, or give "
         "--base-paths)"], output(result)
     assert sorted(p.relative_to(ws) for p in ws.rglob("*")) == before
+
+
+def test_a_runtime_error_in_setup_py_names_setup_py_and_its_line(tmp_path: Path) -> None:
+    """setuptools runs setup.py from a string (`File "<string>", line 23`): the failure's
+    first line names setup.py and the line, as for a syntax error."""
+    ws = tmp_path / "ws"
+    pkg = write_ament_python(ws / "src", "namer", modules={"main.py": VICTIM_MAIN})
+    setup = pkg / "setup.py"
+    lines = setup.read_text().splitlines()
+    number = next(i for i, line in enumerate(lines, 1) if line.startswith("setup("))
+    lines.insert(number - 1, "undefined_name")
+    setup.write_text("\n".join(lines) + "\n")
+    result = wsbuild("build", cwd=ws)
+    assert result.returncode == 1, output(result)
+    failed = result.stdout.split("Failed   <<< namer", 1)[1].splitlines()
+    assert failed[1].strip() == \
+        f"{setup}:{number}: NameError: name 'undefined_name' is not defined", output(result)

@@ -13,6 +13,8 @@ from pathlib import Path
 #: `error:`/`Error:`
 _WHY = re.compile(r"^(\S+:\d+(:\d+)?: (fatal )?error: |CMake Error|(error|ERROR|Error): "
                   r"|[A-Za-z_][\w.]*(Error|Exception|InvalidPackage|Invalid\w+)( \w+)?: )")
+#: ... best of all one naming the file and line (`setup.py:23: NameError: …`)
+_LOCATED = re.compile(r"^\S+:\d+(:\d+)?: ((fatal )?error: |[A-Za-z_][\w.]*(Error|Exception)\b)")
 #: how many lines after the first such line belong to it (an exception's message)
 _WHY_LINES = 4
 
@@ -40,24 +42,26 @@ def log_tail(log_dir: Path, lines: int = 15) -> list[str]:
         return []
     text = path.read_text(errors="replace").splitlines()
     tail = text[-lines:]
-    why = why_lines(text[:-lines] if len(text) > lines else [])
-    lead = [*why, "..."] if why else []
+    why = why_lines(text)
+    lead = [*why, "..."] if why and why[0] != tail[0] else []
     return [f"    {line}" for line in (*lead, *tail)]
 
 
 def why_lines(lines: Sequence[str]) -> list[str]:
     """The first line of `lines` that says why a step failed, with the lines that continue it
-    (up to a blank line, the next such line, or `_WHY_LINES` in all); [] when none does."""
-    for index, line in enumerate(lines):
-        if not _WHY.match(line):
-            continue
-        found = [line]
-        for more in lines[index + 1:index + _WHY_LINES]:
-            if not more.strip() or _WHY.match(more) or more.startswith("-- "):
-                break
-            found.append(more)
-        return found
-    return []
+    (up to a blank line, the next such line, or `_WHY_LINES` in all); one naming a file and
+    line first; [] when none does."""
+    start = next((i for i, line in enumerate(lines) if _LOCATED.match(line)), None)
+    if start is None:
+        start = next((i for i, line in enumerate(lines) if _WHY.match(line)), None)
+    if start is None:
+        return []
+    found = [lines[start]]
+    for more in lines[start + 1:start + _WHY_LINES]:
+        if not more.strip() or _WHY.match(more) or more.startswith("-- "):
+            break
+        found.append(more)
+    return found
 
 
 def interesting(lines: list[str]) -> list[str]:
