@@ -237,3 +237,21 @@ def test_an_up_to_date_workspace_has_no_commands(built: Path) -> None:
     assert result.returncode == 0, output(result)
     assert "commands (" not in result.stdout
     assert all("steps" not in p for p in _plan(built)["packages"])
+
+
+def test_after_a_failed_build_the_dry_run_says_failed_and_every_reason(tmp_path: Path) -> None:
+    """A build that failed is not one that was cut short; and the failure does not hide what
+    else changed since the last good build (an option)."""
+    ws = tmp_path / "ws"
+    pkg = write_package(ws / "src", "wobbly", "cmake")
+    (pkg / "CMakeLists.txt").write_text("cmake_minimum_required(VERSION 3.14)\nproject(wobbly "
+                                        "NONE)\ninstall(FILES package.xml DESTINATION share)\n")
+    assert run_wsbuild("build", cwd=ws).returncode == 0
+    (pkg / "CMakeLists.txt").write_text("cmake_minimum_required(VERSION 3.14)\nproject(wobbly "
+                                        "NONE)\ninstall(FILES package.xml\n")  # broken
+    assert run_wsbuild("build", "--cmake-args", "-DX=1", cwd=ws).returncode == 1
+    planned = run_wsbuild("build", "--dry-run", "--cmake-args", "-DX=1", cwd=ws)
+    [row] = [line for line in planned.stdout.splitlines() if "wobbly  build:" in line]
+    assert row.split("  ", 2)[-1].strip().startswith(
+        "build: the previous build failed; and build options changed: "), planned.stdout
+    assert "did not finish" not in planned.stdout

@@ -24,7 +24,7 @@ from wsbuild.builder.compiler_cache import CompilerCache
 from wsbuild.builder.context import RUN_JOBSERVER
 from wsbuild.builder.step_trace import StepTraces
 from wsbuild.builder.distribute import Distribution
-from wsbuild.builder.plan import BUILDING_MARKER, Decision, PackagePlan
+from wsbuild.builder.plan import BUILDING_MARKER, FAILED_MARK, Decision, PackagePlan
 from wsbuild.builder.failure import exit_text, interesting, log_tail
 from wsbuild.builder.reproduce import write_reproduce_script
 from wsbuild.engine.jobs import JobResult, Outcome, StepStarted
@@ -132,6 +132,7 @@ class PackageBuild:
             installed = self.commit()
         except StepFailed as failure:
             self.discard()
+            self._mark_failed()
             return self._failed(failure)
         except BaseException:
             self.discard()
@@ -392,6 +393,14 @@ class PackageBuild:
         marker = self.build_dir / BUILDING_MARKER
         private_directory(marker.parent)
         marker.touch(mode=0o600)
+        marker.write_text("")  # not (yet) failed: cut short, if this run ends here
+
+    def _mark_failed(self) -> None:
+        """The unfinished build failed (rather than being cut short): the next plan says so."""
+        try:
+            (self.build_dir / BUILDING_MARKER).write_text(FAILED_MARK)
+        except OSError:
+            pass
 
     def _ctx(self) -> PackageContext:
         assert self.context is not None, "stage() makes the build context"
