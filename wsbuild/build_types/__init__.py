@@ -197,6 +197,9 @@ class PackageContext:
     #: (`BuildType.read_state`: e.g. CMake's cache and the last configure's record); the
     #: steps are decided from it, so `steps()` reads nothing itself
     state: object = None
+    #: records information worth a line (not a warning): the build sets it to the package's
+    #: command.log and its Finished line
+    note: Callable[[str], None] = field(default=lambda _text: None)
 
     @property
     def source_dir(self) -> Path:

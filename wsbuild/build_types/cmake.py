@@ -405,7 +405,8 @@ def _remove_cache(ctx: PackageContext, *, warning: str) -> None:
 
 
 def _empty(ctx: PackageContext, *, why: str) -> None:
-    ctx.warn(f"{ctx.build_dir} was built {why}: building it from scratch")
+    # information: the option was switched on purpose, and its build directory follows
+    ctx.note(f"built {why}: building it from scratch")
     empty_build_directory(ctx.build_dir)
 
 

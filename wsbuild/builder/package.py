@@ -197,6 +197,7 @@ class PackageBuild:
             options=self.planned.options.applied_to(self.run.options),
             stage_prefix=self.stage_prefix, run_environ=run_environ, run=self._run_command,
             warn=self.warnings.append, jobserver_fifo=self.run.jobserver.fifo)
+        self.context.note = self._note
 
     def steps(self) -> Sequence[Step]:
         """The steps the plan decided; the build type is asked again with the build's context,
@@ -394,6 +395,13 @@ class PackageBuild:
         private_directory(marker.parent)
         marker.touch(mode=0o600)
         marker.write_text("")  # not (yet) failed: cut short, if this run ends here
+
+    def _note(self, text: str) -> None:
+        """Information a step gives (not a warning): in command.log, and one plain line."""
+        from wsbuild.events import Notice
+
+        self._log(text)
+        self.run.emit(Notice(text, package=self.name))
 
     def _mark_failed(self) -> None:
         """The unfinished build failed (rather than being cut short): the next plan says so."""
