@@ -95,6 +95,11 @@ def run_build(selection: Selection, request: BuildRequest, emit: Emit) -> list[J
     started = time.monotonic()
     cpu_before = cpu_times()
     with open_session(selection.workspace, session_options(request), emit) as session:
+        if request.compiler_cache not in ("auto", "none"):  # a tool named must be there,
+            from wsbuild.builder.compiler_cache import choose_tool  # also when nothing builds
+
+            choose_tool(request.compiler_cache, session.environ,
+                        distributing=request.distribute is not None)
         selection, shard, plan = _shard_and_plan(selection, request, session)
         # a shard's run asks a server (the other shards' packages): never replayed
         # and so does the assembling job (what the shards noted)
@@ -142,6 +147,8 @@ class CompileCounts:
     jobs: CompileJobs | None = None
     #: the jobserver's jobs when compiles were distributed (the local cores otherwise)
     budget: int = 0
+    #: the compiler cache the run used ("" none: `auto` found none, or nothing was built)
+    tool: str = ""
 
 
 def execute(plan: BuildPlan, selection: Selection, request: BuildRequest, session: Session,
@@ -351,11 +358,12 @@ def _stop_compilers(compilers: CompilerCache | None, distribution: Distribution 
     """The run's compiler cache counts (then its server stops: its CPU time joins the run's),
     and where distributed compiles ran; one warning when some could not be distributed."""
     cache = None
+    tool = compilers.tool if compilers is not None else ""
     if compilers is not None:
         cache = compilers.counts()
         compilers.close()
     if distribution is None:
-        return CompileCounts(cache)
+        return CompileCounts(cache, tool=tool)
     distribution.stop_watching()
     jobs = distribution.compile_jobs()
     if jobs.fell_back:
@@ -363,7 +371,21 @@ def _stop_compilers(compilers: CompilerCache | None, distribution: Distribution 
             if jobs.lost else ""
         emit(Notice(f"distcc: {jobs.fell_back} compile job(s) could not be distributed and "
                     f"ran locally{lost}; see {distribution.log}", warning=True))
-    return CompileCounts(cache, jobs, distribution.budget)
+    return CompileCounts(cache, jobs, distribution.budget, tool=tool)
+
+
+def _compiler_choice_text(request: BuildRequest, results: Sequence[JobResult],
+                          counts: CompileCounts) -> str:
+    """What the report says of the compiler cache when it has no counts: none was found, or
+    nothing was built, or what was built compiled nothing."""
+    choice = request.compiler_cache
+    if not any(r.outcome is Outcome.FINISHED for r in results):
+        return f"{choice} (nothing built)"
+    if choice == "none":
+        return "none (--compiler-cache none)"
+    if not counts.tool:
+        return f"{choice}: none used (neither ccache nor sccache is on PATH)"
+    return f"{counts.tool} (nothing compiled)"
 
 
 def _finish(run: PackageRun, request: BuildRequest, session: Session,
@@ -382,7 +404,8 @@ def _finish(run: PackageRun, request: BuildRequest, session: Session,
         if cache.hits + cache.misses + cache.uncacheable:
             lines.append(cache.summary())
     facts = RunFacts(verb="build", cores=request.build.jobs, workers=request.run.workers,
-                     compiler_cache_choice=request.compiler_cache, compiler=compiler,
+                     compiler_cache_choice=_compiler_choice_text(request, results, counts),
+                     compiler=compiler,
                      cache=request.cache, symlink_install=request.build.symlink_install,
                      report=request.report, timings=request.timings)
     end = run.finish(results, facts, compile_jobs=counts.jobs, job_budget=counts.budget)
