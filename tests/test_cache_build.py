@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import hashlib
 import io
+import json
 import shutil
 import socket
 import stat
@@ -177,6 +178,27 @@ def test_fresh_clone_restores_every_package_byte_for_byte(tmp_path: Path, templa
     assert restored(fourth) == sorted(PACKAGES)
     assert len(nginx.requests()) == requests
     assert tree(ws / "install") == built
+
+
+def test_a_restore_records_no_build_time_for_the_next_estimate(tmp_path: Path,
+                                                               template: Path) -> None:
+    """The status line estimates a build from the recorded build times: a restore (a
+    fraction of a second) is no build time, so a clean checkout that restored everything
+    records none, and the time a build took stays recorded across a restore."""
+    ws = tmp_path / "ws"
+    fresh_clone(ws, template)
+    run_build(ws, env=env_for(tmp_path / "m1"))
+    durations = ws / "build" / ".wsbuild" / "durations.json"
+    built = json.loads(durations.read_text())
+    assert set(built) == set(PACKAGES)
+    shutil.rmtree(ws / "install")
+    restored_run = run_build(ws, env=env_for(tmp_path / "m1"))
+    assert sorted(restored(restored_run)) == sorted(PACKAGES), output(restored_run)
+    assert json.loads(durations.read_text()) == built
+    for base in ("build", "install", "log"):
+        shutil.rmtree(ws / base)
+    run_build(ws, env=env_for(tmp_path / "m1"))
+    assert not durations.exists()
 
 
 def test_switching_back_restores_instead_of_rebuilding(tmp_path: Path, template: Path) -> None:

@@ -409,7 +409,9 @@ def _finish(run: PackageRun, request: BuildRequest, session: Session,
                      cache=request.cache, symlink_install=request.build.symlink_install,
                      report=request.report, timings=request.timings)
     end = run.finish(results, facts, compile_jobs=counts.jobs, job_budget=counts.budget)
-    record_durations(session.workspace.build_base, results)
+    # a restore's seconds say nothing of a build's: the next estimate would be far too short
+    record_durations(session.workspace.build_base,
+                     [r for r in results if r.message != "restored from cache"])
     if request.timings:
         lines += [*end.timings.table(), end.timings.summary_line()]
         if counts.jobs is not None:
