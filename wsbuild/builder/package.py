@@ -5,6 +5,7 @@ shares only read-only run resources with the others."""
 
 from __future__ import annotations
 
+import contextlib
 import os
 import shlex
 import time
@@ -405,10 +406,8 @@ class PackageBuild:
 
     def _mark_failed(self) -> None:
         """The unfinished build failed (rather than being cut short): the next plan says so."""
-        try:
+        with contextlib.suppress(OSError):
             (self.build_dir / BUILDING_MARKER).write_text(FAILED_MARK)
-        except OSError:
-            pass
 
     def _ctx(self) -> PackageContext:
         assert self.context is not None, "stage() makes the build context"

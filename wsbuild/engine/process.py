@@ -299,7 +299,8 @@ def run_command(
 ) -> Completed:
     """Run `command`, appending to `log_dir`'s stdout.log / stderr.log / stdout_stderr.log.
     `sweep` (a test step): once the command exits, whatever is left in its session is
-    stopped (`sweep_session`), also what still holds its output open."""
+    stopped (`sweep_session`), also what still holds its output open. Over 80 lines because
+    one command's life reads best top to bottom: start, stream its output, sweep, reap."""
     if registry.cancelled.is_set():
         return Completed(returncode=-int(signal.SIGTERM), tail=(), stderr=())
     logs: dict[str, object] = {}

@@ -68,8 +68,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     how.add_argument("--dry-run", action="store_true",
                      help="print the plan (order, why each builds, critical path) only")
     how.add_argument("--json", action="store_true", help="with --dry-run: machine-readable")
-    how.add_argument("--commands", action="store_true",
-                     help="with --dry-run: also the commands that build each package")
+    secondary(how.add_argument("--commands", action="store_true",
+                               help="with --dry-run: also the commands that build each package"))
     how.add_argument("--timings", action="store_true",
                      help="after the summary: where the time went, the report's path")
     secondary(how.add_argument("--no-report", action="store_true",
