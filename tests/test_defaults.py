@@ -207,6 +207,15 @@ def test_the_command_line_wins_over_the_files(tmp_path: Path) -> None:
     assert _parse(tmp_path, text, "build", "--no-symlink-install").symlink_install is False
 
 
+def test_an_option_of_two_names_is_set_by_either_and_no_form_is_a_key(tmp_path: Path) -> None:
+    """`require-linters` and `strict-linters` (one option) are both keys of `test:`; the
+    `--no-` forms are not (`symlink-install: false` says it)."""
+    assert _parse(tmp_path, "test:\n  require-linters: true\n", "test").strict_linters is True
+    assert _parse(tmp_path, "test:\n  strict-linters: true\n", "test").strict_linters is True
+    message = _error(tmp_path / "d.yaml", "build:\n  no-symlink-install: true\n")
+    assert "'build' has no option 'no-symlink-install'" in message
+
+
 def test_every_on_off_option_has_its_no_form() -> None:
     """Each `--X` that turns something on has `--no-X`, for every verb."""
     parser = build_parser()

@@ -97,7 +97,7 @@ def _takes_packages(action: argparse.Action) -> bool:
 
 
 #: the values of `-DCMAKE_BUILD_TYPE=` (CMake's own)
-CMAKE_BUILD_TYPES = ("Debug", "Release", "RelWithDebInfo", "MinSizeRel")
+CMAKE_CONFIGURATIONS = ("Debug", "Release", "RelWithDebInfo", "MinSizeRel")
 #: the defines people give --cmake-args most, completed after `-D`
 CMAKE_DEFINES = ("-DCMAKE_BUILD_TYPE=", "-DBUILD_TESTING=", "-DCMAKE_EXPORT_COMPILE_COMMANDS=",
                  "-DCMAKE_CXX_STANDARD=", "-DCMAKE_VERBOSE_MAKEFILE=")
@@ -108,7 +108,7 @@ def _cmake_args_completer(prefix: str, **_kwargs: object) -> list[str]:
     defines."""
     name, equals, _value = prefix.partition("=")
     if equals and name == "-DCMAKE_BUILD_TYPE":
-        values = [f"{name}={kind}" for kind in CMAKE_BUILD_TYPES]
+        values = [f"{name}={kind}" for kind in CMAKE_CONFIGURATIONS]
     elif equals:
         values = [f"{name}={value}" for value in ("ON", "OFF")]
     else:

@@ -202,9 +202,11 @@ def settable_options(parser: argparse.ArgumentParser) -> dict[str, argparse.Acti
         if isinstance(action, (argparse._HelpAction, argparse._VersionAction,
                                argparse._SubParsersAction)):
             continue
-        long = [o for o in action.option_strings if o.startswith("--")]
-        if long:
-            result[long[0][2:]] = action
+        if action.help == argparse.SUPPRESS and isinstance(action, argparse._StoreFalseAction):
+            continue  # an on/off option's --no- form (verbs/arguments.py): set the option false
+        for option in action.option_strings:  # each name of it (--require-linters,
+            if option.startswith("--"):        # --strict-linters)
+                result[option[2:]] = action
     return dict(sorted(result.items()))
 
 
