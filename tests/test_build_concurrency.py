@@ -428,3 +428,110 @@ def test_sigterm_and_sighup_stop_every_build_step_before_the_next_build_starts(
     lines = trace.read_text().splitlines()
     assert [line.split()[0] for line in lines] == ["start", "start", "end"], lines
     assert "Traceback" not in first_log.read_text()
+
+
+# ------------------------------- a stopped wsbuild holds the workspace until it is gone (issue 43)
+
+#: every step of the next build (its configure and its build step) notes, as it starts,
+#: whether a step of an earlier build or the stopped wsbuild is still alive
+CHECK_ALIVE = """\
+echo "start $$" >> '@TRACE@'
+for pid in $(cat '@PIDS@' 2>/dev/null) $(cat '@OLD@' 2>/dev/null); do
+  if [ -e /proc/$pid ] && ! grep -q '^State:[[:space:]]*Z' /proc/$pid/status 2>/dev/null; then
+    echo "overlap $pid" >> '@TRACE@'
+  fi
+done
+"""
+
+CHECKED_STEP_CMAKE = STEP_CMAKE.replace(
+    "project(gen NONE)",
+    "project(gen NONE)\nexecute_process(COMMAND sh ${CMAKE_CURRENT_SOURCE_DIR}/check.sh)")
+
+
+def _fill(pipe_write: int, pipe_read: int) -> None:
+    """Fill a pipe whose reader has stopped reading, as a busy CI runner's log collector does:
+    the next write of the process on the other end blocks."""
+    import fcntl
+    import termios
+
+    fcntl.fcntl(pipe_write, 1031, 4096)  # F_SETPIPE_SZ: one page
+    capacity = fcntl.fcntl(pipe_write, 1032)  # F_GETPIPE_SZ
+    waiting = bytearray(4)
+    fcntl.ioctl(pipe_read, termios.FIONREAD, waiting)
+    os.write(pipe_write, b"x" * (capacity - int.from_bytes(waiting, sys.byteorder)))
+
+
+def _blocked_in_a_full_pipe_holding_the_lock(pid: int, lock: Path) -> bool:
+    """Whether wsbuild `pid` waits to write into a full pipe while it holds the workspace's
+    lock (/proc/<pid>/wchan, /proc/locks): only its reader can let it go on."""
+    try:
+        if "pipe_write" not in Path(f"/proc/{pid}/wchan").read_text():
+            return False
+        inode = lock.stat().st_ino
+    except OSError:
+        return False
+    return any(fields[1] == "FLOCK" and fields[4] == str(pid)
+               and fields[5].endswith(f":{inode}")
+               for fields in (line.split() for line in Path("/proc/locks").read_text().splitlines())
+               if len(fields) > 5)
+
+
+def test_a_stopped_build_holds_the_workspace_until_it_and_every_step_are_gone(
+        tmp_path: Path, marker: str) -> None:
+    """A CI runner sends SIGTERM to a build, then starts the next one in the same workspace at
+    once; its log collector reads late (the stopped wsbuild's last line waits in a full pipe,
+    until the next build has started a step or the stopped one waits for it with the lock).
+    The next build never starts a step, configure included, while a step of the stopped build
+    or the stopped wsbuild itself is alive: it waits for the lock, which the stopped wsbuild
+    holds until it has exited. (The suite runs this on a loaded machine: two workers.)"""
+    ws = tmp_path / "ws"
+    trace, pids, old, gate = (tmp_path / name for name in ("trace", "pids", "old", "gate"))
+    check = (CHECK_ALIVE.replace("@TRACE@", str(trace)).replace("@PIDS@", str(pids))
+             .replace("@OLD@", str(old)))
+    body = (check + f"echo $$ >> '{pids}'\n"
+            f"if [ -e '{gate}' ]; then trap '' TERM; sleep {_duration(marker)}; fi\n"
+            'touch "$1"\n')
+    write_cmake(ws / "src", "gen", CHECKED_STEP_CMAKE, files={"step.sh": body, "check.sh": check})
+    gate.touch()
+    first_log, second_log = tmp_path / "first.out", tmp_path / "second.out"
+    err_read, err_write = os.pipe()
+    with open(first_log, "wb") as handle:
+        first = subprocess.Popen([sys.executable, "-m", "wsbuild", "build"], cwd=ws,
+                                 env=clean_env(), stdout=handle, stderr=err_write,
+                                 start_new_session=True, preexec_fn=sigint_at_default)
+    second: subprocess.Popen[bytes] | None = None
+    try:
+        _wait_for(lambda: bool(_pids(f"sleep {_duration(marker)}")), 60,
+                  "the build step to start", first, first_log)
+        steps_of_first = len(trace.read_text().splitlines())
+        old.write_text(f"{first.pid}\n")
+        _fill(err_write, err_read)
+        os.kill(first.pid, signal.SIGTERM)
+        gate.unlink()
+        # a new option: the next build configures again, so its first step is the configure
+        second = _start_build(ws, "--cmake-args", "-DROUND=2", stdout=second_log)
+        lock = ws / "build" / ".wsbuild.build.lock"
+        _wait_for(lambda: len(trace.read_text().splitlines()) > steps_of_first
+                  or _blocked_in_a_full_pipe_holding_the_lock(first.pid, lock), 60,
+                  "the next build to start a step, or the stopped one to wait for its reader",
+                  second, second_log)
+        # the log collector catches up
+        os.close(err_write)
+        err_write = -1
+        while os.read(err_read, 65536):
+            pass
+        returncode = first.wait(timeout=30)
+        assert second.wait(timeout=120) == 0, second_log.read_text()
+    finally:
+        if err_write >= 0:
+            os.close(err_write)
+        os.close(err_read)
+        _stop(first)
+        if second is not None:
+            _stop(second)
+    assert returncode == 128 + signal.SIGTERM, first_log.read_text()
+    lines = trace.read_text().splitlines()
+    assert not [line for line in lines if line.startswith("overlap")], \
+        f"the next build started a step while the stopped one lived (pid {first.pid}): {lines}"
+    assert [line.split()[0] for line in lines].count("start") == steps_of_first + 2, lines
+    assert f"another wsbuild (pid {first.pid})" in second_log.read_text()

@@ -343,6 +343,34 @@ def test_a_misspelt_dependency_that_fails_the_build_gets_a_did_you_mean(tmp_path
     assert result.returncode == 1, output(result)
     assert ("declares build dependency std_msg, which was not found (did you mean "
             "'std_msgs'?)") in result.stdout, output(result)
+    # the warning before the build says the same, not rosdep or apt
+    assert "    std_msg: not found (did you mean 'std_msgs'?)" in result.stdout, output(result)
+    assert "rosdep" not in result.stdout, output(result)
+
+
+@requires_ros
+def test_a_dependency_without_a_wheel_is_named_so_by_pkg_create_and_the_failed_build(
+        tmp_path: Path) -> None:
+    """`rclcpp` is no typo of `rclpy`: it has no wheel. `pkg create` says at once what a C++
+    node then needs, and the build failure says the same instead of a did-you-mean; a
+    dependency nothing knows, on the pip underlay, is for `wsbuild deps install`."""
+    ws = tmp_path / "ws"
+    (ws / "src").mkdir(parents=True)
+    created = wsbuild("pkg", "create", "cpp_pubsub", "--build-type", "ament_cmake",
+                      "--dependencies", "rclcpp", "std_msgs", "some_unheard_of_thing", cwd=ws)
+    assert created.returncode == 0, output(created)
+    advice = ("rclcpp has no PyPI wheel: C++ nodes need `wsbuild deps install --from-source` "
+              "(it fetches it and what it needs from the distro's index and builds them as "
+              "your underlay; it needs the index and the source hosts reachable) or a full "
+              "ROS 2 install (apt, then source it)")
+    assert f"note: {advice}; until then `wsbuild build` of cpp_pubsub fails on it" \
+        in created.stderr, output(created)
+    result = wsbuild("build", cwd=ws)
+    assert result.returncode == 1, output(result)
+    assert f"declares build dependency rclcpp, which was not found: {advice}" in result.stdout
+    assert "did you mean 'rclpy'" not in result.stdout, output(result)
+    assert ("some_unheard_of_thing: not found: `wsbuild deps install` looks for it (a wheel, "
+            "a system package, its sources) and installs it") in result.stdout, output(result)
 
 
 def test_bad_package_xml_is_one_line_naming_file_and_line(tmp_path: Path) -> None:
@@ -365,6 +393,80 @@ def test_bad_package_xml_is_one_line_naming_file_and_line(tmp_path: Path) -> Non
     assert snapshot(ws / "install") == before
 
 
+AMENT_DATA_CMAKE = """\
+cmake_minimum_required(VERSION 3.14)
+project(amented NONE)
+find_package(ament_cmake REQUIRED)
+install(FILES data.txt DESTINATION share/${PROJECT_NAME})
+ament_package()
+"""
+
+
+@pytest.mark.parametrize(("written", "problem", "fix"), [
+    ("  <sometool_tag>x</sometool_tag>\n",
+     "unknown element <sometool_tag> (not part of package format 3)",
+     "remove it, or put a tool's own element inside <export>"),
+    ("  <deps>std_msgs</deps>\n", "unknown element <deps> (not part of package format 3)",
+     "did you mean <depend>? Else remove it, or put a tool's own element inside <export>"),
+    ('  <author email="a@b.c">Someone</author>\n', "invalid email 'a@b.c' of <author>",
+     'write a full address, e.g. email="you@example.com"'),
+], ids=["unknown-element", "near-a-known-one", "email"])
+def test_what_ament_cmakes_manifest_reader_refuses_is_an_error_before_anything_runs(
+        tmp_path: Path, written: str, problem: str, fix: str) -> None:
+    """ament_cmake reads package.xml with catkin_pkg, which refuses what wsbuild reads past
+    with a warning: for an ament_cmake package that is one line naming the file, the line and
+    the fix before anything runs (install/ as it was); a plain CMake package, whose build
+    reads no package.xml, builds with the warning."""
+    ws = tmp_path / "ws"
+    plain = write_cmake(ws / "src", "plain", DATA_CMAKE.format(name="plain"),
+                        files={"data.txt": "plain\n"})
+    ament = write_cmake(ws / "src", "amented", AMENT_DATA_CMAKE, build_type="ament_cmake",
+                        files={"data.txt": "amented\n"})
+    build(ws)
+    before = snapshot(ws / "install")
+    for pkg in (plain, ament):
+        manifest = pkg / "package.xml"
+        manifest.write_text(manifest.read_text().replace("  <export>", written + "  <export>"))
+    line = (ament / "package.xml").read_text().splitlines().index(written.rstrip("\n")) + 1
+
+    refused = wsbuild("build", cwd=ws)
+    assert refused.returncode == 2, output(refused)
+    assert refused.stderr.splitlines() == [
+        f"wsbuild: error: {ament / 'package.xml'}:{line}: {problem}: ament_cmake's package.xml "
+        f"reader (catkin_pkg) refuses it ({fix})"], output(refused)
+    assert "Starting" not in refused.stdout and snapshot(ws / "install") == before
+
+    alone = wsbuild("build", "--packages-select", "plain", cwd=ws)
+    assert alone.returncode == 0, output(alone)
+    assert f"{plain / 'package.xml'}:{line}: " in alone.stderr, output(alone)
+
+
+WHY_BURIED = """\
+cmake_minimum_required(VERSION 3.14)
+project(buried NONE)
+execute_process(COMMAND sh -c "echo 'ValueError: the reason it failed' >&2; exit 3"
+                RESULT_VARIABLE failed)
+foreach(i RANGE 20)
+  message(STATUS "chatter ${i}")
+endforeach()
+if(failed)
+  message(FATAL_ERROR "the generator failed")
+endif()
+"""
+
+
+def test_a_failures_summary_quotes_the_line_that_says_why(tmp_path: Path) -> None:
+    """The line that says why a step failed came long before its log's last lines: the
+    summary quotes it first, then the tail."""
+    ws = tmp_path / "ws"
+    write_cmake(ws / "src", "buried", WHY_BURIED)
+    result = wsbuild("build", cwd=ws)
+    assert result.returncode == 1, output(result)
+    failed = result.stdout.split("Failed   <<< buried", 1)[1].splitlines()
+    assert failed[1].strip() == "ValueError: the reason it failed", output(result)
+    assert failed[2].strip() == "...", output(result)
+
+
 def test_failed_build_output_names_log_dir_in_the_final_error(tmp_path: Path) -> None:
     ws = tmp_path / "ws"
     _break(_data_package(ws / "src", "victim"), "cmake-syntax")
@@ -376,3 +478,47 @@ def test_failed_build_output_names_log_dir_in_the_final_error(tmp_path: Path) ->
     assert Path(match.group(1)).resolve() == (ws / "log" / "latest_build").resolve()
 
 
+
+
+@pytest.mark.parametrize(("verb", "layout", "args", "searched"), [
+    ("build", "empty", (), "."),
+    ("build", "empty src", (), "src"),
+    ("build", "packages elsewhere", ("--base-paths", "nowhere"), "nowhere"),
+    ("test", "empty src", (), "src"),
+])
+def test_no_packages_found_is_one_line_naming_where_and_nothing_is_written(
+        tmp_path: Path, verb: str, layout: str, args: tuple[str, ...], searched: str) -> None:
+    ws = tmp_path / "ws"
+    ws.mkdir()
+    if layout == "empty src":
+        (ws / "src").mkdir()
+    if layout == "packages elsewhere":
+        _data_package(ws / "src", "somewhere")
+    before = sorted(p.relative_to(ws) for p in ws.rglob("*"))
+    result = wsbuild(verb, *args, cwd=ws)
+    assert result.returncode == 2, output(result)
+    where = ws if searched == "." else ws / searched
+    assert result.stderr.splitlines() == [
+        f"wsbuild: error: no packages found in {where}; nothing to do, nothing written ("
+        + (f"{where} does not exist; " if layout == "packages elsewhere" else "")
+        + f"a package is a directory holding a package.xml: create one in {ws / 'src'} with "
+        "`wsbuild pkg create NAME`, or run wsbuild in the workspace that holds yours, or give "
+        "--base-paths)"], output(result)
+    assert sorted(p.relative_to(ws) for p in ws.rglob("*")) == before
+
+
+def test_a_runtime_error_in_setup_py_names_setup_py_and_its_line(tmp_path: Path) -> None:
+    """setuptools runs setup.py from a string (`File "<string>", line 23`): the failure's
+    first line names setup.py and the line, as for a syntax error."""
+    ws = tmp_path / "ws"
+    pkg = write_ament_python(ws / "src", "namer", modules={"main.py": VICTIM_MAIN})
+    setup = pkg / "setup.py"
+    lines = setup.read_text().splitlines()
+    number = next(i for i, line in enumerate(lines, 1) if line.startswith("setup("))
+    lines.insert(number - 1, "undefined_name")
+    setup.write_text("\n".join(lines) + "\n")
+    result = wsbuild("build", cwd=ws)
+    assert result.returncode == 1, output(result)
+    failed = result.stdout.split("Failed   <<< namer", 1)[1].splitlines()
+    assert failed[1].strip() == \
+        f"{setup}:{number}: NameError: name 'undefined_name' is not defined", output(result)

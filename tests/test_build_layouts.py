@@ -80,8 +80,12 @@ def test_switching_layout_without_cleaning_is_a_clear_error(tmp_path: Path, firs
     error = [line for line in result.stderr.splitlines() if line.startswith("wsbuild: error:")]
     assert len(error) == 1, output(result)
     assert "--merge-install" in error[0] and first in error[0]
+    assert "`wsbuild clean -y`" in error[0]  # the command that starts over
     assert "Starting" not in result.stdout
     assert snapshot(ws / "install") == before
+    # which does what the error says: the other layout then builds
+    assert wsbuild("clean", "-y", cwd=ws).returncode == 0
+    build(ws, *([] if first == "merged" else ["--merge-install"]))
 
 
 # ------------------------------------------------------------------------------ symlink install
@@ -222,7 +226,10 @@ def test_switching_the_install_mode_and_deleting_a_file_need_no_clean(tmp_path: 
         "site-packages" / "switcher" / "__init__.py"
     build(ws, *merged)
     built = build(ws, "--symlink-install", *merged)
-    assert "building it from scratch" in built.stdout + built.stderr
+    # information, not a warning: the option was switched on purpose
+    assert ("[switcher] built without --symlink-install, this build is with it: building it "
+            "from scratch") in built.stdout.splitlines(), built.stdout
+    assert "WARNING" not in built.stdout + built.stderr and "warnings" not in built.stdout
     assert (share / "a.launch.py").is_symlink() and module.is_symlink()
     write(pkg / "switcher" / "__init__.py", "VALUE = 'v2'\n")
     assert module.read_text() == "VALUE = 'v2'\n"

@@ -70,6 +70,18 @@ def test_unknown_executable_lists_the_package_executables(run_ws: Path) -> None:
     assert "echo_args" in error and "echo_other" in error
 
 
+def test_run_with_a_package_alone_lists_its_executables(run_ws: Path) -> None:
+    """`wsbuild run PKG` (no executable): what it can run, not argparse's complaint."""
+    result = wsbuild("run", "runner_py", cwd=run_ws)
+    assert result.returncode == 0, output(result)
+    assert result.stdout.splitlines()[0] == \
+        "executables of runner_py (wsbuild run runner_py EXECUTABLE):"
+    assert "  echo_args" in result.stdout.splitlines()
+    assert "required" not in result.stderr
+    empty = wsbuild("run", "no_exes", cwd=run_ws)
+    assert empty.returncode == 2 and "no_exes installs no executables" in _error(empty)
+
+
 def test_package_without_executables_says_so(run_ws: Path) -> None:
     result = wsbuild("run", "no_exes", "anything", cwd=run_ws)
     assert result.returncode == 2, output(result)
@@ -106,3 +118,22 @@ def test_a_launch_file_is_recognised_and_ros2_launch_is_named_with_where_it_come
         "install/setup.bash))" in _error(result)
     result = wsbuild("run", "runner_py", "walk.launch.xml", cwd=run_ws)
     assert "none by that name (its launch files: talk.launch.py)" in _error(result)
+
+
+def test_a_launch_file_of_a_package_that_declares_ros2launch_says_what_is_true(
+        tmp_path: Path) -> None:
+    """`pkg create --launch` declared ros2launch: the error says it is declared, has no
+    wheel, and where it comes from online and offline, not to declare it."""
+    ws = tmp_path / "ws"
+    (ws / "src").mkdir(parents=True)
+    created = wsbuild("pkg", "create", "launcher", "--build-type", "ament_python",
+                      "--node-name", "talker", "--launch", cwd=ws)
+    assert created.returncode == 0, output(created)
+    assert wsbuild("build", cwd=ws).returncode == 0
+    launch = next(p.name for p in (ws / "install/launcher/share/launcher").rglob("*launch*")
+                  if p.is_file())
+    error = _error(wsbuild("run", "launcher", launch, cwd=ws))
+    assert "launcher declares it (<exec_depend>ros2launch</exec_depend>), but it has no PyPI " \
+        "wheel; `wsbuild deps install --from-source` fetches it" in error, error
+    assert "offline, install it with ROS 2 (apt install ros-jazzy-ros2launch)" in error
+    assert "declare <exec_depend>" not in error

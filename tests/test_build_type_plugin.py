@@ -130,7 +130,7 @@ def test_a_third_party_build_type_builds_gets_hooks_and_runs_its_tests(tmp_path:
     env = {**os.environ, "PYTHONPATH": str(plugins)}
 
     # its step in the old form, `Step(label, action)`: in-process, said so by the dry run
-    planned = run_wsbuild("build", "--dry-run", cwd=ws, env=env)
+    planned = run_wsbuild("build", "--dry-run", "--commands", cwd=ws, env=env)
     assert planned.returncode == 0, planned.stdout + planned.stderr
     assert "  # (in wsbuild) copy (no command to show)" in planned.stdout.splitlines()
 
@@ -295,7 +295,7 @@ def test_a_third_party_option_reaches_its_packages_build_dry_run_and_by_hand_ali
     assert "wsb_map packages:" in helped.stdout
     assert "--map-resolution METRES" in helped.stdout
 
-    planned = run_wsbuild("build", "--dry-run", "--map-resolution", "0.05", cwd=ws, env=env)
+    planned = run_wsbuild("build", "--dry-run", "--commands", "--map-resolution", "0.05", cwd=ws, env=env)
     assert planned.returncode == 0, planned.stdout + planned.stderr
     lines = planned.stdout.splitlines()
     step = lines.index(f"  # (in wsbuild) write the map resolution 0.05: {written}")
@@ -313,7 +313,7 @@ def test_a_third_party_option_reaches_its_packages_build_dry_run_and_by_hand_ali
     same = run_wsbuild("build", "--map-resolution", "0.05", cwd=ws, env=env)
     assert "1 package up to date" in same.stdout or "[maps] up to date" in same.stdout, \
         same.stdout
-    changed = run_wsbuild("build", "--dry-run", "--map-resolution", "0.1", cwd=ws, env=env)
+    changed = run_wsbuild("build", "--dry-run", "--commands", "--map-resolution", "0.1", cwd=ws, env=env)
     assert "build options changed: map_resolution: 0.05 → 0.1" in changed.stdout, \
         changed.stdout
     assert run_wsbuild("build", "--map-resolution", "0.1", cwd=ws, env=env).returncode == 0

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import hashlib
 import io
+import json
 import shutil
 import socket
 import stat
@@ -181,6 +182,27 @@ def test_fresh_clone_restores_every_package_byte_for_byte(tmp_path: Path, templa
     assert tree(ws / "install") == built
 
 
+def test_a_restore_records_no_build_time_for_the_next_estimate(tmp_path: Path,
+                                                               template: Path) -> None:
+    """The status line estimates a build from the recorded build times: a restore (a
+    fraction of a second) is no build time, so a clean checkout that restored everything
+    records none, and the time a build took stays recorded across a restore."""
+    ws = tmp_path / "ws"
+    fresh_clone(ws, template)
+    run_build(ws, env=env_for(tmp_path / "m1"))
+    durations = ws / "build" / ".wsbuild" / "durations.json"
+    built = json.loads(durations.read_text())
+    assert set(built) == set(PACKAGES)
+    shutil.rmtree(ws / "install")
+    restored_run = run_build(ws, env=env_for(tmp_path / "m1"))
+    assert sorted(restored(restored_run)) == sorted(PACKAGES), output(restored_run)
+    assert json.loads(durations.read_text()) == built
+    for base in ("build", "install", "log"):
+        shutil.rmtree(ws / base)
+    run_build(ws, env=env_for(tmp_path / "m1"))
+    assert not durations.exists()
+
+
 def test_switching_back_restores_instead_of_rebuilding(tmp_path: Path, template: Path) -> None:
     env = env_for(tmp_path / "xdg")
     ws = tmp_path / "ws"
@@ -247,6 +269,43 @@ def test_poisoned_remote_entry_is_refused_and_rebuilt(tmp_path: Path, template: 
     refused = [w for w in warnings(result) if "refused" in w]
     assert len(refused) == 2 and len(warnings(result)) == 2, output(result)
     assert len(finished(result)) == 2 and len(restored(result)) == len(PACKAGES) - 2
+    assert tree(ws / "install") == built
+    assert not list(tmp_path.rglob("escaped.txt"))
+
+
+def test_a_server_whose_entries_no_wsbuild_can_use_is_named_once_with_their_count(
+        tmp_path: Path, template: Path, nginx: NginxServer) -> None:
+    """Every key the server has answers with a well-formed record and a digest-correct archive
+    in no format wsbuild writes (a plain tar whose member climbs out of the install), with no
+    package record: each is refused before anything is unpacked, the install is a build's,
+    and one warning names the server and how many entries it refused."""
+    ws = tmp_path / "ws"
+    fresh_clone(ws, template)
+    run_build(ws, "--cache", nginx.url, env=env_for(tmp_path / "m1"))
+    built = tree(ws / "install")
+    raw = io.BytesIO()
+    with tarfile.open(fileobj=raw, mode="w") as tar:
+        info = tarfile.TarInfo("../../escaped.txt")
+        info.size = 5
+        tar.addfile(info, io.BytesIO(b"owned"))
+    evil = raw.getvalue()
+    evil_digest = hashlib.sha256(evil).hexdigest()
+    (nginx.root / "cas" / evil_digest).write_bytes(evil)
+    entries = list(nginx.stored("ac"))
+    for path in entries:
+        record = parse_action_result(path.read_bytes())
+        assert record is not None
+        path.write_bytes(ActionResult(record.package, evil_digest, len(evil)).encode())
+
+    fresh_clone(ws, template)
+    result = run_build(ws, "--cache", nginx.url, env=env_for(tmp_path / "m2"))
+    assert warnings(result) == [
+        f"WARNING: cache server {nginx.url.rstrip('/')} answered {len(entries)} entries "
+        "wsbuild cannot use "
+        "(no package record of these inputs: not a wsbuild cache, or it serves something else "
+        "at these addresses); they were refused before anything was unpacked, and built "
+        "here"], output(result)
+    assert len(entries) == len(PACKAGES) and len(finished(result)) == len(PACKAGES)
     assert tree(ws / "install") == built
     assert not list(tmp_path.rglob("escaped.txt"))
 

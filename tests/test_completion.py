@@ -37,9 +37,10 @@ def _env() -> dict[str, str]:
     return dict(os.environ, PATH=f"{BIN}{os.pathsep}{os.environ.get('PATH', '')}")
 
 
-def tab(line: str, cwd: Path) -> list[str]:
+def tab(line: str, cwd: Path, **env: str) -> list[str]:
     """What bash offers for `line` followed by Tab, in `cwd`."""
-    result = subprocess.run(["bash", "-c", BASH_TAB], cwd=cwd, env={**_env(), "LINE": line},
+    result = subprocess.run(["bash", "-c", BASH_TAB], cwd=cwd,
+                            env={**_env(), "LINE": line, **env},
                             capture_output=True, text=True, timeout=60)
     assert result.returncode == 0, result.stderr
     return [word.strip() for word in result.stdout.splitlines() if word.strip()]
@@ -92,6 +93,31 @@ def test_tab_completes_the_workspaces_package_names(workspace: Path) -> None:
     outside = workspace.parent
     assert words(tab(f"wsbuild list -C {shlex.quote(str(workspace))} --packages-skip ",
                      outside)) == everything
+
+
+def test_an_option_that_takes_values_completes_its_values_before_any_option(
+        workspace: Path, tmp_path: Path) -> None:
+    """`--packages-select <Tab>` offers the package names alone (the options once a `-` is
+    typed); `--mixin`, `--event-handlers`, `--build-type` and `-DCMAKE_BUILD_TYPE=` complete
+    their values."""
+    assert tab("wsbuild build --packages-select ", workspace) == [
+        "arm_driver", "nav_core", "nav_planner"]
+    assert "--packages-skip" in tab("wsbuild build --packages-select nav_core --packages-",
+                                    workspace)
+    assert tab("wsbuild build --event-handlers console_dir", workspace) == [
+        "console_direct+", "console_direct-"]
+    assert tab("wsbuild pkg create x --build-type ament_", workspace) == [
+        "ament_cmake", "ament_python"]
+    assert tab("wsbuild build --cmake-args -DCMAKE_BUILD_TYPE=Rel", workspace) == [
+        "Release", "RelWithDebInfo"]
+    assert tab("wsbuild build --cmake-args -DCMAKE_BU", workspace) == ["-DCMAKE_BUILD_TYPE="]
+    home = tmp_path / "colcon_home"
+    (home / "mixin" / "default").mkdir(parents=True)
+    (home / "mixin" / "default" / "build.mixin").write_text(
+        '{"build": {"release": {"cmake-args": ["-DCMAKE_BUILD_TYPE=Release"]}, '
+        '"rel-with-deb-info": {"cmake-args": ["-DCMAKE_BUILD_TYPE=RelWithDebInfo"]}}}')
+    assert tab("wsbuild build --mixin rel", workspace, COLCON_HOME=str(home)) == [
+        "rel-with-deb-info", "release"]
 
 
 def test_tab_completes_the_executables_of_a_package_for_run(workspace: Path) -> None:

@@ -101,7 +101,8 @@ def test_builds_with_no_flags_warning_only_about_what_is_really_missing(
     # turtlesim is absent (needed at run time only); xacro is the pip distribution in the venv
     assert lines[start + 1:start + 3] == [
         "  corpus_bringup:",
-        "    turtlesim: not found: install it (rosdep, apt) or source the underlay that has it",
+        "    turtlesim: not found: `wsbuild deps install` looks for it (a wheel, a system "
+        "package, its sources) and installs it",
     ]
     assert not lines[start + 3].startswith("  "), output(result)
     # the linters without a wheel are named once

@@ -118,16 +118,19 @@ def test_an_empty_file_or_verb_sets_nothing(tmp_path: Path) -> None:
 def test_unknown_verb_names_file_line_and_valid_verbs(tmp_path: Path) -> None:
     message = _error(tmp_path / "d.yaml", "build:\n  force: true\nbiuld:\n  force: true\n")
     assert message.startswith(f"{tmp_path / 'd.yaml'}:3: unknown verb 'biuld'")
-    assert "did you mean 'build'?" in message
-    assert "pkg.create" in message and "test-result" in message
+    assert message.endswith("(did you mean 'build'?)")  # the verbs' list would bury it
+    unlike = _error(tmp_path / "e.yaml", "zzzqqq:\n  force: true\n")
+    assert "pkg.create" in unlike and "test-result" in unlike
 
 
 def test_unknown_option_names_file_line_and_valid_options(tmp_path: Path) -> None:
     message = _error(tmp_path / "d.yaml", "build:\n  force: true\n  symlink_install: true\n")
     assert message.startswith(f"{tmp_path / 'd.yaml'}:3: 'build' has no option "
                               "'symlink_install'")
-    assert "did you mean 'symlink-install'?" in message
-    assert "merge-install" in message  # the valid options are listed
+    assert message.endswith("(did you mean 'symlink-install'?)")  # no list buries it
+    assert "merge-install" not in message
+    unlike = _error(tmp_path / "e.yaml", "build:\n  zzzqqq: true\n")
+    assert "merge-install" in unlike  # nothing close: the valid options are listed
 
 
 def test_dashes_in_option_names_are_pointed_out(tmp_path: Path) -> None:
@@ -200,6 +203,31 @@ def test_the_command_line_wins_over_the_files(tmp_path: Path) -> None:
                   "--cmake-args=-DC=3")
     # an option given on the command line replaces the file's list, it does not extend it
     assert (args.parallel_workers, list(args.cmake_args)) == (7, ["-DB=2", "-DC=3"])
+    # an on/off option the file turned on, turned off again
+    assert _parse(tmp_path, text, "build", "--no-symlink-install").symlink_install is False
+
+
+def test_an_option_of_two_names_is_set_by_either_and_no_form_is_a_key(tmp_path: Path) -> None:
+    """`require-linters` and `strict-linters` (one option) are both keys of `test:`; the
+    `--no-` forms are not (`symlink-install: false` says it)."""
+    assert _parse(tmp_path, "test:\n  require-linters: true\n", "test").strict_linters is True
+    assert _parse(tmp_path, "test:\n  strict-linters: true\n", "test").strict_linters is True
+    message = _error(tmp_path / "d.yaml", "build:\n  no-symlink-install: true\n")
+    assert "'build' has no option 'no-symlink-install'" in message
+
+
+def test_every_on_off_option_has_its_no_form() -> None:
+    """Each `--X` that turns something on has `--no-X`, for every verb."""
+    parser = build_parser()
+    missing = []
+    subparsers = next(a for a in parser._actions if isinstance(a, argparse._SubParsersAction))
+    for verb, sub in subparsers.choices.items():
+        for action in sub._actions:
+            if isinstance(action, argparse._StoreTrueAction):
+                missing += [f"{verb} {option}" for option in action.option_strings
+                            if option.startswith("--") and not option.startswith("--no-")
+                            and "--no-" + option[2:] not in sub._option_string_actions]
+    assert missing == []
 
 
 def test_only_the_running_verbs_defaults_apply(tmp_path: Path) -> None:
@@ -284,7 +312,8 @@ def test_build_help_shows_the_defaults_in_effect(make_workspace: Callable[..., P
                          env=_env(tmp_path, COLCON_DEFAULTS_FILE=str(named)))
     assert result.returncode == 0, result.stderr
     tail = result.stdout[result.stdout.index("defaults in effect"):].splitlines()
-    assert tail[0] == "defaults in effect (from defaults files; the command line overrides them):"
+    assert tail[0] == ("defaults in effect (from defaults files; the command line overrides "
+                       "them, an on/off option with its --no- form, e.g. --no-symlink-install):")
     assert tail[1].split() == ["cmake-args:", "[-DCMAKE_BUILD_TYPE=Release]", f"{named}:2"]
     assert tail[2].split() == ["parallel-workers:", "2", f"{ws / 'wsbuild.yaml'}:4"]
     assert len(tail) == 3  # test's defaults are not build's
@@ -297,7 +326,7 @@ def test_a_bad_defaults_file_stops_every_verb_with_file_and_line(
     for verb in ("build", "list"):
         result = run_wsbuild(verb, cwd=ws, env=_env(tmp_path))
         assert result.returncode == 2
-        assert result.stderr.startswith(f"wsbuild: error: {ws / 'wsbuild.yaml'}:4: 'list' has "
-                                        "no option 'topological' (did you mean "
-                                        "'topological-order'? options of 'list': ")
+        assert result.stderr == (f"wsbuild: error: {ws / 'wsbuild.yaml'}:4: 'list' has "
+                                 "no option 'topological' (did you mean "
+                                 "'topological-order'?)\n")
     assert not (ws / "install").exists()

@@ -146,7 +146,8 @@ def test_unresolved_dependencies_warn_once_and_the_build_goes_on(tmp_path: Path)
         "  launch_only:",
         "    geometry_msgs: pip install ros-jazzy-geometry-msgs",
         "    python3-no-such-module: pip install no-such-module (a rosdep key for a Python package)",
-        "    turtlesim: not found: install it (rosdep, apt) or source the underlay that has it",
+        "    turtlesim: not found: `wsbuild deps install` looks for it (a wheel, a system "
+        "package, its sources) and installs it",
     ]
     assert "rviz2" not in result.stdout  # run time only: not the build's business
     assert result.stdout.count("WARNING: build dependencies") == 1
@@ -167,8 +168,9 @@ def test_a_failed_package_ends_its_report_with_what_it_declared_and_was_not_foun
     report = result.stdout[result.stdout.index("Failed   <<< needy"):]
     report = report[:report.index("  log: ")]
     assert "frobnicatorConfig.cmake" in report  # CMake's own error first
-    assert report.rstrip().splitlines()[-1] == \
-        "  declares build dependency frobnicator, which was not found"
+    assert report.rstrip().splitlines()[-1] == (
+        "  declares build dependency frobnicator, which was not found: `wsbuild deps install` "
+        "looks for it (a wheel, a system package, its sources) and installs it")
 
 
 def test_strict_dependencies_refuse_before_anything_builds(tmp_path: Path) -> None:

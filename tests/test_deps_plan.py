@@ -4,6 +4,7 @@
 from __future__ import annotations
 
 from collections.abc import Sequence
+from pathlib import Path
 
 import pytest
 
@@ -124,3 +125,31 @@ def test_types() -> None:
     assert DepKind.TEST in parse_types(None) and DepKind.DOC not in parse_types(None)
     with pytest.raises(WsbuildError, match="unknown dependency type in --types: exec"):
         parse_types("build,exec")
+
+
+def test_a_wheel_that_links_a_system_library_asks_for_its_development_package(
+        tmp_path: Path) -> None:
+    """The tracetools wheel links -llttng-ust, which nothing declares: a package building
+    against it (rclcpp from source, or a node of the user's) needs liblttng-ust-dev, unless
+    the library is there; a package that only runs with it needs nothing."""
+    from wsbuild.deps.plan import Installer, Source
+    from wsbuild.deps.system_libraries import system_library_steps
+    from wsbuild.workspace.model import Dependency, DepKind, Package
+
+    def package(name: str, kind: DepKind) -> Package:
+        return Package(name, tmp_path / name, "ament_cmake",
+                       dependencies=(Dependency("tracetools", kind),))
+
+    empty, full = tmp_path / "lib", tmp_path / "lib64"
+    empty.mkdir()
+    full.mkdir()
+    (full / "liblttng-ust.so").write_text("")
+    kinds = frozenset(DepKind)
+    users = [package("wsb_rclcpp", DepKind.BUILD), package("runs_it", DepKind.EXEC)]
+    [step] = system_library_steps(users, kinds, directories=(str(empty),))
+    assert (step.need.key, step.need.needed_by, step.source, step.installer, step.packages) == (
+        "liblttng-ust-dev", ("wsb_rclcpp",), Source.SYSTEM_LIBRARY, Installer.APT,
+        ("liblttng-ust-dev",))
+    assert system_library_steps(users, kinds, directories=(str(full),)) == []
+    assert system_library_steps(users, frozenset({DepKind.EXEC}),
+                                directories=(str(empty),)) == []

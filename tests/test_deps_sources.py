@@ -239,6 +239,10 @@ def test_from_source_fetches_what_no_installer_has_and_its_dependencies_in_turn(
     assert "from source: not released in the jazzy index" in nowhere
     planned = wsbuild(venv, "deps", "install", "--dry-run", cwd=ws, env=env)
     assert f"  wsb_launch_core: {core} jazzy  (for wsb_launch)" in planned.stdout, output(planned)
+    # the plan was made: a dry run exits 0 though wsb_nowhere stays unresolved, unless --strict
+    assert planned.returncode == 0, output(planned)
+    strict = wsbuild(venv, "deps", "install", "--dry-run", "--strict", cwd=ws, env=env)
+    assert strict.returncode == 1 and strict.stdout == planned.stdout, output(strict)
     # without --from-source, install fetches nothing and says how
     held = wsbuild(venv, "deps", "install", "-y", "--skip-keys", "wsb_nowhere", cwd=ws, env=env)
     assert held.returncode == 1 and not (ws / "src" / "wsb_launch_core").exists(), output(held)
@@ -293,3 +297,77 @@ def test_a_source_entry_that_is_no_git_url_is_never_cloned(venv: Path, tmp_path:
     assert ("from source: the source URL '--upload-pack=touch /tmp/pwned' is not a git URL"
             in line_with(result.stdout, "unresolved: wsb_odd ("))
     assert sorted(p.name for p in (ws / "src").iterdir()) == ["my_app"]
+
+
+#: a CMake package in the pattern of rclcpp and libstatistics_collector: its tests need
+#: packages released elsewhere (mimick_vendor, performance_test_fixture), found only under
+#: BUILD_TESTING; it installs a marker its users find
+RCLCPP_LIKE = """\
+cmake_minimum_required(VERSION 3.14)
+project({name} NONE)
+include(CTest)
+{finds}
+if(BUILD_TESTING)
+{test_finds}
+endif()
+file(WRITE ${{CMAKE_CURRENT_BINARY_DIR}}/{name}Config.cmake "set({name}_FOUND TRUE)\\n")
+install(FILES ${{CMAKE_CURRENT_BINARY_DIR}}/{name}Config.cmake DESTINATION share/{name}/cmake)
+"""
+
+
+def cmake_repository(path: Path, packages: dict[str, tuple[list[str], list[str]]]) -> str:
+    """A git repository of CMake packages {name: (depends, test_depends)} in rclcpp's pattern
+    (RCLCPP_LIKE); its file:// URL."""
+    for name, (depends, test_depends) in packages.items():
+        package = write_package(path, name, "cmake", depends,
+                                kinds={"test_depend": test_depends})
+        (package / "CMakeLists.txt").write_text(RCLCPP_LIKE.format(
+            name=name, finds="".join(f"find_package({d} REQUIRED)\n" for d in depends),
+            test_finds="".join(f"  find_package({d} REQUIRED)\n" for d in test_depends)))
+    git = ["git", "-c", "user.name=upstream", "-c", "user.email=upstream@example.invalid"]
+    for command in (["init", "-q", "-b", "jazzy"], ["add", "-A"], ["commit", "-q", "-m", "v1"]):
+        subprocess.run([*git, *command], cwd=path, check=True, capture_output=True)
+    return path.as_uri()
+
+
+def test_from_source_fetches_an_rclcpp_like_stack_without_its_test_dependencies(
+        venv: Path, tmp_path: Path) -> None:
+    """rclcpp's pattern: a user's node needs `wsb_rclcpp`, which needs
+    `wsb_statistics_collector` (another repository), which needs `wsb_statistics_msgs` (a
+    third); both test with packages released nowhere the index says. `deps install
+    --from-source` fetches the three repositories and not the test dependencies, and the plain
+    `wsbuild build` that follows builds them with their tests off, then the node."""
+    upstream = tmp_path / "upstream"
+    rclcpp = cmake_repository(upstream / "wsb_rclcpp_repo", {"wsb_rclcpp": (
+        ["wsb_statistics_collector"], ["wsb_google_benchmark", "wsb_mimick_vendor",
+                                       "wsb_performance_test_fixture"])})
+    collector = cmake_repository(upstream / "wsb_collector_repo", {"wsb_statistics_collector": (
+        ["wsb_statistics_msgs"], ["wsb_performance_test_fixture"])})
+    interfaces = cmake_repository(upstream / "wsb_interfaces_repo",
+                                  {"wsb_statistics_msgs": ([], [])})
+    index = rosdistro_index(tmp_path / "rosdistro", {
+        "wsb_rclcpp_repo": (rclcpp, ["wsb_rclcpp"]),
+        "wsb_collector_repo": (collector, ["wsb_statistics_collector"]),
+        "wsb_interfaces_repo": (interfaces, ["wsb_statistics_msgs"]),
+    })
+    ws = tmp_path / "ws"
+    node = write_package(ws / "src", "cpp_pubsub", "cmake", ["wsb_rclcpp"])
+    (node / "CMakeLists.txt").write_text(
+        "cmake_minimum_required(VERSION 3.14)\nproject(cpp_pubsub NONE)\n"
+        "find_package(wsb_rclcpp REQUIRED)\ninstall(FILES package.xml DESTINATION share)\n")
+    env = venv_env(venv, ROSDISTRO_INDEX_URL=index.as_uri())
+
+    fetched = wsbuild(venv, "deps", "install", "-y", "--from-source", cwd=ws, env=env)
+    assert fetched.returncode == 0, output(fetched)
+    assert sorted(p.name for p in (ws / "src").iterdir()) == [
+        "cpp_pubsub", "wsb_collector_repo", "wsb_interfaces_repo", "wsb_rclcpp_repo"]
+    assert "performance_test_fixture" not in fetched.stdout + fetched.stderr, output(fetched)
+    assert ("from source: built with their tests off (-DBUILD_TESTING=OFF in colcon.meta): "
+            in fetched.stdout), output(fetched)
+    assert (ws / "colcon.meta").is_file()
+    assert wsbuild(venv, "deps", cwd=ws, env=env).returncode == 0  # nothing left missing
+
+    built = wsbuild(venv, "build", cwd=ws, env=env)
+    assert built.returncode == 0, output(built)
+    assert sorted(p.name for p in (ws / "install").iterdir() if p.is_dir()) == [
+        "cpp_pubsub", "wsb_rclcpp", "wsb_statistics_collector", "wsb_statistics_msgs"]

@@ -54,10 +54,26 @@ def _plan(ws: Path, *args: str) -> dict:  # type: ignore[type-arg]
     return json.loads(result.stdout)
 
 
+def test_the_dry_run_prints_the_plan_and_its_commands_only_when_asked(built: Path) -> None:
+    """`--dry-run` is the plan (a few lines); the commands, each with its long environment,
+    come with `--commands`, and the plan says so."""
+    (built / "src" / "pa" / "pa" / "main.py").write_text("def main():\n    print('again')\n")
+    plain = run_wsbuild("build", "--dry-run", cwd=built)
+    assert plain.returncode == 0, plain.stderr
+    lines = plain.stdout.splitlines()
+    assert not any(line.lstrip().startswith("cd ") for line in lines), plain.stdout
+    assert lines[-1] == ("commands: `wsbuild build --dry-run --commands` prints those that "
+                         "build 2 packages")
+    full = run_wsbuild("build", "--dry-run", "--commands", cwd=built)
+    assert full.stdout.startswith("\n".join(lines[:-1]))
+    assert any(line.lstrip().startswith("cd ") for line in full.stdout.splitlines())
+    assert len(lines) < 10
+
+
 def test_an_edit_shows_the_file_and_the_dependents_it_drags_along(built: Path) -> None:
     (built / "src" / "pa" / "pa" / "main.py").write_text("def main():\n    print('edited')\n")
     before = snapshot(built)
-    result = run_wsbuild("build", "--dry-run", cwd=built)
+    result = run_wsbuild("build", "--dry-run", "--commands", cwd=built)
     assert result.returncode == 0, result.stderr
     lines = result.stdout.splitlines()
     assert lines[0] == "dry run: 3 packages, 2 would build, 1 up to date (nothing was touched)"
@@ -123,12 +139,12 @@ def test_unresolved_dependencies_and_what_the_build_would_refuse(
                          "pd": ("ament_python", ["pa"], {"build_depend": ["no_such_thing_xyz"]})})
     plan = _plan(ws)
     assert plan["unresolved"] == {"pd": ["no_such_thing_xyz"]}
-    strict = run_wsbuild("build", "--dry-run", "--strict-dependencies", cwd=ws)
+    strict = run_wsbuild("build", "--dry-run", "--commands", "--strict-dependencies", cwd=ws)
     assert strict.returncode == 2
     assert "  pd: no_such_thing_xyz" in strict.stdout
     assert strict.stdout.rstrip().endswith(
         "the build would refuse to start: unresolved build dependencies (--strict-dependencies)")
-    alone = run_wsbuild("build", "--dry-run", "--packages-select", "pd", cwd=ws)
+    alone = run_wsbuild("build", "--dry-run", "--commands", "--packages-select", "pd", cwd=ws)
     assert alone.returncode == 2
     assert ("the build would refuse to start: workspace packages not built yet: "
             "pa (needed by pd)") in alone.stdout
@@ -166,7 +182,7 @@ def test_the_printed_commands_pasted_into_a_fresh_shell_build_the_packages(
         for name in ("hello", "pa"):
             shutil.rmtree(ws / base / name)
     # the build cache would restore both, and a restore has no commands to paste
-    result = run_wsbuild("build", "--dry-run", "--no-cache", cwd=ws, env=clean_env())
+    result = run_wsbuild("build", "--dry-run", "--commands", "--no-cache", cwd=ws, env=clean_env())
     assert result.returncode == 0, output(result)
     commands = _commands(result.stdout)
     assert "# hello" in commands and "# pa" in commands
@@ -189,7 +205,7 @@ def test_the_printed_commands_pasted_into_a_fresh_shell_build_the_packages(
 
 def test_json_carries_the_same_commands_and_steps(make_workspace: Callable[..., Path]) -> None:
     ws = make_workspace(SPEC)
-    text = run_wsbuild("build", "--dry-run", cwd=ws)
+    text = run_wsbuild("build", "--dry-run", "--commands", cwd=ws)
     assert text.returncode == 0, output(text)
     plan = _plan(ws)
     section = _commands(text.stdout)
@@ -217,7 +233,25 @@ def test_json_carries_the_same_commands_and_steps(make_workspace: Callable[..., 
 
 
 def test_an_up_to_date_workspace_has_no_commands(built: Path) -> None:
-    result = run_wsbuild("build", "--dry-run", cwd=built)
+    result = run_wsbuild("build", "--dry-run", "--commands", cwd=built)
     assert result.returncode == 0, output(result)
     assert "commands (" not in result.stdout
     assert all("steps" not in p for p in _plan(built)["packages"])
+
+
+def test_after_a_failed_build_the_dry_run_says_failed_and_every_reason(tmp_path: Path) -> None:
+    """A build that failed is not one that was cut short; and the failure does not hide what
+    else changed since the last good build (an option)."""
+    ws = tmp_path / "ws"
+    pkg = write_package(ws / "src", "wobbly", "cmake")
+    (pkg / "CMakeLists.txt").write_text("cmake_minimum_required(VERSION 3.14)\nproject(wobbly "
+                                        "NONE)\ninstall(FILES package.xml DESTINATION share)\n")
+    assert run_wsbuild("build", cwd=ws).returncode == 0
+    (pkg / "CMakeLists.txt").write_text("cmake_minimum_required(VERSION 3.14)\nproject(wobbly "
+                                        "NONE)\ninstall(FILES package.xml\n")  # broken
+    assert run_wsbuild("build", "--cmake-args", "-DX=1", cwd=ws).returncode == 1
+    planned = run_wsbuild("build", "--dry-run", "--cmake-args", "-DX=1", cwd=ws)
+    [row] = [line for line in planned.stdout.splitlines() if "wobbly  build:" in line]
+    assert row.split("  ", 2)[-1].strip().startswith(
+        "build: the previous build failed; and build options changed: "), planned.stdout
+    assert "did not finish" not in planned.stdout

@@ -318,3 +318,16 @@ def test_headlines_say_why_in_one_line() -> None:
     assert silent.headline == "error"
     long = Case(name="t", outcome=CaseOutcome.FAILURE, message="x" * 500)
     assert len(long.headline) == 200 and long.headline.endswith("...")
+
+
+def test_a_headline_ending_in_a_colon_carries_the_reason_below_it() -> None:
+    """ament's "The test did not generate a result file:" is followed by why: the headline
+    the summary and the report page show carries it, not the cut-off sentence."""
+    missing = Case(name="cppcheck.xunit.missing_result", outcome=CaseOutcome.ERROR,
+                   message="The test did not generate a result file:\n\n"
+                           "Could not find 'cppcheck' executable\n")
+    assert missing.headline == ("The test did not generate a result file: Could not find "
+                                "'cppcheck' executable")
+    below = Case(name="t", outcome=CaseOutcome.ERROR, message="It failed:",
+                 details="Traceback (most recent call last):\nValueError: the reason\n")
+    assert below.headline.startswith("It failed: ")

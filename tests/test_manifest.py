@@ -338,6 +338,34 @@ def test_a_misspelt_known_element_is_an_error_naming_the_line_and_the_element_me
                                  f"(package format {fmt}) (did you mean <{meant}>?)")
 
 
+def test_what_catkin_pkg_refuses_is_kept_with_its_line_and_fix(tmp_path: Path) -> None:
+    """What wsbuild reads past but catkin_pkg (ament_cmake's reader of package.xml) refuses:
+    an unknown element (with what it may have meant), an unknown attribute, an email
+    without a two-letter domain, a <license> attribute of format 4."""
+    body = """\
+  <favourite_colour>blue</favourite_colour>
+  <deps>rclpy</deps>
+  <author email="a@b.c">Someone</author>
+  <exec_depend versoin_gte="1.0.0">rclpy</exec_depend>
+"""
+    path = write(tmp_path, manifest(3, body).replace("<license>", '<license type="spdx">'))
+    package = parse(path, warnings=[])
+    assert package.refused == (
+        (line_of(path, "<license"), "attribute 'type' on <license>",
+         "remove it: catkin_pkg takes only <license file=...>, in package format 3"),
+        (line_of(path, "favourite"), "unknown element <favourite_colour> (not part of package "
+         "format 3)", "remove it, or put a tool's own element inside <export>"),
+        (line_of(path, "<deps>"), "unknown element <deps> (not part of package format 3)",
+         "did you mean <depend>? Else remove it, or put a tool's own element inside <export>"),
+        (line_of(path, "a@b.c"), "invalid email 'a@b.c' of <author>",
+         'write a full address, e.g. email="you@example.com"'),
+        (line_of(path, "versoin"), "unknown attribute 'versoin_gte' on <exec_depend>",
+         "remove it: <exec_depend> takes 'condition' or 'version_eq' or 'version_gt' or "
+         "'version_gte' or 'version_lt' or 'version_lte'"),
+    )
+    assert parse(write(tmp_path, manifest(3), folder="fine"), warnings=[]).refused == ()
+
+
 def test_warnings_are_optional(tmp_path: Path) -> None:
     path = write(tmp_path, manifest(3, "  <whatever/>\n"))
     assert parse(path, warnings=None).name == "pkg"

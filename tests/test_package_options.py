@@ -85,7 +85,7 @@ def test_any_cmake_argument_of_a_package_reaches_it_not_only_defines(
     """No longer a `-C` script of `-D` settings: `-U`, `-W…` and the like reach the package."""
     ws = make_workspace({"pa": ("cmake", []), "pb": ("cmake", [])})
     write_meta(ws, {"pa": {"cmake-args": ["-Wno-dev", "-DBAR:BOOL=ON"]}})
-    result = run_wsbuild("build", "--dry-run", cwd=ws)
+    result = run_wsbuild("build", "--dry-run", "--commands", cwd=ws)
     assert result.returncode == 0, result.stdout + result.stderr
     configure = [line for line in result.stdout.splitlines() if " cmake " in f" {line} "
                  and "CMAKE_INSTALL_PREFIX" in line]
@@ -119,7 +119,7 @@ def test_a_key_wsbuild_does_not_apply_is_named(make_workspace: Callable[..., Pat
     ws = make_workspace({"pa": ("cmake", [])})
     (ws / "colcon.meta").write_text(json.dumps(
         {"names": {"pa": {"symlink-install": True, "pytest-args": ["-x"]}}}))
-    result = run_wsbuild("build", "--dry-run", cwd=ws)
+    result = run_wsbuild("build", "--dry-run", "--commands", cwd=ws)
     assert result.returncode == 0, result.stdout + result.stderr
     assert "colcon.meta: 'symlink-install' of pa is ignored" in result.stderr
     assert "'pytest-args' of pa" not in result.stderr  # `wsbuild test` applies it

@@ -74,6 +74,7 @@ def test_invalid_package_names_are_rejected_and_nothing_is_written(
     with pytest.raises(PackageCreateError) as info:
         create_package(request(tmp_path, name, build_type=build_type))
     assert repr(name) in str(info.value) and says in str(info.value)
+    assert str(info.value).count("REP 144") <= 1, str(info.value)
     assert tree(tmp_path) == []
 
 

@@ -115,8 +115,13 @@ class Matrix:
     run: str
 
     def env(self, machine: str) -> dict[str, str]:
-        return clean_env(WSBUILD_CACHE=self.server.url, WSBUILD_SHARD_RUN=self.run,
-                         WSBUILD_CACHE_DIR=str(self.home / "machines" / machine))
+        """A job's environment; with no run (`run` ""), none a CI system would give."""
+        env = clean_env(WSBUILD_CACHE=self.server.url, WSBUILD_SHARD_RUN=self.run,
+                        WSBUILD_CACHE_DIR=str(self.home / "machines" / machine))
+        if not self.run:
+            for variable in ("WSBUILD_SHARD_RUN", "GITHUB_RUN_ID", "CI_PIPELINE_ID"):
+                env.pop(variable, None)
+        return env
 
     def workspace(self, name: str, src: Path | None = None) -> Path:
         return checkout(self.home / "jobs" / name, src or self.place.src)
@@ -133,11 +138,17 @@ class Matrix:
                            [sys.executable, "-m", "wsbuild", "build", *WORKERS, *args],
                            env=self.env(name))
 
-    def assemble(self) -> tuple[subprocess.CompletedProcess[str], Path]:
+    def assemble(self, *args: str) -> tuple[subprocess.CompletedProcess[str], Path]:
         """The job after the matrix: a plain build of the whole workspace."""
-        done = self.build("assemble")
+        done = self.build("assemble", *args)
         assert done.returncode == 0, output(done)
         return done, self.home / "jobs" / "assemble"
+
+    def test(self, name: str, *args: str) -> subprocess.CompletedProcess[str]:
+        """`wsbuild test ARGS` in job `name`'s workspace, after its build."""
+        return run_at_path(self.home / "jobs" / name, self.place.path,
+                           [sys.executable, "-m", "wsbuild", "test", *WORKERS, *args],
+                           env=self.env(name))
 
     def documents(self) -> SharedDocuments:
         documents = SharedDocuments.open(CacheSettings(url=self.server.url))
@@ -301,3 +312,56 @@ def test_a_shard_with_another_workspace_is_said_in_one_line_and_never_makes_a_wr
     assert "leaf_c" in finished(done), output(done)
     assert tree(assembled / "install") == matrix.place.reference
     assert not (assembled / "install" / "leaf_e").exists()
+
+
+def _assignment(matrix: Matrix, job: str) -> dict[str, int]:
+    return json.loads((matrix.home / "jobs" / job / "build" / ".wsbuild" / "shard.json")
+                      .read_text())["assignment"]
+
+
+def test_jobs_that_see_different_times_documents_split_alike_and_the_assembly_checks_them(
+        matrix: Matrix) -> None:
+    """No run id a CI system gives (neither GitHub's, GitLab's nor WSBUILD_SHARD_RUN), and
+    job 2 starts after job 1 has published its times: the shared times document job 2 finds
+    (base 3 s, leaf_a and leaf_b 1 s each) would split leaf_a and leaf_b off to shard 2 and
+    leave leaf_c and leaf_d to no one. Both jobs split on the times fixed for the run (the
+    commit's workspace), so every package is built and tested by one of them, and the
+    assembling job (`build --assemble 2`) says so."""
+    matrix.run = ""
+    one = matrix.build("one", "--shard", "1/2")
+    assert one.returncode == 0, output(one)
+    assert matrix.test("one", "--shard", "1/2").returncode == 0
+    documents = matrix.documents()
+    assert documents.put(TIMES, {"times": {"base": 3.0, "leaf_a": 1.0, "leaf_b": 1.0,
+                                           "leaf_c": 10.0, "leaf_d": 10.0}}, "times",
+                         matrix.home)
+    documents.close()
+    two = matrix.build("two", "--shard", "2/2")
+    assert two.returncode == 0, output(two)
+    tested = matrix.test("two", "--shard", "2/2")
+    assert tested.returncode == 0, output(tested)
+    assert _assignment(matrix, "one") == _assignment(matrix, "two") == {
+        "base": 1, "leaf_a": 1, "leaf_b": 1, "leaf_c": 2, "leaf_d": 2}
+    assert finished(one) == ["base", "leaf_a", "leaf_b"], output(one)
+    assert finished(two) == ["leaf_c", "leaf_d"], output(two)
+    assert "testing 2 packages of 5" in tested.stderr, output(tested)
+    done, assembled = matrix.assemble("--assemble", "2")
+    assert restored(done) == sorted(PACKAGES), output(done)
+    assert "assembled 5 packages: every one built and tested by one of the 2 shards" \
+        in done.stdout, output(done)
+    assert tree(assembled / "install") == matrix.place.reference
+
+
+def test_a_lost_shard_fails_the_assembly_naming_its_packages(matrix: Matrix) -> None:
+    """Shard 2 of 2 never ran (its job lost): the assembling job fails, naming the packages
+    no shard built and tested, in one line."""
+    one = matrix.build("one", "--shard", "1/2")
+    assert one.returncode == 0, output(one)
+    assert matrix.test("one", "--shard", "1/2").returncode == 0
+    done = matrix.build("assemble", "--assemble", "2")
+    assert done.returncode == 1, output(done)
+    errors = [line for line in done.stderr.splitlines() if line.startswith("wsbuild: error:")]
+    assert len(errors) == 1, output(done)
+    assert "not built by any shard: leaf_c leaf_d" in errors[0], output(done)
+    assert "not tested by any shard: leaf_c leaf_d; shard 2/2 noted no test run" in errors[0]
+    assert "Starting >>>" not in done.stdout, output(done)

@@ -160,6 +160,10 @@ def test_plan_prints_the_matrix_as_json_and_as_text(
     (["build", "--shard", "1/2", "--cache", "http://127.0.0.1:9/", "--cache-read-only"],
      "--shard 1/2 needs a build cache on a server the jobs share"),
     (["test", "--shard", "2"], "--shard takes K/N with 1 <= K <= N, got '2'"),
+    (["build", "--assemble", "x"], "--assemble takes a number of CI jobs (1 or more), got 'x'"),
+    (["build", "--assemble", "2"], "--assemble 2 needs the build cache server the shards shared"),
+    (["build", "--assemble", "2", "--shard", "1/2", "--cache", "http://127.0.0.1:9/"],
+     "--assemble and --shard exclude each other"),
 ])
 def test_bad_shard_arguments_are_one_line_and_exit_2(
         make_workspace: Callable[..., Path], argv: list[str], says: str) -> None:

@@ -262,6 +262,78 @@ def test_ctrl_c_stops_the_tests_and_exits_130(tmp_path: Path) -> None:
     assert _process_state(pytest_pid) in (None, "Z")  # gone, at most not yet reaped
 
 
+LEAVES_PROCESSES = """cmake_minimum_required(VERSION 3.14)
+project(leaver NONE)
+enable_testing()
+# nodes its test started and never stopped (their output elsewhere, as launch has it)
+add_test(NAME leaves_a_node COMMAND sh -c
+         "sleep @QUIET@ >/dev/null 2>&1 & sleep @HOLDING@ >/dev/null 2>&1 & exit @EXIT@")
+install(FILES package.xml DESTINATION share/leaver)
+"""
+
+
+@pytest.mark.parametrize("verdict", ["passing", "failing"])
+def test_what_a_test_leaves_running_is_stopped_and_named(tmp_path: Path, verdict: str) -> None:
+    """A test that starts processes and ends without stopping them (ROS nodes a test
+    launched): when its step ends, pass or fail, every process of its session is gone, and
+    the summary names what was stopped."""
+    quiet, holding = f"300.{os.getpid()}1", f"300.{os.getpid()}2"
+    cmake = (LEAVES_PROCESSES.replace("@QUIET@", quiet).replace("@HOLDING@", holding)
+             .replace("@EXIT@", "0" if verdict == "passing" else "1"))
+    (write_package(tmp_path / "src", "leaver", "cmake") / "CMakeLists.txt").write_text(cmake)
+    built = run_wsbuild("build", cwd=tmp_path)
+    assert built.returncode == 0, built.stdout + built.stderr
+    try:
+        result = cli("test", cwd=tmp_path, timeout=120)
+        left = [pattern for pattern in (quiet, holding)
+                if subprocess.run(["pgrep", "-f", f"sleep {pattern}"]).returncode == 0]
+    finally:  # only ever ours: the durations are unique
+        found = subprocess.run(["pgrep", "-f", f"sleep 300.{os.getpid()}"],
+                               capture_output=True, text=True)
+        for pid in found.stdout.split():
+            os.kill(int(pid), signal.SIGKILL)
+    assert result.returncode == (0 if verdict == "passing" else 1), result.stdout + result.stderr
+    assert left == [], f"left running after wsbuild test: {left}"
+    [line] = [line for line in lines(result) if "its tests left running" in line]
+    assert line.startswith("  leaver: stopped 2 processes its tests left running: sleep ("), line
+
+
+EDITED_TEST = """cmake_minimum_required(VERSION 3.14)
+project(edited C)
+enable_testing()
+add_executable(test_answer test/test_answer.c)
+add_test(NAME answer COMMAND test_answer)
+install(FILES package.xml DESTINATION share/edited)
+"""
+
+
+def test_a_test_edited_since_the_build_is_named_or_built_first_with_build(
+        tmp_path: Path) -> None:
+    """A C test edited after the build: `wsbuild test` runs the binary that was built and
+    says in one line that the package changed since it was built; `--build` builds it first,
+    so the edited test runs."""
+    package = write_package(tmp_path / "src", "edited", "cmake")
+    (package / "CMakeLists.txt").write_text(EDITED_TEST)
+    source = package / "test" / "test_answer.c"
+    source.parent.mkdir()
+    source.write_text("int main(void) { return 42 == 42 ? 0 : 1; }\n")
+    built = run_wsbuild("build", cwd=tmp_path)
+    assert built.returncode == 0, built.stdout + built.stderr
+    source.write_text("int main(void) { return 42 == 43 ? 0 : 1; }\n")  # now it fails
+
+    stale = cli("test", cwd=tmp_path)
+    assert stale.returncode == 0, stale.stdout + stale.stderr  # the old binary passes
+    assert stale.stderr.splitlines()[0] == (
+        "wsbuild: warning: edited changed since it was built (source changed: "
+        "test/test_answer.c): its tests run what was built; run `wsbuild build` first, or "
+        "`wsbuild test --build`"), stale.stderr
+    fresh = cli("test", "--build", cwd=tmp_path)
+    assert fresh.returncode == 1, fresh.stdout + fresh.stderr  # the edited test ran
+    assert "building edited first: changed since it was built (--build)" in fresh.stdout
+    again = cli("test", cwd=tmp_path)
+    assert "changed since it was built" not in again.stderr, again.stderr
+
+
 # ------------------------------------------------------------------------------------ ROS
 
 AMENT_PYTEST_XML = """<?xml version="1.0"?>

@@ -97,3 +97,42 @@ def test_a_missing_module_that_is_no_linter_stays_an_error(package: Path) -> Non
     assert code == 1
     assert cases["test_driver"] == ("error", "collection failure")
     assert cases["test_sum"] == ("passed", "")
+
+
+def test_a_linter_program_that_is_not_installed_is_not_run_as_a_missing_linter(
+        tmp_path: Path) -> None:
+    """A new C++ package's `wsbuild test` on a machine without cppcheck (as without root):
+    the cppcheck test is not run, counted as skipped and named with the command that installs
+    cppcheck and the way to leave the test out; `--require-linters` (for CI) makes it a
+    failure; `--ctest-args -E cppcheck` leaves it out."""
+    from conftest import run_wsbuild
+
+    hidden = tmp_path / "bin"  # the machine's programs, less cppcheck
+    hidden.mkdir()
+    for directory in ("/usr/local/bin", "/usr/bin", "/bin"):
+        for entry in sorted(Path(directory).iterdir()) if Path(directory).is_dir() else ():
+            if entry.name != "cppcheck" and not (hidden / entry.name).exists():
+                (hidden / entry.name).symlink_to(entry)
+    env = {**os.environ, "PATH": f"{Path(sys.executable).parent}{os.pathsep}{hidden}",
+           "ROS_AUTOMATIC_DISCOVERY_RANGE": "LOCALHOST", "ROS_DOMAIN_ID": "93"}
+    ws = tmp_path / "ws"
+    (ws / "src").mkdir(parents=True)
+    made = run_wsbuild("pkg", "create", "lint_cpp", "--library-name", "lint", cwd=ws, env=env)
+    assert made.returncode == 0, made.stderr
+    built = run_wsbuild("build", cwd=ws, env=env)
+    assert built.returncode == 0, built.stdout + built.stderr
+
+    tested = run_wsbuild("test", cwd=ws, env=env)
+    assert tested.returncode == 0, tested.stdout + tested.stderr
+    install = "sudo apt-get install -y cppcheck" if os.geteuid() else "apt-get install -y cppcheck"
+    assert ("  not installed, not run: the cppcheck test of lint_cpp (cppcheck is not "
+            f"installed): counted as skipped; install it: {install}; or leave the test out: "
+            "--ctest-args -E cppcheck; --require-linters makes this a failure") \
+        in tested.stdout.splitlines(), tested.stdout
+    assert " 0 errors, 0 failures, 1 skipped" in tested.stdout
+
+    required = run_wsbuild("test", "--require-linters", cwd=ws, env=env)
+    assert required.returncode == 1, required.stdout
+    assert "cppcheck is not installed" in required.stdout
+    left_out = run_wsbuild("test", "--ctest-args", "-E", "cppcheck", cwd=ws, env=env)
+    assert left_out.returncode == 0 and " 0 skipped" in left_out.stdout, left_out.stdout

@@ -609,3 +609,59 @@ def test_sourcing_the_workspace_rebuilds_nothing_and_a_test_run_changes_no_sourc
     write(pkg / ".pytest_cache" / "v" / "cache" / "lastfailed", "{}")
     again = _build(ws, env=env)
     assert "0 packages finished" in again.stdout, output(again)
+
+
+LIBRARY = """
+cmake_minimum_required(VERSION 3.16)
+project(greeting CXX)
+add_library(greeting SHARED src/greeting.cpp)
+target_include_directories(greeting PUBLIC $<BUILD_INTERFACE:${CMAKE_CURRENT_SOURCE_DIR}/include>
+                                           $<INSTALL_INTERFACE:include>)
+install(TARGETS greeting EXPORT greetingTargets LIBRARY DESTINATION lib)
+install(DIRECTORY include/ DESTINATION include)
+install(EXPORT greetingTargets DESTINATION share/greeting/cmake)
+file(WRITE ${CMAKE_CURRENT_BINARY_DIR}/greetingConfig.cmake
+     "include(\\${CMAKE_CURRENT_LIST_DIR}/greetingTargets.cmake)\\n")
+install(FILES ${CMAKE_CURRENT_BINARY_DIR}/greetingConfig.cmake DESTINATION share/greeting/cmake)
+"""
+
+
+@pytest.mark.parametrize("edit", ["library", "header installed in the second of the last build"])
+def test_the_build_after_a_dependency_was_rebuilt_is_a_no_op(tmp_path: Path, edit: str) -> None:
+    """A dependency's rebuild rebuilds its user, once: the next build is a no-op. wsbuild sets
+    an installed file's modification time forward only when its time is not after the user's
+    last build (CMake installs a header with its source's time cut to the second: one edited
+    in the second the user last built looks older than its objects; here the user's last
+    build is dated a second later instead); a time wsbuild set is its own, not a change the
+    user's build may have missed."""
+    ws = tmp_path / "ws"
+    lib = write_cmake(ws / "src", "greeting", LIBRARY, files={
+        "include/greeting.h": "#define GREETING_WORD \"hello\"\nconst char *greeting();\n",
+        "src/greeting.cpp": '#include "greeting.h"\nconst char *greeting() { return "one"; }\n'})
+    _cmake_program(ws / "src", "greeter", "find_package(greeting REQUIRED)\n"
+                   "link_libraries(greeting)\nset(CMAKE_INSTALL_RPATH_USE_LINK_PATH TRUE)",
+                   '#include <cstdio>\n#include "greeting.h"\n'
+                   'int main() { std::printf("%s %s\\n", GREETING_WORD, greeting()); }\n',
+                   files={"package.xml": ""})
+    write(ws / "src" / "greeter" / "package.xml", (ws / "src" / "greeting" / "package.xml")
+          .read_text().replace("greeting", "greeter").replace(
+              "</package>", "  <depend>greeting</depend>\n</package>"))
+    _recorded_noop(ws)
+    assert _program(ws, "greeter") == "hello one"
+
+    if edit == "library":
+        _same_size_edit(lib / "src" / "greeting.cpp", '"one"', '"two"')
+    else:
+        _same_size_edit(lib / "include" / "greeting.h", '"hello"', '"howdy"')
+        record = ws / "build" / "greeter" / ".wsbuild" / "record.json"
+        later = time.time_ns() + 1_000_000_000
+        os.utime(record, ns=(later, later))
+    result = _build(ws)
+    assert _rebuilt(result) == ["greeter", "greeting"], output(result)
+    assert _program(ws, "greeter") == ("hello two" if edit == "library" else "howdy one")
+
+    time.sleep(SETTLE)
+    again = _build(ws)
+    assert "0 packages finished" in again.stdout, output(again)
+    dry = run("build", "--dry-run", cwd=ws, env=_env())
+    assert "changed" not in dry.stdout, output(dry)

@@ -21,6 +21,7 @@ PARSE_STAGE = {
     ("wsbuild.verbs.colcon", "ignored_notes"),
     ("wsbuild.verbs.completion", "_package_completer"),
     ("wsbuild.verbs.completion", "_executable_completer"),
+    ("wsbuild.verbs.completion", "_mixin_completer"),
 }
 
 

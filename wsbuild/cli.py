@@ -66,6 +66,10 @@ class _HelpAll(argparse.Action):
     def __call__(self, parser, namespace, values, option_string=None):  # type: ignore[no-untyped-def]
         parser.formatter_class = _FullFormatter
         parser.print_help()
+        if any(a.help == argparse.SUPPRESS and a.option_strings[0].startswith("--no-")
+               for a in parser._actions if a.option_strings):
+            print("\nEvery on/off option --X also has --no-X, which turns it off again (one a "
+                  "defaults file or a mixin turned on).")
         parser.exit()
 
 
@@ -184,7 +188,11 @@ def build_parser(*, pkg_arguments: bool = True, verbs: Collection[str] | None = 
     for name in VERBS:
         if verbs is None or name in verbs:
             _ADDERS.get(name, _mirrored_parser)(tree, name)
+    from wsbuild.verbs.arguments import add_negations
+
+    add_negations(parser)
     return parser
+
 
 
 def verbs_named(argv: Sequence[str], also: Collection[str] = ()) -> set[str] | None:
@@ -421,7 +429,11 @@ def main(argv: Sequence[str] | None = None, *, recorder: ReplayRecorder | None =
         _print_choices(args.verb)
         return 2
     from wsbuild.engine.process import interrupted_exit_code, stop_signals_interrupt
+    from wsbuild.redaction import remember_environment
     from wsbuild.reporter import Terminal
+
+    # the values of the environment's secrets are hidden in all wsbuild writes
+    remember_environment(os.environ)
     from wsbuild.verbs.colcon import ignored_notes
 
     # where the verb's words go (through the recorder's copies when it is recorded)

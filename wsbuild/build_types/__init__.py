@@ -207,6 +207,9 @@ class PackageContext:
     #: how its in-process steps have the processes they ask of a warm helper observed
     #: (None: not observed, a plan's or a by-hand command's context)
     observe: StepObserver | None = None
+    #: records information worth a line (not a warning): the build sets it to the package's
+    #: command.log and its Finished line
+    note: Callable[[str], None] = field(default=lambda _text: None)
 
     @property
     def source_dir(self) -> Path:
@@ -342,6 +345,9 @@ class BuildTypeBase:
     estimate_base: float = 0.3
     #: its own options of `wsbuild build` (TypeOption): none
     options: tuple[TypeOption, ...] = ()
+    #: the tool its build reads package.xml with when that tool refuses what wsbuild only
+    #: warns about (workspace/model.py's `Package.refused`); "": none does
+    manifest_reader: str = ""
 
     def run_facts(self, environ: Mapping[str, str]) -> object:
         """What the type needs to know once per run (the tools it runs): none."""

@@ -24,6 +24,10 @@ class AmentCMakeBuildType(CMakeBuildType):
     deterministic_targets: tuple[str, ...] = (*CMAKE_OWN_TARGETS,
                                               "CMakeFiles/ament_cmake_python_copy_*",
                                               "CMakeFiles/ament_cmake_python_build_*_egg")
+    #: what reads package.xml in its build, refusing what wsbuild only warns about (an
+    #: unknown element or attribute, an email without a two-letter domain): the package's
+    #: `refused` problems are errors before its build starts (verbs/load.py)
+    manifest_reader: str = "ament_cmake's package.xml reader (catkin_pkg)"
 
     def installs_in_place(self, ctx: PackageContext) -> bool:
         return ctx.options.symlink_install

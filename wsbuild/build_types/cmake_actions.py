@@ -41,7 +41,8 @@ def forget_cache(ctx: PackageContext) -> None:
 
 
 def empty(ctx: PackageContext, *, why: str) -> None:
-    ctx.warn(f"{ctx.build_dir} was built {why}: building it from scratch")
+    # information: the option was switched on purpose, and its build directory follows
+    ctx.note(f"built {why}: building it from scratch")
     empty_build_directory(ctx.build_dir)
 
 

@@ -99,6 +99,11 @@ class Case:
     def headline(self) -> str:
         """One line saying why the test failed, for summaries."""
         message = _first_line(self.message)
+        if message.endswith(":"):  # "The test did not generate a result file:" and why below
+            rest = self.message.split(message, 1)[1]
+            why = _first_line(rest) or _telling_line(self.details)
+            if why:
+                return shorten(f"{message} {why}")
         if message and message.lower() not in _GENERIC_MESSAGES:
             return shorten(message)
         extra = _telling_line(self.details) or _telling_line(self.stdout) \

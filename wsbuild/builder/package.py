@@ -6,6 +6,7 @@ in its own worker thread and shares only read-only run resources with the others
 
 from __future__ import annotations
 
+import contextlib
 import os
 import shlex
 import time
@@ -26,9 +27,8 @@ from wsbuild.builder.context import RUN_JOBSERVER
 from wsbuild.observe.steps import StepObservations
 from wsbuild.builder.step_trace import StepTraces
 from wsbuild.builder.distribute import Distribution
-from wsbuild.builder.plan import BUILDING_MARKER, Decision, PackagePlan
-from wsbuild.builder.failure import exit_text, interesting, log_tail
-from wsbuild.builder.reproduce import write_reproduce_script
+from wsbuild.builder.plan import BUILDING_MARKER, FAILED_MARK, Decision, PackagePlan
+from wsbuild.builder.failure import exit_text, interesting
 from wsbuild.engine.jobs import JobResult, Outcome, StepStarted
 from wsbuild.engine.jobserver import Jobserver
 from wsbuild.engine.process import env_delta, format_command, run_command
@@ -37,7 +37,7 @@ from wsbuild.events import Emit
 from wsbuild.record.installed import Installed
 from wsbuild.record.model import PackageRecord
 from wsbuild.record.undeclared import undeclared_lines
-from wsbuild.redaction import redact
+from wsbuild.engine.logs import append_command_log
 from wsbuild.session import Session
 from wsbuild.workspace.model import DepCategory
 from wsbuild.workspace.selection import Selection
@@ -150,6 +150,7 @@ class PackageBuild:
             installed = self.commit()
         except StepFailed as failure:
             self.discard()
+            self._mark_failed()
             return self._failed(failure)
         except BaseException:
             self.discard()
@@ -212,6 +213,7 @@ class PackageBuild:
                 self.planned, self.build_dir, self.run.selection.workspace.root,
                 self.run.session.digests, self._log)),
             observe=self.observations)
+        self.context.note = self._note
         # decided before the steps run (they change what the build directory holds)
         self._kept_earlier_work = keeps is not None and keeps(self.context)
 
@@ -373,10 +375,8 @@ class PackageBuild:
         from wsbuild.record.undeclared import installs_read
 
         selection = self.run.selection
-        found = installs_read(record, selection.workspace.install_base, selection.packages,
-                              merged=self.run.session.merged)
-        found.pop(self.name, None)
-        return found
+        return installs_read(record, selection.workspace.install_base, selection.packages,
+                             merged=self.run.session.merged, but=self.name)
 
     def _dependency_keys(self) -> dict[str, str]:
         from wsbuild.builder.records import dependency_keys
@@ -410,6 +410,19 @@ class PackageBuild:
         marker = self.build_dir / BUILDING_MARKER
         private_directory(marker.parent)
         marker.touch(mode=0o600)
+        marker.write_text("")  # not (yet) failed: cut short, if this run ends here
+
+    def _note(self, text: str) -> None:
+        """Information a step gives (not a warning): in command.log, and one plain line."""
+        from wsbuild.events import Notice
+
+        self._log(text)
+        self.run.emit(Notice(text, package=self.name))
+
+    def _mark_failed(self) -> None:
+        """The unfinished build failed (rather than being cut short): the next plan says so."""
+        with contextlib.suppress(OSError):
+            (self.build_dir / BUILDING_MARKER).write_text(FAILED_MARK)
 
     def _ctx(self) -> PackageContext:
         assert self.context is not None, "stage() makes the build context"
@@ -462,17 +475,9 @@ class PackageBuild:
                 and not any(directory in v for directory in private)}
 
     def _failed(self, failure: StepFailed) -> JobResult:
-        reproduce, script = "", None
-        if failure.command:
-            cwd = failure.cwd or self.build_dir
-            reproduce = format_command(failure.command, cwd, failure.env_delta)
-            script = write_reproduce_script(self.build_dir, self.name, failure.command, cwd,
-                                            failure.env_delta)
-        tail = log_tail(self.log_dir)
-        message = str(failure) + ("\n" + "\n".join(tail) if tail else "")
-        # the log tail in the message already shows stderr: no separate warnings block
-        return JobResult(self.name, Outcome.FAILED, self._seconds(), message=message,
-                         log_dir=self.log_dir, reproduce=reproduce, reproduce_script=script)
+        from wsbuild.builder.failure import failed_result
+
+        return failed_result(self.name, failure, self.build_dir, self.log_dir, self._seconds())
 
     def _with_unresolved(self, result: JobResult) -> JobResult:
         """A failed package's report ends with the build dependencies it declared that were
@@ -483,8 +488,7 @@ class PackageBuild:
                                self.run.selection, self.run.session)
 
     def _log(self, line: str) -> None:
-        with open(self.log_dir / "command.log", "a") as handle:
-            handle.write(redact(line) + "\n")
+        append_command_log(self.log_dir, line)
 
     def _seconds(self) -> float:
         return time.monotonic() - self.started

@@ -22,9 +22,11 @@
 
 from __future__ import annotations
 
+import os
 import time
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Callable, Collection, Mapping, Sequence
 from dataclasses import dataclass, replace
+from pathlib import Path
 
 from typing import TYPE_CHECKING
 
@@ -93,13 +95,26 @@ def run_build(selection: Selection, request: BuildRequest, emit: Emit) -> list[J
     started = time.monotonic()
     cpu_before = cpu_times()
     with open_session(selection.workspace, session_options(request), emit) as session:
+        if request.compiler_cache not in ("auto", "none"):  # a tool named must be there,
+            from wsbuild.builder.compiler_cache import choose_tool  # also when nothing builds
+
+            choose_tool(request.compiler_cache, session.environ,
+                        distributing=request.distribute is not None)
         selection, shard, plan = _shard_and_plan(selection, request, session)
         # a shard's run asks a server (the other shards' packages): never replayed
-        no_op = plan.refusal is None and not plan.to_do() and shard is None
+        # and so does the assembling job (what the shards noted)
+        no_op = plan.refusal is None and not plan.to_do() and shard is None \
+            and request.assemble is None
         emit(PlanMade(no_op=no_op))
         if plan.refusal is not None:
             raise plan.refusal.error
-        _warn(plan, emit)
+        _warn(plan, emit, selection, session)
+        if request.assemble is not None:  # every package built and tested by a shard
+            from wsbuild.builder.shard_cover import check_assembly
+
+            for line in check_assembly(plan, selection, request.assemble,
+                                       session.cache.settings):
+                emit(Notice(line))
         assert session.run_log is not None
         if shard is not None:  # its note for the other shards (builder/shard_run.py)
             from wsbuild.builder import shard_run
@@ -132,6 +147,8 @@ class CompileCounts:
     jobs: CompileJobs | None = None
     #: the jobserver's jobs when compiles were distributed (the local cores otherwise)
     budget: int = 0
+    #: the compiler cache the run used ("" none: `auto` found none, or nothing was built)
+    tool: str = ""
 
 
 def execute(plan: BuildPlan, selection: Selection, request: BuildRequest, session: Session,
@@ -289,18 +306,22 @@ def _after_packages(session: Session, compilers: CompilerCache | None,
     recover_all(session.workspace.install_base)
 
 
-def _warn(plan: BuildPlan, emit: Emit) -> None:
+def _warn(plan: BuildPlan, emit: Emit, selection: Selection, session: Session) -> None:
     """The plan's warnings, once for the run: unresolved build dependencies, overrides."""
     from wsbuild.builder.overrides import override_warning
 
     if plan.unresolved:
-        emit(Notice(unresolved_warning(plan.unresolved), warning=True))
+        emit(Notice(unresolved_warning(plan.unresolved, known_names(selection, session),
+                                       pip_underlay=session.underlay.venv is not None),
+                    warning=True))
     if plan.overrides:
         emit(Notice(override_warning(plan.overrides), warning=True))
 
 
-def unresolved_warning(missing: Mapping[str, Sequence[str]]) -> str:
-    """The warning block: each package, each of its unresolved dependencies, the likely fix."""
+def unresolved_warning(missing: Mapping[str, Sequence[str]], known: Collection[str] = (), *,
+                       pip_underlay: bool = False) -> str:
+    """The warning block: each package, each of its unresolved dependencies, the likely fix
+    (`known`: the names a misspelt one may have meant)."""
     from wsbuild.underlay.wheels import install_hint
 
     lines = [("build dependencies not found in the workspace, an underlay's ament index, "
@@ -308,8 +329,19 @@ def unresolved_warning(missing: Mapping[str, Sequence[str]]) -> str:
               "anyway; --strict-dependencies refuses):")]
     for name, deps in missing.items():
         lines.append(f"  {name}:")
-        lines += [f"    {dep}: {install_hint(dep)}" for dep in deps]
+        lines += [f"    {dep}: {install_hint(dep, known=known, pip_underlay=pip_underlay)}"
+                  for dep in deps]
     return "\n".join(lines)
+
+
+def known_names(selection: Selection, session: Session) -> set[str]:
+    """The names a misspelt dependency may have meant: the workspace's packages and those of
+    the underlays' ament index."""
+    from wsbuild.workspace.resolve import ament_index
+
+    prefixes = [Path(p) for p in session.environ.get("AMENT_PREFIX_PATH", "").split(os.pathsep)
+                if p] + session.underlay_prefixes
+    return {*selection.packages, *ament_index(prefixes)}
 
 
 def _by_name(results: Sequence[JobResult]) -> dict[str, JobResult]:
@@ -326,11 +358,12 @@ def _stop_compilers(compilers: CompilerCache | None, distribution: Distribution 
     """The run's compiler cache counts (then its server stops: its CPU time joins the run's),
     and where distributed compiles ran; one warning when some could not be distributed."""
     cache = None
+    tool = compilers.tool if compilers is not None else ""
     if compilers is not None:
         cache = compilers.counts()
         compilers.close()
     if distribution is None:
-        return CompileCounts(cache)
+        return CompileCounts(cache, tool=tool)
     distribution.stop_watching()
     jobs = distribution.compile_jobs()
     if jobs.fell_back:
@@ -338,7 +371,21 @@ def _stop_compilers(compilers: CompilerCache | None, distribution: Distribution 
             if jobs.lost else ""
         emit(Notice(f"distcc: {jobs.fell_back} compile job(s) could not be distributed and "
                     f"ran locally{lost}; see {distribution.log}", warning=True))
-    return CompileCounts(cache, jobs, distribution.budget)
+    return CompileCounts(cache, jobs, distribution.budget, tool=tool)
+
+
+def _compiler_choice_text(request: BuildRequest, results: Sequence[JobResult],
+                          counts: CompileCounts) -> str:
+    """What the report says of the compiler cache when it has no counts: none was found, or
+    nothing was built, or what was built compiled nothing."""
+    choice = request.compiler_cache
+    if not any(r.outcome is Outcome.FINISHED for r in results):
+        return f"{choice} (nothing built)"
+    if choice == "none":
+        return "none (--compiler-cache none)"
+    if not counts.tool:
+        return f"{choice}: none used (neither ccache nor sccache is on PATH)"
+    return f"{counts.tool} (nothing compiled)"
 
 
 def _finish(run: PackageRun, request: BuildRequest, session: Session,
@@ -357,11 +404,14 @@ def _finish(run: PackageRun, request: BuildRequest, session: Session,
         if cache.hits + cache.misses + cache.uncacheable:
             lines.append(cache.summary())
     facts = RunFacts(verb="build", cores=request.build.jobs, workers=request.run.workers,
-                     compiler_cache_choice=request.compiler_cache, compiler=compiler,
+                     compiler_cache_choice=_compiler_choice_text(request, results, counts),
+                     compiler=compiler,
                      cache=request.cache, symlink_install=request.build.symlink_install,
                      report=request.report, timings=request.timings)
     end = run.finish(results, facts, compile_jobs=counts.jobs, job_budget=counts.budget)
-    record_durations(session.workspace.build_base, results)
+    # a restore's seconds say nothing of a build's: the next estimate would be far too short
+    record_durations(session.workspace.build_base,
+                     [r for r in results if r.message != "restored from cache"])
     if request.timings:
         lines += [*end.timings.table(), end.timings.summary_line()]
         if counts.jobs is not None:

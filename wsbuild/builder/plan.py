@@ -2,10 +2,8 @@
 (up to date, restore from the build cache, build), the reason, the build key it will have, the
 cache key, the inputs, the start order and the critical path — and whether the build must
 refuse to start. `build --dry-run` prints it; `build` executes it (builder/pipeline.py); neither
-decides anything else. Planning touches nothing in install/ or log/; what it writes is its
-memos: the dependency check's answers (build/.wsbuild/unresolved.json, not under --dry-run), the
-compilers' versions (toolchain.json in the build cache's directory) and a cache entry's use
-time when it looks one up."""
+decides anything else. Planning touches nothing in install/ or log/; it writes its memos only
+(the dependency check's answers, the records' memo: not under --dry-run)."""
 
 from __future__ import annotations
 
@@ -38,6 +36,8 @@ if TYPE_CHECKING:
 
 #: created when a package build starts, removed when it finished: an interrupted build is redone
 BUILDING_MARKER = Path(".wsbuild") / "building"
+#: what the marker holds when the build it marks failed (empty: it was cut short)
+FAILED_MARK = "failed\n"
 
 
 class Decision(Enum):
@@ -207,7 +207,6 @@ def make_plan(selection: Selection, request: BuildRequest, session: Session, *,
     # the arguments the underlay needs (its Python, libpython's link flags, the linters'
     # stand-ins) reach the build types that declare them (build_types/cmake_options.py)
     options = request.build.with_values({"underlay_cmake_args": session.underlay.cmake_args})
-    selected = set(selection.selected)
     not_built = unbuilt_dependencies(selection, session.merged)
     unresolved = _unresolved(selection, request, session)
     overrides = overrides_to_warn(selection.selected, selection.packages,
@@ -266,10 +265,14 @@ def plan_package(planning: _Planning, name: str) -> PackagePlan:
     dependency_inputs = {dep: planning.inputs_keys[dep] for dep in sorted(closure)}
     request = planning.request
     forced = request.force or _forced_by_option(package.build_type, request.build)
+    unfinished = declared.exists(build_dir / BUILDING_MARKER)
     reason = dirty_reason(old, now, install_base=selection.workspace.install_base,
-                          digests=session.digests,
-                          unfinished=declared.exists(build_dir / BUILDING_MARKER),
+                          digests=session.digests, unfinished=unfinished,
                           forced=forced, pending=planning.pending)
+    if unfinished and reason is not None:
+        reason = _unfinished_reason(reason, build_dir, dirty_reason(
+            old, now, install_base=selection.workspace.install_base, digests=session.digests,
+            forced=forced, pending=planning.pending))
     common = dict(name=name, build_type=package.build_type, prefix=prefix, now=now,
                   dependency_inputs=dependency_inputs, source_dir=package.path,
                   options=own_options)
@@ -307,6 +310,19 @@ def plan_package(planning: _Planning, name: str) -> PackagePlan:
                            cache_key=cache_key, cache_entry=found, **common)
     return PackagePlan(decision=Decision.BUILD, reason=reason, key=PENDING + before,
                        cache_key=cache_key, **common)
+
+
+def _unfinished_reason(reason: Reason, build_dir: Path, other: Reason | None) -> Reason:
+    """The reason of a package whose last build did not end well: whether it failed or was
+    cut short, and what else changed since its record (changed options, sources)."""
+    try:
+        failed = declared.read_text(build_dir / BUILDING_MARKER) == FAILED_MARK
+    except OSError:
+        failed = False
+    text = "the previous build failed" if failed else "the previous build did not finish"
+    if other is not None:
+        text += f"; and {other.text}"
+    return replace(reason, text=text, details=other.details if other is not None else ())
 
 
 def _steps(planning: _Planning, name: str, prefix: Path, own_options: PackageOptions, *,

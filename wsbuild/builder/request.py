@@ -14,6 +14,7 @@ from wsbuild.cache.settings import CacheSettings
 from wsbuild.engine.timings import cpu_count
 
 if TYPE_CHECKING:
+    from wsbuild.builder.shard_cover import Assembly
     from wsbuild.builder.shards import ShardSpec
 
 #: cpu_count is the engine's (the test run counts the cores too); the verbs find it here
@@ -75,6 +76,8 @@ class BuildRequest:
     env_ignore: tuple[str, ...] = ()
     #: --shard K/N: this job's share of a build split across a CI matrix (builder/shards.py)
     shard: ShardSpec | None = None
+    #: --assemble N: the job after a matrix of N shards (builder/shard_cover.py)
+    assemble: Assembly | None = None
 
 
 def options_of_record(options: Mapping[str, object]) -> BuildOptions:

@@ -4,11 +4,12 @@ split of builder/shards.py. The build cache's server is where the shards meet:
 1. the times: each package's recorded build time, from the server's shared document (what
    earlier shards built), else this workspace's last run (build/.wsbuild/durations.json);
    an unknown package weighs its estimate, scaled to the recorded ones (shards.py);
-2. the split, and what each shard of the same CI run planned (its note, when the run is
-   known: `WSBUILD_SHARD_RUN`, GitHub's run id, GitLab's pipeline id). A note of the same
-   workspace with another split (the shared times changed between the jobs' starts) is
-   taken over, so all shards build by one split; a note of another workspace is said in one
-   line, and this shard waits for none of that shard's packages;
+2. the split, on the times fixed for the run (builder/shard_cover.py: the run is
+   `WSBUILD_SHARD_RUN`, GitHub's run id, GitLab's pipeline id, else the commit's workspace),
+   and what each shard of the same run planned (its note). A note of the same workspace with
+   another split (the workers differ) is taken over, so all shards build by one split; a
+   note of another workspace is said in one line, and this shard waits for none of that
+   shard's packages;
 3. the plan of this shard's packages and those of other shards they need (builder/plan.py);
    the latter are restored when the plan finds them, else waited for (cache/waiting.py)
    for a bounded time (`Split.waits`), then restored, or built here;
@@ -33,6 +34,7 @@ from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+from wsbuild.builder.shard_cover import TIMES, run_of, run_times, shared_times
 from wsbuild.builder.shards import (
     ShardSpec,
     Split,
@@ -41,6 +43,7 @@ from wsbuild.builder.shards import (
     split_packages,
 )
 from wsbuild.engine.jobs import JobResult, Outcome
+from wsbuild.engine.logs import append_command_log
 from wsbuild.engine.ready_queue import JobGraph
 from wsbuild.events import Emit, Notice
 from wsbuild.words import plural
@@ -52,8 +55,6 @@ if TYPE_CHECKING:
     from wsbuild.session import Session
     from wsbuild.workspace.selection import Selection
 
-#: the shared document of recorded build times
-TIMES = "package times"
 #: under the build base: the split this workspace's last `build --shard` ran (`test --shard`
 #: tests the same packages)
 LOCAL_SPLIT = Path(".wsbuild") / "shard.json"
@@ -103,28 +104,29 @@ class ShardPlan:
 
 # ----------------------------------------------------------------------------- the times
 
-def recorded_times(documents: SharedDocuments | None, build_base: Path) -> dict[str, float]:
-    """The packages' recorded build times: the server's shared document when there is one,
-    else this workspace's last run."""
+def recorded_times(documents: SharedDocuments | None, build_base: Path, run: str = "",
+                   *, fix: bool = False) -> dict[str, float]:
+    """The packages' recorded build times: on the server, those fixed for `run`, else its
+    shared document (copied for the run when `fix`: builder/shard_cover.py); without a
+    server, this workspace's last run."""
     if documents is not None:
-        value = documents.get(TIMES)
-        times = value.get("times") if value is not None else None
-        if isinstance(times, dict):
-            return {str(k): float(v) for k, v in times.items()
-                    if isinstance(v, (int, float)) and not isinstance(v, bool) and v >= 0}
+        times = run_times(documents, run, fix=fix, scratch=build_base / ".wsbuild") if run \
+            else shared_times(documents)
+        if times is not None:
+            return times
     from wsbuild.engine.timings import read_durations
 
     return read_durations(build_base)
 
 
 def split_of(selection: Selection, count: int, workers: int,
-             documents: SharedDocuments | None) -> Split:
+             documents: SharedDocuments | None, run: str = "", *, fix: bool = False) -> Split:
     """The split of the selection into `count` shards of `workers` workers, balanced on the
-    recorded times (`recorded_times`)."""
+    recorded times (`recorded_times`: those fixed for `run` when there is a server)."""
     from wsbuild.builder.weights import estimate_seconds
 
     jobs = selection_jobs(selection)
-    times = recorded_times(documents, selection.workspace.build_base)
+    times = recorded_times(documents, selection.workspace.build_base, run, fix=fix)
     estimates = {n: estimate_seconds(selection.packages[n]) for n in jobs.order
                  if n not in times}
     weights, estimated = calibrated_weights(jobs.order, times, estimates)
@@ -148,9 +150,10 @@ def shard_selection(selection: Selection, spec: ShardSpec, workers: int,
     from wsbuild.cache.documents import SharedDocuments
     from wsbuild.workspace.selection import Selection as Selected
 
+    spec = replace(spec, run=run_of(selection, spec.run))
     documents = SharedDocuments.open(session.cache.settings)
     try:
-        split = split_of(selection, spec.count, workers, documents)
+        split = split_of(selection, spec.count, workers, documents, spec.run, fix=True)
         workspace = graph_digest(split.jobs)
         notices: list[tuple[str, bool]] = []
         strangers: set[int] = set()
@@ -401,11 +404,8 @@ def _wait_then_build(shard: ShardPlan, planned: PackagePlan,
 
 
 def _log(log_dir: Path | None, line: str) -> None:
-    if log_dir is None:
-        return
-    log_dir.mkdir(parents=True, exist_ok=True)
-    with open(log_dir / "command.log", "a") as handle:
-        handle.write(line + "\n")
+    if log_dir is not None:
+        append_command_log(log_dir, line)
 
 
 def summary_lines(shard: ShardPlan, results: Sequence[JobResult]) -> list[str]:
@@ -493,7 +493,8 @@ def test_selection(selection: Selection, spec: ShardSpec, workers: int,
     else:
         documents = SharedDocuments.open(settings)
         try:
-            assignment = split_of(selection, spec.count, workers, documents).assignment
+            assignment = split_of(selection, spec.count, workers, documents,
+                                  run_of(selection, spec.run)).assignment
         finally:
             if documents is not None:
                 documents.close()

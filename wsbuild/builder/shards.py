@@ -77,12 +77,15 @@ def shard_run_id(environ: Mapping[str, str]) -> str:
     return ""
 
 
-def parse_shard_count(text: str) -> int:
-    """`--shards N` → N (at least 1); a usage error naming the value otherwise."""
+def parse_shard_count(text: str, *, option: str = "--shards") -> int:
+    """`--shards N` (or `--assemble N`) → N (at least 1); a usage error naming the value
+    otherwise."""
     if text.strip().isdigit() and int(text) >= 1:
         return int(text)
-    raise WsbuildError(f"--shards takes a number of CI jobs (1 or more), got {text!r}",
-                       hint="e.g. wsbuild plan --shards 3 --json")
+    example = "wsbuild plan --shards 3 --json" if option == "--shards" \
+        else f"wsbuild build {option} 3"
+    raise WsbuildError(f"{option} takes a number of CI jobs (1 or more), got {text!r}",
+                       hint=f"e.g. {example}")
 
 
 def digest(value: object) -> str:

@@ -56,6 +56,7 @@ def advance_changed_files(planned: PackagePlan, build_dir: Path, root: Path, dig
             os.utime(path)
         except OSError:
             continue
+        digests.advanced(str(path))
         if str(path) in outside:
             touched[str(path)] = digests.file(str(path), digests.signature(str(path)))
         log(f"Set the modification time of {path} to now: its content changed, its time did "

@@ -39,8 +39,11 @@ class TruncatedDownload(Exception):
 
 def _authorization(parsed: urllib.parse.SplitResult, environ: Mapping[str, str],
                    netrc_file: Path | None) -> str | None:
+    from wsbuild.redaction import remember
+
     token = environ.get("WSBUILD_CACHE_TOKEN", "").strip()
     if token:
+        remember([token])
         return f"Bearer {token}"
     user, password = parsed.username, parsed.password
     if user is None:
@@ -54,7 +57,10 @@ def _authorization(parsed: urllib.parse.SplitResult, environ: Mapping[str, str],
     if user is None:
         return None
     raw = f"{urllib.parse.unquote(user)}:{urllib.parse.unquote(password or '')}".encode()
-    return "Basic " + base64.b64encode(raw).decode()
+    basic = base64.b64encode(raw).decode()
+    # what is sent, and the password in it, are never written (wsbuild/redaction.py)
+    remember([urllib.parse.unquote(password or ""), password or "", basic])
+    return "Basic " + basic
 
 
 class HttpCache:

@@ -35,6 +35,14 @@ if TYPE_CHECKING:
 
 
 
+#: why the proof refuses an entry that no wsbuild could use (not one that another machine's
+#: files or dependencies disprove): a server answering with these is named once per run
+NO_RECORD = "the entry carries no package record"
+UNREADABLE_RECORD = "the entry's package record cannot be read"
+OTHER_INPUTS = "the entry's package record is not of these inputs"
+UNUSABLE = frozenset({NO_RECORD, UNREADABLE_RECORD, OTHER_INPUTS})
+
+
 @dataclass(frozen=True, slots=True)
 class Proven:
     """An entry this machine proved while the run was planned, its package record and the
@@ -67,7 +75,7 @@ def disproof(found: Found, inputs_key: str, dependencies: Mapping[str, str], dig
     from wsbuild.record.model import decode
 
     if found.package_record is None:
-        return Disproof("the entry carries no package record")
+        return Disproof(NO_RECORD)
     try:
         import json
 
@@ -75,15 +83,23 @@ def disproof(found: Found, inputs_key: str, dependencies: Mapping[str, str], dig
     except ValueError:
         record = None
     if record is None:
-        return Disproof("the entry's package record cannot be read")
+        return Disproof(UNREADABLE_RECORD)
     if record.inputs_key != inputs_key:
-        return Disproof("the entry's package record is not of these inputs")
+        return Disproof(OTHER_INPUTS)
     changed = changed_read(record, digests=digests, install_base=install_base,
                            planning=planning, dependencies=dependencies, waiting=waiting,
                            environment=environment)
     if changed is not None:
         return Disproof(changed.text, record, changed.kind is Dirty.ENVIRONMENT)
     return record
+
+
+@dataclass(frozen=True, slots=True)
+class Refused:
+    """An entry found and not proved here, and why."""
+
+    why: str
+    found: Found
 
 
 class RunCache:
@@ -104,6 +120,8 @@ class RunCache:
         self._misses: list[str] = []
         #: the variables here (the session's, set when the session opens; None: not compared)
         self.environment: Environment | None = None
+        #: the packages whose entry on the server no wsbuild could use (`UNUSABLE`)
+        self._unusable: set[str] = set()
 
     def _account(self, what: str, started: float) -> None:
         with self._lock:
@@ -142,7 +160,7 @@ class RunCache:
 
     def _proven(self, key: CacheKey, inputs_key: str, dependencies: Mapping[str, str],
                 digests: Digests, *, planning: bool, waiting: bool = False
-                ) -> Proven | str | None:
+                ) -> Proven | Refused | None:
         """The entry under `key`, or under the variant of it the variables here give, when
         this machine proves it; None when there is none; else why it is not restored."""
         cache = self._open()
@@ -155,8 +173,8 @@ class RunCache:
         if not isinstance(proof, Disproof):
             return Proven(found, proof, key)
         if not proof.variables or proof.record is None or self.environment is None:
-            return proof.why
-        first = proof.why
+            return Refused(proof.why, found)
+        first, first_found = proof.why, found
         tried: set[str] = {key.address}
         for names in [tuple(sorted(proof.record.environment)), *cache.variants(key)]:
             variant = key.with_variant(self.environment.digests(names))
@@ -171,7 +189,7 @@ class RunCache:
                              waiting=waiting, environment=self.environment)
             if not isinstance(proof, Disproof):
                 return Proven(found, proof, variant)
-        return f"{first}, and no entry was built where they are as here"
+        return Refused(f"{first}, and no entry was built where they are as here", first_found)
 
     def lookup(self, key: CacheKey, inputs_key: str, dependencies: Mapping[str, str],
                digests: Digests, *, waiting: bool = False) -> Proven | None:
@@ -182,10 +200,13 @@ class RunCache:
         proven = self._proven(key, inputs_key, dependencies, digests, planning=True,
                               waiting=waiting)
         if not isinstance(proven, Proven):
-            why_not = proven or f"not in the cache under {key.address} = sha256 of {key.text}"
             self._account("lookup", started)
-            with self._lock:  # for "why was this not restored?": in the log
-                self._misses.append(f"{key.package}: {why_not}")
+            if proven is None:
+                with self._lock:  # for "why was this not restored?": in the log
+                    self._misses.append(f"{key.package}: not in the cache under "
+                                        f"{key.address} = sha256 of {key.text}")
+            else:
+                self._refused(key, proven.found, proven.why)
             return None
         with self._lock:  # counted with the restore that follows
             self._seconds["restore"] += time.perf_counter() - started
@@ -203,7 +224,7 @@ class RunCache:
         if proven is None:
             off = self.settings is not None and self.settings.url and cache.remote is None
             return "the cache server is off for this run" if off else None
-        return proven
+        return proven.why if isinstance(proven, Refused) else proven
 
     def restore(self, key: CacheKey, found: Found, prefix: Path, merged_record: Path | None, *,
                 inputs_key: str, dependencies: Mapping[str, str], digests: Digests
@@ -221,8 +242,7 @@ class RunCache:
                                 environment=self.environment)
         if isinstance(entry_record, Disproof):
             self._account("lookup", started)
-            with self._lock:
-                self._misses.append(f"{key.package}: {entry_record.why}")
+            self._refused(key, found, entry_record.why)
             return entry_record.why
         cache = self._open()
         install_base = self.workspace.install_base
@@ -276,6 +296,7 @@ class RunCache:
         the cache cost into the run's log."""
         if self._cache is None:
             return
+        self._name_unusable_server()
         started = time.perf_counter()
         closing_cache, self._cache = self._cache, None
         closing_cache.close(wait=wait)

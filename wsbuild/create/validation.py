@@ -78,8 +78,7 @@ def check_package_name(name: str) -> None:
     if "__" in name or len(name) < 2:
         raise PackageCreateError(
             f"invalid package name {name!r}",
-            hint="REP 144: at least two characters, no consecutive underscores; "
-                 + _name_hint(name))
+            hint="at least two characters, no consecutive underscores; " + _name_hint(name))
     if keyword.iskeyword(name) or name in CPP_KEYWORDS:
         raise PackageCreateError(
             f"the package name {name!r} is a Python or C++ keyword",

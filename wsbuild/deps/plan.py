@@ -49,6 +49,7 @@ class Source(Enum):
     PYTHON = "Python key by convention"
     ROS_PYTEST = "the ROS tests' pytest"
     LINT_PROGRAM = "a program a linter runs"
+    SYSTEM_LIBRARY = "a system library a wheel links"
 
 
 class Installer(Enum):

@@ -30,6 +30,7 @@ from wsbuild.underlay.wheels import JAZZY_WHEELS, wheel_name as jazzy_wheel_name
 from wsbuild.workspace.model import DepKind, Package
 from wsbuild.workspace.resolve import Resolver, ament_index, normalize_distribution
 from wsbuild.workspace.resolve import python_distributions
+from wsbuild.deps.system_libraries import system_library_steps
 from wsbuild.words import did_you_mean
 
 
@@ -84,7 +85,8 @@ def survey(packages: Sequence[Package], workspace: Mapping[str, Package],
     programs = linter_program_steps(packages, kinds, path=underlay.environ.get("PATH", ""),
                                     installed=planner.installed,
                                     stood_in=_provided_by_wsbuild(underlay))
-    plan = replace(plan, steps=(*plan.steps, *programs))
+    libraries = system_library_steps(packages, kinds)
+    plan = replace(plan, steps=(*plan.steps, *programs, *libraries))
     pytest_step = ros_pytest_step(packages, python, kinds)
     if pytest_step is not None:
         plan = replace(plan, test_tools=(pytest_step,))

@@ -1,4 +1,5 @@
-"""log/: one directory per run, `latest_<verb>` and `latest` links, the last runs kept."""
+"""log/: one directory per run, `latest_<verb>` and `latest` links, the last runs kept; the one
+writer of a package's `command.log` (every line redacted: wsbuild/redaction.py)."""
 
 from __future__ import annotations
 
@@ -7,7 +8,19 @@ import shutil
 import time
 from pathlib import Path
 
+from wsbuild.redaction import redact
+
 KEEP_RUNS = 10
+#: a package's log of what wsbuild did and why, beside its steps' output
+COMMAND_LOG = "command.log"
+
+
+def append_command_log(log_dir: Path, line: str) -> None:
+    """Add `line` to `log_dir`'s command.log, its secrets hidden: every writer of one goes
+    through here (a build's, a test's, a shard's waits)."""
+    log_dir.mkdir(parents=True, exist_ok=True)
+    with open(log_dir / COMMAND_LOG, "a") as handle:
+        handle.write(redact(line) + "\n")
 
 
 def new_run_log(log_base: Path, verb: str, markers: tuple[str, ...] = ()) -> Path:

@@ -224,6 +224,53 @@ class Completed:
     returncode: int
     tail: tuple[str, ...]  # last lines of combined output
     stderr: tuple[str, ...]  # every stderr line
+    #: what was still running in the command's session after it exited, and was stopped
+    #: (`run_command(sweep=True)`): "name (pid)"
+    stopped: tuple[str, ...] = ()
+
+
+def session_members(sid: int) -> dict[int, str]:
+    """The living processes of session `sid` (pid → name), from /proc; a zombie has ended."""
+    found: dict[int, str] = {}
+    try:
+        entries = os.listdir("/proc")
+    except OSError:
+        return found
+    for entry in entries:
+        if not entry.isdigit():
+            continue
+        try:
+            with open(f"/proc/{entry}/stat", "rb") as handle:
+                stat = handle.read()
+        except OSError:
+            continue
+        name = stat[stat.find(b"(") + 1:stat.rfind(b")")].decode(errors="replace")
+        fields = stat.rpartition(b")")[2].split()
+        # after the name: state, ppid, pgrp, session
+        if len(fields) > 3 and int(fields[3]) == sid and fields[0] not in (b"Z", b"X"):
+            found[int(entry)] = name
+    return found
+
+
+def sweep_session(sid: int) -> tuple[str, ...]:
+    """Stop what is left of session `sid` (a test's nodes, a daemon it started), as a
+    cancelled run stops its steps: SIGTERM, SIGKILL after `GRACE_SECONDS`, at most
+    `_KILL_SECONDS` more. Returns what was found running, "name (pid)"."""
+    left = session_members(sid)
+    if not left:
+        return ()
+    for pid in left:
+        _signal_process(pid, signal.SIGTERM)
+        _signal_process(pid, signal.SIGCONT)
+    deadline = time.monotonic() + GRACE_SECONDS
+    while session_members(sid) and time.monotonic() < deadline:
+        time.sleep(_POLL_SECONDS)
+    deadline = time.monotonic() + _KILL_SECONDS
+    while (alive := session_members(sid)) and time.monotonic() < deadline:
+        for pid in alive:
+            _signal_process(pid, signal.SIGKILL)
+        time.sleep(_POLL_SECONDS / 5)
+    return tuple(f"{name} ({pid})" for pid, name in sorted(left.items()))
 
 
 def env_delta(env: Mapping[str, str], base: Mapping[str, str]) -> dict[str, str]:
@@ -248,8 +295,12 @@ def run_command(
     pass_fds: Sequence[int] = (),
     registry: ProcessRegistry = REGISTRY,
     tail_lines: int = 40,
+    sweep: bool = False,
 ) -> Completed:
-    """Run `command`, appending to `log_dir`'s stdout.log / stderr.log / stdout_stderr.log."""
+    """Run `command`, appending to `log_dir`'s stdout.log / stderr.log / stdout_stderr.log.
+    `sweep` (a test step): once the command exits, whatever is left in its session is
+    stopped (`sweep_session`), also what still holds its output open. Over 80 lines because
+    one command's life reads best top to bottom: start, stream its output, sweep, reap."""
     if registry.cancelled.is_set():
         return Completed(returncode=-int(signal.SIGTERM), tail=(), stderr=())
     logs: dict[str, object] = {}
@@ -283,8 +334,13 @@ def run_command(
         selector.register(proc.stderr, selectors.EVENT_READ, True)
         partial = {False: b"", True: b""}
         open_streams = 2
+        stopped: tuple[str, ...] = ()
         while open_streams:
-            for key, _ in selector.select():
+            ready = selector.select(timeout=_POLL_SECONDS * 10 if sweep else None)
+            if sweep and not ready and not stopped and proc.poll() is not None:
+                # exited, its output still held open by what it left running
+                stopped = sweep_session(proc.pid) or ("?",)
+            for key, _ in ready:
                 is_err: bool = key.data
                 chunk = os.read(key.fd, 65536)
                 if not chunk:
@@ -309,6 +365,8 @@ def run_command(
                         on_line(text, is_err)
         selector.close()
         returncode = proc.wait()
+        if sweep:
+            stopped = tuple(p for p in (*stopped, *sweep_session(proc.pid)) if p != "?")
     finally:
         if proc.poll() is None:
             _signal_group(proc.pid, signal.SIGKILL)
@@ -316,4 +374,5 @@ def run_command(
         registry.remove(proc)
         for handle in logs.values():
             handle.close()  # type: ignore[attr-defined]
-    return Completed(returncode=returncode, tail=tuple(tail), stderr=tuple(stderr_lines))
+    return Completed(returncode=returncode, tail=tuple(tail), stderr=tuple(stderr_lines),
+                     stopped=stopped)

@@ -50,8 +50,9 @@ def resolve_layout(install_base: Path, requested: bool | None, *, verb: str,
         raise WorkspaceError(
             f"install/ holds an {existing} install but this build is {wanted}",
             path=install_base / INSTALL_LAYOUT_MARKER,
-            hint=f"build {flag} --merge-install as before, or remove "
-            f"{(build_base or install_base.parent / 'build').name}/ and {install_base.name}/ first",
+            hint=f"build {flag} --merge-install as before, or start over: `wsbuild clean -y` "
+            f"removes {(build_base or install_base.parent / 'build').name}/, "
+            f"{install_base.name}/ and log/",
         )
     flag = "without" if requested else "with"
     raise WorkspaceError(

@@ -120,6 +120,19 @@ class Digests:
         self._looked: dict[tuple[str, str, tuple[int, ...], tuple[str, ...]], str] = {}
         #: the signatures taken while planning
         self._signatures: dict[str, tuple[int, ...]] = {}
+        #: the signatures of the files whose time wsbuild itself set forward in this run
+        self._advanced: dict[str, tuple[int, ...]] = {}
+
+    def advanced(self, path: str) -> None:
+        """Note that wsbuild just set the file's modification time (its content unchanged):
+        while it keeps the signature it has now, that is no change a build may have missed."""
+        signature = inputs.signature(path)
+        with self._lock:
+            self._advanced[path] = signature
+
+    def advanced_to(self, path: str) -> tuple[int, ...] | None:
+        with self._lock:
+            return self._advanced.get(path)
 
     def signature(self, path: str, *, planning: bool = False) -> tuple[int, ...]:
         """The path's stat signature: while planning taken once per process (packages share
@@ -280,7 +293,7 @@ def take(files: Iterable[str], listings: Iterable[str], digests: Digests, *,
     changed since `started_ns` (the build's start) may have changed after the build read it:
     it is held as racy, so the next check builds again; but a file of `settled` (path -> its
     digest before the steps ran: a time the build set forward itself) with that digest
-    still."""
+    still, and a file as wsbuild left it when it set its time (`Digests.advanced`)."""
     files, listings = sorted(set(files)), sorted(set(listings))
 
     def racy(signature: tuple[int, ...], directory_counts: bool) -> bool:
@@ -294,7 +307,8 @@ def take(files: Iterable[str], listings: Iterable[str], digests: Digests, *,
         # file counts by its type only, which its entries' changes leave alone
         digest = digests.listing(path, signature, own(path)) if listing \
             else digests.file(path, signature)
-        if racy(signature, listing) and (listing or (settled or {}).get(path) != digest):
+        if racy(signature, listing) and (listing or (
+                (settled or {}).get(path) != digest and digests.advanced_to(path) != signature)):
             return Seen(signature, RACY_DIGEST)
         return Seen(signature, digest)
 

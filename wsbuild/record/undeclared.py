@@ -13,10 +13,10 @@ from wsbuild.record.model import PackageRecord
 
 
 def installs_read(record: PackageRecord, install_base: Path, packages: Collection[str], *,
-                  merged: bool) -> dict[str, str]:
+                  merged: bool, but: str = "") -> dict[str, str]:
     """package -> the first path of its install the record's steps read, by content or by
-    its entries (looking for a path that is not there is no read of it; the package's own
-    install is included: the caller leaves out what it declares)."""
+    its entries (looking for a path that is not there is no read of it; package `but`, the
+    record's own, left out; the caller leaves out what it declares)."""
     base = str(install_base).rstrip(os.sep) + os.sep
     found: dict[str, str] = {}
     for path in sorted({*record.outside.files, *record.outside.listings}):
@@ -24,7 +24,7 @@ def installs_read(record: PackageRecord, install_base: Path, packages: Collectio
             continue
         parts = path[len(base):].split(os.sep)
         owner = _owner(parts, packages, merged)
-        if owner is not None and owner not in found:
+        if owner is not None and owner != but and owner not in found:
             found[owner] = os.path.join("install", *parts)
     return found
 

@@ -10,6 +10,7 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from wsbuild.engine.logs import COMMAND_LOG
 from wsbuild.engine.timeline import Bar, phase_of
 from wsbuild.engine.timing_files import bound_text, critical_chain
 from wsbuild.engine.timings import TIMINGS_JSON
@@ -136,7 +137,7 @@ def _command_log(run_dir: Path, log_dir: object) -> str:
     if not log_dir:
         return ""
     try:
-        return (run_dir / str(log_dir) / "command.log").read_text(errors="replace")
+        return (run_dir / str(log_dir) / COMMAND_LOG).read_text(errors="replace")
     except OSError:
         return ""
 

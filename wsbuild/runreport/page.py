@@ -138,7 +138,7 @@ def _facts(report: RunReport) -> str:
             compiler_text = (f"{compiler['tool']}: {compiler_cache_text(hits, misses)}, "
                              f"{compiler['uncacheable']} not cacheable")
         else:
-            compiler_text = f"{record.get('compiler_cache_choice', '')} (nothing compiled)"
+            compiler_text = str(record.get('compiler_cache_choice', ''))
         rows += [("generator", escape(str(record.get("generator", "")))),
                  ("compiler cache", escape(str(compiler_text))),
                  ("build cache", escape(str(record.get("artifact_cache", ""))))]

@@ -33,8 +33,6 @@ from __future__ import annotations
 
 import hashlib
 import json
-import sys
-import sysconfig
 from collections.abc import Iterable
 from dataclasses import dataclass, field
 from pathlib import Path

@@ -61,6 +61,11 @@ class PackageTests:
     tooling: tuple[ToolingFailure, ...] = ()
     #: the result of an earlier run, reused (`log_dir` and `result_files` are that run's)
     cached: bool = False
+    #: what its tests left running when their command ended, stopped: "name (pid)"
+    stopped: tuple[str, ...] = ()
+    #: linter tests not run because their program is not installed: (test, "program:
+    #: the command that installs it")
+    missing_programs: tuple[tuple[str, str], ...] = ()
 
 
 @dataclass(frozen=True, slots=True)
@@ -118,6 +123,10 @@ def summary_lines(run: TestRun, *, shown: Path) -> list[str]:
             lines.append(f"  flaky: {result.package} {result.status.value} on attempt "
                          f"{result.attempts} of {result.max_attempts}")
     lines += _missing_linter_lines(run.results)
+    for result in run.results:
+        if result.stopped:
+            lines.append(f"  {result.package}: stopped {plural(len(result.stopped), 'process', 'processes')} "
+                         f"its tests left running: {', '.join(result.stopped)}")
     failed = [r for r in run.results if r.status is PackageStatus.FAILED]
     tested_failed = [r for r in failed
                      if any(not _tooling(r, c) for c in r.problems) or not r.tooling]
@@ -168,11 +177,22 @@ def _missing_linter_lines(results: Sequence[PackageTests]) -> list[str]:
     for result in results:
         for linter in result.missing_linters:
             users.setdefault(linter, []).append(result.package)
-    if not users:
-        return []
-    listed = ", ".join(f"{linter} ({plural(len(packages), 'package')})"
-                       for linter, packages in sorted(users.items()))
-    return [f"  not installed, not run: {listed}: counted as skipped"]
+    lines = []
+    if users:
+        listed = ", ".join(f"{linter} ({plural(len(packages), 'package')})"
+                           for linter, packages in sorted(users.items()))
+        lines.append(f"  not installed, not run: {listed}: counted as skipped")
+    programs: dict[tuple[str, str], list[str]] = {}
+    for result in results:
+        for test, program in result.missing_programs:
+            programs.setdefault((test, program), []).append(result.package)
+    for (test, program), packages in sorted(programs.items()):
+        name, _, install = program.partition(": ")
+        lines.append(f"  not installed, not run: the {test} test of {', '.join(packages)} "
+                     f"({name} is not installed): counted as skipped; install it: {install}; "
+                     f"or leave the test out: --ctest-args -E {test}; --require-linters makes "
+                     "this a failure")
+    return lines
 
 
 def _tooling(result: PackageTests, case: Case) -> bool:

@@ -33,7 +33,8 @@ from wsbuild.testing.linters import MISSING_LINTER_PREFIX
 from wsbuild.testing.results import PackageStatus, PackageTests, results_dir
 from wsbuild.testing.test_key import TestKeys
 from wsbuild.testing.tooling import tooling_failures
-from wsbuild.redaction import redact
+from wsbuild.underlay.lint_programs import missing_program
+from wsbuild.engine.logs import append_command_log
 
 if TYPE_CHECKING:
     from wsbuild.observe.library import Observer
@@ -64,10 +65,12 @@ class PackageTester:
         return get_build_type(self.selection.packages[name].build_type).test_runner
 
     def context(self, name: str, runner: TestRunner, log_dir: Path | None,
-                observations: StepObservations | None = None) -> TestContext:
+                observations: StepObservations | None = None,
+                stopped: list[str] | None = None) -> TestContext:
         """What the package's runner works with; without a log directory it may run nothing
         (the key of a run that only plans). Each command it runs is observed into
-        `observations`."""
+        `observations`; what its commands left running is stopped when each ends, and named
+        in `stopped`."""
         env = runner.environment(self.environment(name), self.request.python_executable)
         arguments = (*self.request.tool_arguments.get(runner.name, ()),
                      *self.request.package_arguments.get(name, {}).get(runner.name, ()))
@@ -76,7 +79,13 @@ class PackageTester:
                 logged: bool = True) -> Completed:
             if log_dir is None:
                 raise RuntimeError(f"{name}: a run that only plans runs no test command")
-            return _run(command, env, log_dir, on_line, logged, observations, runner.name)
+            completed = _run(command, env, log_dir, on_line, logged, observations, runner.name)
+            if completed.stopped:
+                _log(log_dir, f"Stopped what {command.argv[0]} left running: "
+                              f"{', '.join(completed.stopped)}")
+                if stopped is not None:
+                    stopped.extend(completed.stopped)
+            return completed
 
         return TestContext(
             package=self.selection.packages[name], build_dir=self.selection.workspace.build_base / name,
@@ -152,7 +161,8 @@ class PackageTester:
         build_dir = self.selection.workspace.build_base / name
         observations = StepObservations(build_dir / OBSERVE_TEST_DIR,
                                         self.observer or "this run observes nothing")
-        ctx = self.context(name, runner, log_dir, observations)
+        stopped: list[str] = []
+        ctx = self.context(name, runner, log_dir, observations, stopped)
         key = self.key(runner, ctx)
         if self.request.reuse_results:
             cached = self.reusable(name, key, log_dir, ctx.environ)
@@ -168,7 +178,8 @@ class PackageTester:
         ctx.results_dir.mkdir(parents=True, exist_ok=True)
         observations.start()
         report = self._attempts(runner, ctx, log_dir, emit)
-        report = replace(report, log_dir=log_dir, seconds=time.monotonic() - started)
+        report = replace(report, log_dir=log_dir, seconds=time.monotonic() - started,
+                         stopped=tuple(stopped))
         if key is not None and _reusable_later(report):
             reads, environment, unobserved = self._observed(name, ctx, observations, log_dir,
                                                             started)
@@ -211,7 +222,8 @@ class PackageTester:
             label = runner.name if attempt == 1 else f"{runner.name} {attempt}/{attempts}"
             emit(StepStarted(ctx.name, label))
             report = package_result(ctx.name, runner.run(ctx), self.request.python_executable,
-                                    getattr(runner, "tool_cases", frozenset()))
+                                    getattr(runner, "tool_cases", frozenset()),
+                                    require_linters=self.request.strict_linters)
             if REGISTRY.cancelled.is_set():
                 report = replace(report, status=PackageStatus.INTERRUPTED)
                 break
@@ -227,10 +239,13 @@ class PackageTester:
 
 
 def package_result(name: str, outcome: TestOutcome, python_executable: str,
-                   tool_cases: frozenset[str] = frozenset()) -> PackageTests:
+                   tool_cases: frozenset[str] = frozenset(), *,
+                   require_linters: bool = False) -> PackageTests:
     """A package's result from what its runner found: failed when any test failed or erred;
     the tests skipped for a missing linter and the tooling failures named (`tool_cases`: the
-    cases its runner writes when its tool failed)."""
+    cases its runner writes when its tool failed). A linter test whose program is not
+    installed (cppcheck) is not run, as a linter that is not installed: counted as skipped
+    and named with what installs it, unless `require_linters` (then it fails the run)."""
     files: Sequence[ResultFile] = outcome.files
     counts = Counts.total(result.counts for result in files)
     if outcome.no_tests:
@@ -240,11 +255,23 @@ def package_result(name: str, outcome: TestOutcome, python_executable: str,
     problems: list[Case] = []
     for result in files:
         problems += result.problems()
+    unrun: list[tuple[str, str]] = []
+    if not require_linters:
+        for case in [c for c in problems if c.outcome is CaseOutcome.ERROR]:
+            program = missing_program(f"{case.message}\n{case.details}")
+            if program is not None:
+                problems.remove(case)
+                # CTest's test is the case's first name (`cppcheck.xunit.missing_result`)
+                test = case.name.split(".")[0] or case.name
+                unrun.append((test, f"{program.name}: {program.install_command()}"))
+        counts = replace(counts, errors=counts.errors - len(unrun),
+                         skipped=counts.skipped + len(unrun))
     status = PackageStatus.FAILED if counts.failed else PackageStatus.PASSED
     return PackageTests(name, status, counts, tuple(problems),
                         tuple(result.path for result in files),
                         missing_linters=_missing_linters(files),
-                        tooling=tooling_failures(problems, python_executable, tool_cases))
+                        tooling=tooling_failures(problems, python_executable, tool_cases),
+                        missing_programs=tuple(unrun))
 
 
 def _missing_linters(files: Sequence[ResultFile]) -> tuple[str, ...]:
@@ -277,11 +304,11 @@ def _run(command: Command, env: Mapping[str, str], log_dir: Path,
     full = {**shown, **command.run_env}
     if observations is None:
         return run_command(command.argv, cwd=command.cwd, env=full,
-                           log_dir=log_dir if logged else None, on_line=on_line)
+                           log_dir=log_dir if logged else None, on_line=on_line, sweep=True)
     token, observed = observations.begin(label, full, run_only=tuple(command.run_env))
     try:
         return run_command(command.argv, cwd=command.cwd, env=observed,
-                           log_dir=log_dir if logged else None, on_line=on_line)
+                           log_dir=log_dir if logged else None, on_line=on_line, sweep=True)
     finally:
         observations.finish(token)
 
@@ -292,9 +319,9 @@ def _reusable_later(report: PackageTests) -> bool:
     pass like another: which tools are installed is part of its key, so installing the linter
     runs them again."""
     return (report.status is PackageStatus.PASSED and not report.flaky
-            and not report.tooling and not REGISTRY.cancelled.is_set())
+            and not report.tooling and not report.missing_programs
+            and not REGISTRY.cancelled.is_set())
 
 
 def _log(log_dir: Path, line: str) -> None:
-    with open(log_dir / "command.log", "a") as handle:
-        handle.write(redact(line) + "\n")
+    append_command_log(log_dir, line)

@@ -9,6 +9,10 @@ general hint.
 
 from __future__ import annotations
 
+from collections.abc import Collection
+
+from wsbuild.words import did_you_mean
+
 #: ROS package names (underscores) with a `ros-jazzy-<name>` wheel on PyPI
 JAZZY_WHEELS = frozenset({
     "action_msgs", "actionlib_msgs", "ament_cmake", "ament_cmake_core", "ament_cmake_cppcheck",
@@ -44,15 +48,53 @@ JAZZY_WHEELS = frozenset({
 })
 
 
+#: ROS 2 Jazzy packages people depend on that have no wheel, and what needs them: building
+#: against them takes their sources (`wsbuild deps install --from-source`) or a full ROS 2
+#: install
+NO_WHEEL: dict[str, str] = {
+    **dict.fromkeys(("rclcpp", "rclcpp_action", "rclcpp_components", "rclcpp_lifecycle",
+                     "libstatistics_collector", "statistics_msgs", "composition_interfaces",
+                     "class_loader", "message_filters", "tf2", "tf2_ros", "tf2_msgs"),
+                    "C++ nodes"),
+    **dict.fromkeys(("launch", "launch_ros", "launch_xml", "launch_yaml", "ros2launch",
+                     "launch_testing", "launch_testing_ros"), "launch files"),
+    **dict.fromkeys(("ros2cli", "ros2run", "ros2topic", "ros2node", "ros2pkg"),
+                    "the ros2 command"),
+}
+
+#: how to get a package that has no wheel
+FROM_SOURCE = ("`wsbuild deps install --from-source` (it fetches it and what it needs from the "
+               "distro's index and builds them as your underlay; it needs the index and the "
+               "source hosts reachable) or a full ROS 2 install (apt, then source it)")
+
+
+def no_wheel_advice(dependency: str) -> str:
+    """What to do about a dependency known to have no wheel ("" for any other)."""
+    what = NO_WHEEL.get(dependency)
+    if what is None:
+        return ""
+    return f"{dependency} has no PyPI wheel: {what} need {FROM_SOURCE}"
+
+
 def wheel_name(package: str) -> str:
     """The PyPI distribution of a ROS package's Jazzy wheel: `ros-jazzy-<name with ->`."""
     return "ros-jazzy-" + package.replace("_", "-")
 
 
-def install_hint(dependency: str) -> str:
-    """The most likely fix for a dependency nothing provides."""
+def install_hint(dependency: str, *, known: Collection[str] = (),
+                 pip_underlay: bool = False) -> str:
+    """The most likely fix for a dependency nothing provides: its wheel; that it has none (and
+    how to build it from source); the name it may have meant among `known` (the workspace's
+    and underlays' packages) and the wheels; on a pip underlay, `wsbuild deps install`."""
     if dependency in JAZZY_WHEELS:
         return f"pip install {wheel_name(dependency)}"
+    if advice := no_wheel_advice(dependency):
+        return advice
     if dependency.startswith("python3-"):
         return f"pip install {dependency[len('python3-'):]} (a rosdep key for a Python package)"
+    if meant := did_you_mean(dependency, {*known, *JAZZY_WHEELS} - {dependency}):
+        return f"not found ({meant})"
+    if pip_underlay:
+        return ("not found: `wsbuild deps install` looks for it (a wheel, a system package, "
+                "its sources) and installs it")
     return "not found: install it (rosdep, apt) or source the underlay that has it"

@@ -269,3 +269,24 @@ def terminal_from_args(args: argparse.Namespace) -> Terminal:
 
     terminal = getattr(args, "terminal", None)
     return terminal if isinstance(terminal, Terminal) else Terminal.of(None)
+
+
+def add_negations(parser: argparse.ArgumentParser) -> None:
+    """Every on/off option `--X` of every verb gets `--no-X`, which turns it off again (a
+    defaults file or a mixin that turned it on; the last one given wins). Not listed one by
+    one in --help, which says so once."""
+    for action in list(parser._actions):
+        if isinstance(action, argparse._SubParsersAction):
+            for sub in dict.fromkeys(action.choices.values()):
+                add_negations(sub)
+            continue
+        if not isinstance(action, argparse._StoreTrueAction):
+            continue
+        for option in action.option_strings:
+            if not option.startswith("--") or option.startswith("--no-"):
+                continue
+            negation = "--no-" + option[2:]
+            if negation in parser._option_string_actions:
+                continue
+            parser.add_argument(negation, dest=action.dest, action="store_false",
+                                help=argparse.SUPPRESS)

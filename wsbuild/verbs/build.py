@@ -22,6 +22,7 @@ from wsbuild.verbs.arguments import (
 if TYPE_CHECKING:  # the modules of the work are imported when the verb runs, not to parse
     from wsbuild.build_types import TypeOption
     from wsbuild.builder.request import BuildRequest
+    from wsbuild.builder.shard_cover import Assembly
     from wsbuild.builder.shards import ShardSpec
     from wsbuild.cache.settings import CacheSettings
     from wsbuild.reporter import Console
@@ -67,6 +68,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     how.add_argument("--dry-run", action="store_true",
                      help="print the plan (order, why each builds, critical path) only")
     how.add_argument("--json", action="store_true", help="with --dry-run: machine-readable")
+    secondary(how.add_argument("--commands", action="store_true",
+                               help="with --dry-run: also the commands that build each package"))
     how.add_argument("--timings", action="store_true",
                      help="after the summary: where the time went, the report's path")
     secondary(how.add_argument("--no-report", action="store_true",
@@ -134,6 +137,10 @@ def _cache_arguments(cache: argparse._ArgumentGroup) -> None:
     secondary(cache.add_argument(
         "--shard", metavar="K/N",
         help="build the K-th of N jobs' share, meeting the others in the cache (docs/ci.md)"))
+    secondary(cache.add_argument(
+        "--assemble", metavar="N",
+        help="the job after N `--shard` jobs: restore everything, fail naming any package no "
+             "shard built and tested (docs/ci.md)"))
 
 
 def _split_args(values: list[str] | None) -> tuple[str, ...]:
@@ -195,6 +202,7 @@ def request_from_args(args: argparse.Namespace) -> BuildRequest:
         report=not args.no_report,
         distribute=distribute_spec(args.distribute, os.environ),
         shard=_shard_from_args(args),
+        assemble=_assembly_from_args(args),
     )
 
 
@@ -213,6 +221,27 @@ def _shard_from_args(args: argparse.Namespace) -> ShardSpec | None:
             "writes and without --symlink-install",
             hint="give --cache http://cache.example:8080/ or set WSBUILD_CACHE (docs/ci.md)")
     return spec
+
+
+def _assembly_from_args(args: argparse.Namespace) -> Assembly | None:
+    """--assemble N, with the CI run the shards belonged to; like --shard, it needs the
+    server the shards shared."""
+    if getattr(args, "assemble", None) is None:
+        return None
+    from wsbuild.builder.shard_cover import Assembly
+    from wsbuild.builder.shards import parse_shard_count, shard_run_id
+
+    count = parse_shard_count(args.assemble, option="--assemble")
+    if args.shard is not None:
+        raise WsbuildError("--assemble and --shard exclude each other",
+                           hint="--shard K/N in each job of the matrix, --assemble N in the "
+                                "job after it")
+    settings = _cache_settings_from_args(args)
+    if settings is None or not settings.url:
+        raise WsbuildError(
+            f"--assemble {count} needs the build cache server the shards shared",
+            hint="give --cache http://cache.example:8080/ or set WSBUILD_CACHE (docs/ci.md)")
+    return Assembly(count, shard_run_id(os.environ))
 
 
 def _cache_settings_from_args(args: argparse.Namespace) -> CacheSettings | None:
@@ -236,6 +265,8 @@ class BuildVerbRequest:
     #: --dry-run (--json: as JSON)
     dry_run: bool = False
     json: bool = False
+    #: --dry-run --commands: the commands too
+    commands: bool = False
     #: --install-deps
     install_deps: bool = False
 
@@ -250,10 +281,13 @@ def build_verb_request_from_args(args: argparse.Namespace) -> BuildVerbRequest:
     dry_run = args.dry_run
     if args.json and not dry_run:
         raise WsbuildError("--json goes with --dry-run", hint="wsbuild build --dry-run --json")
+    if args.commands and not dry_run:
+        raise WsbuildError("--commands goes with --dry-run",
+                           hint="wsbuild build --dry-run --commands")
     return BuildVerbRequest(
         load=load_request_from_args(args, cache=cache_selection_from_args(args, build=build)),
         build=build, metadata=metadata_from_args(args), console=console_from_args(args),
-        dry_run=dry_run, json=args.json,
+        dry_run=dry_run, json=args.json, commands=args.commands,
         install_deps=args.install_deps)
 
 
@@ -269,14 +303,15 @@ def run_build_verb(args: argparse.Namespace) -> int:
 
     verb = build_verb_request_from_args(args)
     terminal = terminal_from_args(args)
-    loaded = load(verb.load, warn=terminal.warnings, remember=not verb.dry_run)
+    loaded = load(verb.load, warn=terminal.warnings, remember=not verb.dry_run, strict=True,
+                  need_packages=True)
     request, notes = metas.with_build_arguments(verb.build, verb.metadata, loaded.packages,
                                                 loaded.selected)
     terminal.notes(dict.fromkeys((loaded.chosen_because, *notes) if loaded.chosen_because
                                  else notes))
     selection = Selection(loaded.workspace, loaded.packages, loaded.graph, loaded.selected)
     if verb.dry_run:
-        return _dry_run(selection, request, json_output=verb.json)
+        return _dry_run(selection, request, json_output=verb.json, commands=verb.commands)
     if verb.install_deps:
         from wsbuild.verbs.deps import install_for_build
 
@@ -293,12 +328,14 @@ def run_build_verb(args: argparse.Namespace) -> int:
     return 0
 
 
-def _dry_run(selection: Selection, request: BuildRequest, *, json_output: bool) -> int:
+def _dry_run(selection: Selection, request: BuildRequest, *, json_output: bool,
+             commands: bool = False) -> int:
     """Print what the build would do; exit 2 when it would refuse to start."""
     import json
 
     from wsbuild.builder.pipeline import dry_run
     from wsbuild.builder.plan_text import plan_json, plan_lines
+    from wsbuild.words import plural
     from wsbuild.reporter import Reporter
 
     # the plan goes to stdout (JSON for tools): a cache's warnings go to stderr
@@ -306,5 +343,8 @@ def _dry_run(selection: Selection, request: BuildRequest, *, json_output: bool) 
     if json_output:
         print(json.dumps(plan_json(build_plan, steps), indent=2))
     else:
-        print("\n".join(plan_lines(build_plan, steps)))
+        print("\n".join(plan_lines(build_plan, steps if commands else None)))
+        if not commands and steps.packages:
+            print(f"commands: `wsbuild build --dry-run --commands` prints those that build "
+                  f"{plural(len(steps.packages), 'package')}")
     return 2 if build_plan.refusal else 0

@@ -96,9 +96,65 @@ def _takes_packages(action: argparse.Action) -> bool:
     return metavar in _PACKAGE_METAVARS
 
 
+#: the values of `-DCMAKE_BUILD_TYPE=` (CMake's own)
+CMAKE_CONFIGURATIONS = ("Debug", "Release", "RelWithDebInfo", "MinSizeRel")
+#: the defines people give --cmake-args most, completed after `-D`
+CMAKE_DEFINES = ("-DCMAKE_BUILD_TYPE=", "-DBUILD_TESTING=", "-DCMAKE_EXPORT_COMPILE_COMMANDS=",
+                 "-DCMAKE_CXX_STANDARD=", "-DCMAKE_VERBOSE_MAKEFILE=")
+
+
+def _cmake_args_completer(prefix: str, **_kwargs: object) -> list[str]:
+    """`--cmake-args -DCMAKE_BUILD_TYPE=<Tab>`: CMake's build types; `-D<Tab>`: the common
+    defines."""
+    name, equals, _value = prefix.partition("=")
+    if equals and name == "-DCMAKE_BUILD_TYPE":
+        values = [f"{name}={kind}" for kind in CMAKE_CONFIGURATIONS]
+    elif equals:
+        values = [f"{name}={value}" for value in ("ON", "OFF")]
+    else:
+        values = list(CMAKE_DEFINES)
+    return [v for v in values if v.startswith(prefix)]
+
+
+def _mixin_completer(prefix: str, parsed_args: argparse.Namespace,
+                     **_kwargs: object) -> list[str]:
+    """`--mixin <Tab>`: the mixins of the verb from the mixin files (colcon-mixin's)."""
+    from wsbuild.verbs.mixin import known_mixins
+
+    verb = getattr(parsed_args, "verb", None) or "build"
+    try:
+        names = known_mixins(os.environ).get(verb, {})
+    except Exception:  # noqa: BLE001 - a bad mixin file completes nothing, the run says why
+        return []
+    return sorted(n for n in names if n.startswith(prefix))
+
+
+def _event_handler_completer(prefix: str, **_kwargs: object) -> list[str]:
+    """`--event-handlers <Tab>`: each handler, on (+) and off (-)."""
+    from wsbuild.verbs.colcon import EVENT_HANDLERS
+
+    return [f"{name}{sign}" for name in sorted(EVENT_HANDLERS) for sign in "+-"
+            if f"{name}{sign}".startswith(prefix)]
+
+
+def _build_type_completer(prefix: str, **_kwargs: object) -> list[str]:
+    """`pkg create --build-type <Tab>`: the build types wsbuild knows."""
+    from wsbuild.build_types import KnownBuildTypes
+
+    return sorted(n for n in KnownBuildTypes() if n.startswith(prefix))
+
+
+#: the options that take a value of a kind wsbuild can list
+_VALUE_COMPLETERS: dict[str, Callable[..., list[str]]] = {
+    "--cmake-args": _cmake_args_completer, "--mixin": _mixin_completer,
+    "--event-handlers": _event_handler_completer, "--build-type": _build_type_completer,
+}
+
+
 def install_completers(parser: argparse.ArgumentParser,
                        completer: Callable[..., list[str]] = _package_completer) -> None:
-    """Give every argument that takes package names the package-name completer."""
+    """Give every argument that takes package names the package-name completer, and the
+    options that take a value of a kind wsbuild knows their own."""
     stack = [parser]
     while stack:
         current = stack.pop()
@@ -109,12 +165,39 @@ def install_completers(parser: argparse.ArgumentParser,
                 action.completer = completer  # type: ignore[attr-defined]
             elif action.metavar == "EXECUTABLE":
                 action.completer = _executable_completer  # type: ignore[attr-defined]
+            else:
+                for option in action.option_strings:
+                    if option in _VALUE_COMPLETERS:
+                        action.completer = _VALUE_COMPLETERS[option]  # type: ignore[attr-defined]
+
+
+def _complete_defines() -> None:
+    """Answer for a `-D…` word after --cmake-args (or --ament-cmake-args) as argcomplete
+    would (its output descriptor, its separator) and exit; return for anything else."""
+    line = os.environ.get("COMP_LINE", "")[:int(os.environ.get("COMP_POINT", "0") or 0)]
+    words = line.split(" ")
+    current, before = words[-1], words[:-1]
+    if not current.startswith("-D"):
+        return
+    opened = max((i for i, w in enumerate(before) if w in ("--cmake-args", "--ament-cmake-args")),
+                 default=-1)
+    if opened < 0 or "--" in before[opened:] or any(
+            w.startswith("--") for w in before[opened + 1:]):
+        return
+    # bash splits words at `=`: it wants what comes after the last one
+    cut = current.rfind("=") + 1 if "=" in os.environ.get("COMP_WORDBREAKS", "=") else 0
+    found = [value[cut:] for value in _cmake_args_completer(current)]
+    with os.fdopen(8, "w") as out:
+        out.write(os.environ.get("_ARGCOMPLETE_IFS", "\013").join(found))
+    os._exit(0)
 
 
 def complete(parser: argparse.ArgumentParser) -> None:
     """Answer the shell's completion request (when _ARGCOMPLETE is set) and exit."""
     import argcomplete
 
+    _complete_defines()  # `--cmake-args -D…`: argcomplete takes a `-` word for an option
     install_completers(parser)
-    argcomplete.autocomplete(parser)
+    # an option's values first: the options only once a `-` is typed
+    argcomplete.autocomplete(parser, always_complete_options=False)
     os._exit(0)  # not reached: autocomplete exits after answering

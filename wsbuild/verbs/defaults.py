@@ -202,9 +202,11 @@ def settable_options(parser: argparse.ArgumentParser) -> dict[str, argparse.Acti
         if isinstance(action, (argparse._HelpAction, argparse._VersionAction,
                                argparse._SubParsersAction)):
             continue
-        long = [o for o in action.option_strings if o.startswith("--")]
-        if long:
-            result[long[0][2:]] = action
+        if action.help == argparse.SUPPRESS and isinstance(action, argparse._StoreFalseAction):
+            continue  # an on/off option's --no- form (verbs/arguments.py): set the option false
+        for option in action.option_strings:  # each name of it (--require-linters,
+            if option.startswith("--"):        # --strict-linters)
+                result[option[2:]] = action
     return dict(sorted(result.items()))
 
 
@@ -322,9 +324,10 @@ def check_entries(entries: Iterable[FileEntry], parser: argparse.ArgumentParser)
 
 
 def _suggestion(name: str, valid: Sequence[str], what: str) -> str:
+    """The name meant when one is close (enough: the list of ~70 options would bury it),
+    else the valid names."""
     close = difflib.get_close_matches(name.replace("_", "-"), valid, n=1)
-    listed = f"{what}: {', '.join(valid)}"
-    return f"did you mean '{close[0]}'? {listed}" if close else listed
+    return f"did you mean '{close[0]}'?" if close else f"{what}: {', '.join(valid)}"
 
 
 # ---------------------------------------------------------------------- applying the values
@@ -375,7 +378,8 @@ def _describe_in_help(parser: argparse.ArgumentParser, applying: Sequence[Defaul
     if not applying:
         return
     width = min(40, max(len(d.text) for d in applying))
-    lines = ["defaults in effect (from defaults files; the command line overrides them):"]
+    lines = ["defaults in effect (from defaults files; the command line overrides them, an "
+             "on/off option with its --no- form, e.g. --no-symlink-install):"]
     lines += [f"  {d.text.ljust(width)}  {d.where}" for d in applying]
     extra = "\n".join(lines)
     parser.epilog = f"{parser.epilog.rstrip()}\n\n{extra}" if parser.epilog else extra

@@ -8,6 +8,7 @@ import argparse
 import shlex
 import sys
 from dataclasses import dataclass
+from collections.abc import Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -59,6 +60,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              "source repositories the distro's index names (rosdistro; "
                              "ROSDISTRO_INDEX_URL), their own dependencies in turn, and list "
                              "them in from-source.repos")
+    parser.add_argument("--strict", action="store_true",
+                        help="--dry-run: exit 1 when something would stay unresolved (CI)")
     parser.add_argument("--refresh", action="store_true",
                         help="ask the package index again instead of using its answers "
                              "remembered for a day")
@@ -79,13 +82,15 @@ class DepsRequest:
     skip_keys: tuple[str, ...] = ()
     from_source: bool = False
     refresh: bool = False
+    #: --strict: a dry run that leaves something unresolved exits 1
+    strict: bool = False
 
 
 def deps_request_from_args(args: argparse.Namespace) -> DepsRequest:
     return DepsRequest(action=args.action, dry_run=args.dry_run, assume_yes=args.assume_yes,
                        types=args.types, constraint=args.constraint,
                        skip_keys=tuple(args.skip_keys), from_source=args.from_source,
-                       refresh=args.refresh)
+                       refresh=args.refresh, strict=args.strict)
 
 
 def run_deps(args: argparse.Namespace) -> int:
@@ -104,10 +109,13 @@ def run_deps(args: argparse.Namespace) -> int:
         loaded, names, found = _fetch_sources(request, load_request, loaded, names, found)
     print("\n".join(plan_lines(found, constraint=_constraint(request, found),
                                dry_run=request.dry_run)))
-    if request.dry_run or not (found.plan.steps or found.plan.test_tools):
-        if found.plan.from_source and not request.dry_run:
+    left = found.plan.unresolved or found.plan.from_source
+    if request.dry_run:  # the plan was made: what it leaves unresolved fails only --strict
+        return 1 if request.strict and left else 0
+    if not (found.plan.steps or found.plan.test_tools):
+        if found.plan.from_source:
             _from_source_error(found)
-        return 1 if found.plan.unresolved or found.plan.from_source else 0
+        return 1 if left else 0
     return _install(request, loaded, found, names)
 
 
@@ -158,10 +166,48 @@ def _fetch_sources(request: DepsRequest, load_request: LoadRequest, loaded: Load
         loaded = load(load_request, warn=print_warnings)
         names = [n for n in names if n in loaded.packages]
         names += [k for k in sorted(wanted) if k in loaded.packages and k not in names]
-        found = _survey(request, loaded, names)
+        # fetched packages are the user's underlay, not their work: their tests' keys are
+        # not wanted, and they build with their tests off (colcon.meta)
+        own = frozenset(k for k in wanted if k in loaded.packages)
+        tests_off(root, sorted(own))
+        found = _survey(request, loaded, names, fetched=own)
         if new:
             print(f"from source: {len(fetched)} repositories in {repos_file.name} "
                   f"(vcs-import src < {repos_file.name} fetches them again)")
+
+
+#: what a fetched package builds with: no tests (their dependencies were not fetched)
+TESTS_OFF = ("-DBUILD_TESTING=OFF",)
+
+
+def tests_off(root: Path, names: Sequence[str]) -> None:
+    """Give each fetched package `cmake-args: [-DBUILD_TESTING=OFF]` in the workspace's
+    colcon.meta (colcon-metadata's file, which `wsbuild build` reads): the packages rclcpp and
+    its kin need for their tests (mimick_vendor, performance_test_fixture) are not fetched.
+    A package the file already names keeps what it says."""
+    import json
+
+    from wsbuild.files import atomic_write
+    from wsbuild.verbs.metas import META_FILE
+
+    if not names:
+        return
+    path = root / META_FILE
+    try:
+        data = json.loads(path.read_text()) if path.is_file() else {}
+    except (OSError, ValueError):
+        print(f"wsbuild: warning: {path} is not JSON: the fetched packages' tests stay on; "
+              f"give them cmake-args {list(TESTS_OFF)} there", file=sys.stderr)
+        return
+    entries = data.setdefault("names", {})
+    added = [name for name in names if name not in entries]
+    if not added:
+        return
+    for name in added:
+        entries[name] = {"cmake-args": list(TESTS_OFF)}
+    atomic_write(path, json.dumps(data, indent=2, sort_keys=True) + "\n")
+    print(f"from source: built with their tests off ({' '.join(TESTS_OFF)} in {path.name}): "
+          f"{', '.join(added)}")
 
 
 def _left_out_note(left: list[str]) -> None:
@@ -205,7 +251,7 @@ def _constraint(request: DepsRequest, found: Survey) -> Path | None:
 
 
 def _survey(request: DepsRequest, loaded: Loaded, names: list[str] | None = None,
-            ) -> Survey:
+            fetched: frozenset[str] = frozenset()) -> Survey:
     import os
 
     from wsbuild.deps.needs import parse_types
@@ -216,11 +262,37 @@ def _survey(request: DepsRequest, loaded: Loaded, names: list[str] | None = None
         raise WsbuildError("the constraints file does not exist", path=request.constraint,
                            hint="give an existing pip constraints file, or leave --constraint "
                                 "out to use the one wsbuild ships for the underlay's ROS distro")
+    from dataclasses import replace
+
+    from wsbuild.workspace.model import DepKind
+
     packages = [loaded.packages[name]
                 for name in (loaded.selected if names is None else names)]
+    fetched = fetched | _fetched(loaded)
+    # a fetched package's tests and docs are not built: their keys are not wanted
+    packages = [replace(p, dependencies=tuple(d for d in p.dependencies
+                                              if d.kind not in (DepKind.TEST, DepKind.DOC)))
+                if p.name in fetched else p for p in packages]
     return survey(packages, loaded.packages, parse_types(request.types), environ=os.environ,
                   shim_dir=loaded.workspace.build_base / ".wsbuild" / "lint_shim",
                   skip=frozenset(request.skip_keys), refresh=request.refresh)
+
+
+def _fetched(loaded: Loaded) -> frozenset[str]:
+    """The packages of the repositories `deps install --from-source` fetched (listed in the
+    workspace's from-source.repos, each in src/<repository>)."""
+    import yaml
+
+    from wsbuild.deps.from_source import REPOS_FILE
+
+    root = loaded.workspace.root
+    try:
+        listed = yaml.safe_load((root / REPOS_FILE).read_text()) or {}
+        folders = [root / "src" / str(name) for name in listed.get("repositories", {})]
+    except (OSError, yaml.YAMLError, AttributeError):
+        return frozenset()
+    return frozenset(name for name, package in loaded.packages.items()
+                     if any(package.path.is_relative_to(folder) for folder in folders))
 
 
 def _install(request: DepsRequest, loaded: Loaded, found: Survey,

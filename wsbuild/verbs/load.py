@@ -8,12 +8,13 @@ from __future__ import annotations
 
 import argparse
 import os
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING
 
 from wsbuild.build_types import KnownBuildTypes
+from wsbuild.errors import ManifestError, WsbuildError
 from wsbuild.verbs.arguments import Bases, bases_from_args, selection_from_args
 from wsbuild.workspace.discover import discover_packages, expand_paths
 from wsbuild.workspace.graph import Graph, build_graph
@@ -98,14 +99,17 @@ def workspace_root(workspace_dir: str | None) -> Path:
 
 def load(request: LoadRequest, *, select: bool = True,
          warn: Callable[[Sequence[str]], None] | None = None,
-         remember: bool = False) -> Loaded:
+         remember: bool = False, strict: bool = False, need_packages: bool = False) -> Loaded:
     """Discover the workspace `request` names and apply its selection.
 
     The discovery's warnings are in the result, and handed to `warn` (the verb's output point)
     as soon as they are known: before a selection error ends the verb. What each package.xml
     read gave is remembered under the build base and used by every verb; `remember` writes it
     down (the verbs a user runs again and again on an unchanged workspace; never a dry run or
-    `clean`, which leave build/ as it is)."""
+    `clean`, which leave build/ as it is). `strict` (a build): a selected package's manifest
+    problem that its build type's package.xml reader refuses is an error (`refuse_manifests`),
+    said before any warning. `need_packages` (build, test): no package found is an error
+    naming where it looked."""
     workspace = request.bases.workspace(workspace_root(request.workspace_dir))
     cwd = Path.cwd()
     base_paths = (
@@ -124,11 +128,61 @@ def load(request: LoadRequest, *, select: bool = True,
         remember=remember,
     )
     packages = discovery.packages
+    if need_packages and not packages:
+        _no_packages(workspace, paths or base_paths)
     from wsbuild.workspace.versions import check_version_constraints
 
     warnings = (*discovery.warnings, *check_version_constraints(packages))
-    if warn is not None:
+    if warn is not None and not strict:
         warn(warnings)
+    try:
+        loaded = _selected(request, workspace, packages, warnings, select=select)
+    except WsbuildError:
+        if warn is not None and strict:
+            warn(warnings)
+        raise
+    if strict:
+        refuse_manifests(loaded.packages, loaded.selected)
+        if warn is not None:
+            warn(warnings)
+    return loaded
+
+
+def _no_packages(workspace: Workspace, searched: Sequence[Path]) -> None:
+    """The error of a build or test that found no package: where it looked, and how to
+    point it at one."""
+    from wsbuild.errors import WorkspaceError
+
+    where = ", ".join(str(path) for path in searched)
+    missing = [str(path) for path in searched if not path.exists()]
+    hint = (f"{' and '.join(missing)} does not exist; " if missing else "") + (
+        "a package is a directory holding a package.xml: create one in "
+        f"{workspace.root / 'src'} with `wsbuild pkg create NAME`, or run wsbuild in the "
+        "workspace that holds yours, or give --base-paths")
+    raise WorkspaceError(f"no packages found in {where}; nothing to do, nothing written",
+                         hint=hint)
+
+
+def refuse_manifests(packages: Mapping[str, Package], selected: Sequence[str]) -> None:
+    """The first manifest problem of a selected package that its build type's package.xml
+    reader refuses (`BuildType.manifest_reader`: ament_cmake's catkin_pkg), as the error
+    naming the file and line and the fix."""
+    from wsbuild.build_types import get_build_type
+
+    for name in selected:
+        package = packages[name]
+        if not package.refused:
+            continue
+        reader = getattr(get_build_type(package.build_type), "manifest_reader", "")
+        if reader:
+            line, problem, fix = package.refused[0]
+            raise ManifestError(f"{problem}: {reader} refuses it", path=package.manifest,
+                                line=line, hint=fix)
+
+
+def _selected(request: LoadRequest, workspace: Workspace, packages: dict[str, Package],
+              warnings: tuple[str, ...], *, select: bool) -> Loaded:
+    """The selection of the discovered `packages`, and the graph it was made on."""
     options = request.selection if select else SelectionOptions()
     ignored = ignored_packages(options, packages)
     if ignored:
@@ -148,5 +202,5 @@ def load(request: LoadRequest, *, select: bool = True,
                                        Selection(workspace, packages, graph, selected))
     else:
         selected = graph.topological_order()
-    because = "" if request.workspace_dir else why_workspace_root(workspace.root, cwd)
+    because = "" if request.workspace_dir else why_workspace_root(workspace.root, Path.cwd())
     return Loaded(workspace, packages, graph, selected, warnings, because)

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import os
+import re
 import sys
 from pathlib import Path
 
@@ -116,6 +117,7 @@ def run_pkg_create(args: argparse.Namespace) -> int:
           f"(templates: {', '.join(created.variants)})")
     for path in created.files:
         print(f"  {path}")
+    notes += _without_wheel(created.path, destination)
     for note in (*notes, *created.notes):
         print(f"note: {note}", file=sys.stderr)
     print("next:")
@@ -124,6 +126,28 @@ def run_pkg_create(args: argparse.Namespace) -> int:
     if args.node_name:
         print(f"  wsbuild run {created.name} {args.node_name}")
     return 0
+
+
+def _without_wheel(package: Path, src: Path) -> list[str]:
+    """A note for each dependency of the new package that has no wheel and that neither the
+    underlays' ament index nor the workspace's sources hold (rclcpp on a pip-only machine):
+    what building it then takes."""
+    from wsbuild.underlay.detect import find_venv_underlay
+    from wsbuild.underlay.wheels import NO_WHEEL, no_wheel_advice
+    from wsbuild.workspace.resolve import ament_index
+
+    text = (package / "package.xml").read_text()
+    declared = re.findall(r"<(?:\w+_)?depend(?: [^>]*)?>\s*([\w-]+)\s*</", text)
+    wanted = [dep for dep in dict.fromkeys(declared) if dep in NO_WHEEL]
+    if not wanted:
+        return []
+    prefixes = [Path(p) for p in os.environ.get("AMENT_PREFIX_PATH", "").split(os.pathsep) if p]
+    venv = find_venv_underlay(os.environ, sys.executable)
+    installed = ament_index([*prefixes, *([venv] if venv else [])])
+    sources = {match for manifest in src.glob("**/package.xml") if manifest.parent != package
+               for match in re.findall(r"<name>\s*([\w-]+)\s*</name>", manifest.read_text())}
+    return [f"{no_wheel_advice(dep)}; until then `wsbuild build` of {package.name} fails on it"
+            for dep in wanted if dep not in installed and dep not in sources]
 
 
 def _relative(path: Path, cwd: Path) -> str:

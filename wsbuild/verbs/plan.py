@@ -74,7 +74,9 @@ def plan_verb_request_from_args(args: argparse.Namespace) -> PlanVerbRequest:
 
 def run_plan_verb(args: argparse.Namespace) -> int:
     """Print how the build splits across the jobs of a CI matrix."""
+    from wsbuild.builder.shard_cover import run_of
     from wsbuild.builder.shard_run import split_of
+    from wsbuild.builder.shards import shard_run_id
     from wsbuild.cache.documents import SharedDocuments
     from wsbuild.reporter import print_notes
     from wsbuild.verbs.load import load
@@ -87,7 +89,9 @@ def run_plan_verb(args: argparse.Namespace) -> int:
     selection = Selection(loaded.workspace, loaded.packages, loaded.graph, loaded.selected)
     documents = SharedDocuments.open(verb.cache)
     try:
-        split = split_of(selection, verb.shards, verb.workers, documents)
+        # the times the jobs of this run split on (fixed for it when one of them started)
+        run = run_of(selection, shard_run_id(os.environ)) if documents is not None else ""
+        split = split_of(selection, verb.shards, verb.workers, documents, run)
         problems = list(documents.problems) if documents is not None else []
     finally:
         if documents is not None:

@@ -29,7 +29,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     add_workspace_option(parser, found="found from the current directory")
     add_install_base_argument(parser, "install prefix relative to the workspace")
     parser.add_argument("package_name", metavar="PKG")
-    parser.add_argument("executable_name", metavar="EXECUTABLE")
+    # optional: without it, the package's executables are listed
+    parser.add_argument("executable_name", metavar="EXECUTABLE", nargs="?")
     parser.add_argument("arguments", nargs=argparse.REMAINDER, metavar="ARGS",
                         help="passed to the executable, e.g. --ros-args -p name:=value")
 
@@ -85,6 +86,17 @@ def run_executable(args: argparse.Namespace) -> int:
                              f"{install_base})", hint=hint)
     prefix = prefixes[package]
     available = _executables(prefix, package)
+    if executable is None:  # `wsbuild run PKG`: what it can run
+        if not available:
+            raise SelectionError(f"{package} installs no executables in lib/{package}/",
+                                 path=prefix / "lib" / package,
+                                 hint="its launch files run with `ros2 launch`" if any(
+                                     is_launch_file(p.name) for p in
+                                     (prefix / "share" / package).rglob("*")) else None)
+        print(f"executables of {package} (wsbuild run {package} EXECUTABLE):")
+        for name in available:
+            print(f"  {name}")
+        return 0
     if executable not in available and is_launch_file(executable):
         raise launch_file_error(package, executable, prefix, prefixes)
     if executable not in available:
@@ -131,12 +143,31 @@ def launch_file_error(package: str, name: str, prefix: Path,
     command = f"ros2 launch {package} {name}"
     if "ros2launch" in prefixes:
         hint = f"run it with: {command}  (in a shell that sourced install/setup.bash)"
+    elif _declares(share / "package.xml", "ros2launch"):
+        hint = (f"run it with `{command}`; ros2 launch (the ros2launch package) is not "
+                f"installed: {package} declares it (<exec_depend>ros2launch</exec_depend>), but "
+                "it has no PyPI wheel; `wsbuild deps install --from-source` fetches it and what "
+                "it needs from the distro's index (the index and the source hosts must be "
+                "reachable), then `wsbuild build` builds it; offline, install it with ROS 2 "
+                "(apt install ros-jazzy-ros2launch) and source /opt/ros/jazzy/setup.bash")
     else:
         hint = (f"run it with `{command}`; ros2 launch (the ros2launch package) is not "
                 "installed and has no wheel: declare <exec_depend>ros2launch</exec_depend> "
                 f"in {package}'s package.xml, then `wsbuild deps install --from-source` "
                 "fetches and `wsbuild build` builds it into this workspace")
     return SelectionError(what, hint=hint)
+
+
+def _declares(manifest: Path, dependency: str) -> bool:
+    """Whether the installed package.xml declares `dependency` as a run dependency."""
+    import re
+
+    try:
+        text = manifest.read_text()
+    except OSError:
+        return False
+    return re.search(rf"<(exec_depend|depend|run_depend)(\s[^>]*)?>\s*{re.escape(dependency)}"
+                     r"\s*</", text) is not None
 
 
 def _needs_workspace_environment(environ: Mapping[str, str], prefix: Path,

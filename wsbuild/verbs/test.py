@@ -4,6 +4,7 @@ and the runs around testing/test_run.py and testing/junit.py."""
 from __future__ import annotations
 
 import argparse
+import os
 import sys
 from dataclasses import dataclass
 from pathlib import Path
@@ -74,8 +75,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     secondary(how.add_argument("--no-report", action="store_true",
                                help="write no log/<run>/report.html (timeline, CPU use)"))
     secondary(how.add_argument(
-        "--strict-linters", action="store_true",
-        help="a test of an ament linter that is not installed fails (default: skip)"))
+        "--require-linters", "--strict-linters", action="store_true", dest="strict_linters",
+        help="a test of an ament linter, or of the program it runs, that is not installed "
+             "fails (CI; default: not run, counted as skipped)"))
+    how.add_argument("--build", action="store_true", dest="build_first",
+                     help="first build the selected packages whose sources changed since "
+                          "they were built (default: say so, and test what was built)")
     how.add_argument("--no-test-cache", action="store_true",
                      help="run every test, even where the last passing result still applies")
     how.add_argument("--shard", metavar="K/N",
@@ -167,6 +172,8 @@ class TestVerbRequest:
     console: Console
     #: --shard K/N: this job's share of the split (builder/shard_run.py)
     shard: ShardSpec | None = None
+    #: --build: build what changed since it was built first
+    build_first: bool = False
 
 
 def test_verb_request_from_args(args: argparse.Namespace) -> TestVerbRequest:
@@ -178,13 +185,13 @@ def test_verb_request_from_args(args: argparse.Namespace) -> TestVerbRequest:
     test = request_from_args(args, workspace_root(args.workspace_dir))
     shard = None
     if args.shard is not None:
-        from wsbuild.builder.shards import parse_shard
+        from wsbuild.builder.shards import parse_shard, shard_run_id
 
-        shard = parse_shard(args.shard)
+        shard = parse_shard(args.shard, run=shard_run_id(os.environ))
     return TestVerbRequest(
         load=load_request_from_args(args, cache=cache_selection_from_args(args, test=test)),
         test=test, metadata=metadata_from_args(args), console=console_from_args(args),
-        shard=shard)
+        shard=shard, build_first=args.build_first)
 
 
 def run_test_verb(args: argparse.Namespace) -> int:
@@ -200,18 +207,19 @@ def run_test_verb(args: argparse.Namespace) -> int:
     from wsbuild.workspace.selection import Selection
 
     verb = test_verb_request_from_args(args)
-    loaded = load(verb.load, warn=print_warnings)
+    loaded = load(verb.load, warn=print_warnings, need_packages=True)
     request, notes = metas.with_test_arguments(verb.test, verb.metadata, loaded.packages,
                                                loaded.selected)
     print_notes(dict.fromkeys((loaded.chosen_because, *notes) if loaded.chosen_because
                               else notes))
     selection = Selection(loaded.workspace, loaded.packages, loaded.graph, loaded.selected)
+    shard_run = ""
     if verb.shard is not None:  # the packages `build --shard` built here
-        import os
-
+        from wsbuild.builder.shard_cover import run_of
         from wsbuild.builder.shard_run import test_selection
         from wsbuild.cache.settings import settings_from_environment
 
+        shard_run = run_of(selection, verb.shard.run)
         selection, line = test_selection(selection, verb.shard, request.workers,
                                          settings_from_environment(os.environ))
         print_notes([line])
@@ -222,8 +230,11 @@ def run_test_verb(args: argparse.Namespace) -> int:
     missing = _missing_ros_pytest(loaded, request.python_executable)
     if missing:
         reporter(Notice(missing, warning=True))
+    changed = _changed_since_built(selection, verb.build_first)
     reporter.start_ticker()
     try:
+        if changed:
+            _build_changed(selection, changed, request, reporter)
         _build_test_trees(selection, request, reporter)
         run = run_tests(selection, request, reporter)  # timings, report: runreport/package_run.py
         if console.summary:
@@ -232,7 +243,60 @@ def run_test_verb(args: argparse.Namespace) -> int:
         reporter.stop()
     if run.interrupted:
         raise Interrupted("tests interrupted")
+    if verb.shard is not None:  # what this shard tested, for the assembling job
+        _note_tested(verb.shard, shard_run, selection)
     return 1 if run.failed else 0
+
+
+def _note_tested(shard: ShardSpec, run: str, selection: Selection) -> None:
+    from wsbuild.builder.shard_cover import note_tested
+    from wsbuild.cache.settings import settings_from_environment
+
+    settings = settings_from_environment(os.environ)
+    problems = note_tested(settings if settings.enabled else None, run, shard.count,
+                           shard.index, selection.selected,
+                           selection.workspace.build_base / ".wsbuild")
+    print_warnings([f"cache: {problem}" for problem in problems])
+
+
+def _changed_since_built(selection: Selection, build_first: bool) -> list[str]:
+    """The selected packages whose sources changed since they were built: with --build, to
+    build first; else one line each saying so (their tests run what was built)."""
+    from wsbuild.builder.changed_since import sources_changed
+
+    changed = sources_changed(selection, selection.selected)
+    if build_first:
+        return list(changed)
+    print_warnings([f"{name} changed since it was built ({why}): its tests run what was "
+                    "built; run `wsbuild build` first, or `wsbuild test --build`"
+                    for name, why in changed.items()])
+    return []
+
+
+def _build_changed(selection: Selection, names: list[str], request: TestRequest,
+                   reporter: Reporter) -> None:
+    """--build: the changed packages built as they were last built (their records' options)."""
+    import json
+
+    from wsbuild.builder.pipeline import run_build
+    from wsbuild.builder.request import BuildRequest, RunOptions, options_of_record
+    from wsbuild.events import Notice
+    from wsbuild.record.model import read_record
+    from wsbuild.workspace.selection import Selection as Selected
+
+    groups: dict[str, list[str]] = {}
+    for name in names:
+        record = read_record(selection.workspace.build_base / name)
+        options = record.settings.get("options") if record is not None else None
+        groups.setdefault(json.dumps(options or {}, sort_keys=True), []).append(name)
+    for options, group in groups.items():
+        reporter(Notice(f"building {' '.join(group)} first: changed since it was built "
+                        "(--build)"))
+        run_build(Selected(selection.workspace, selection.packages, selection.graph, group),
+                  BuildRequest(build=options_of_record(json.loads(options)),
+                               run=RunOptions(workers=request.workers, continue_on_error=False,
+                                              wait_for_lock=request.wait_for_lock),
+                               report=False), reporter)
 
 
 def _build_test_trees(selection: Selection, request: TestRequest, reporter: Reporter) -> None:

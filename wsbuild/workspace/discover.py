@@ -253,6 +253,6 @@ def discover_packages(
         )
         if package is not None:
             found.append(package)
-    if remember:
+    if remember and found:  # a workspace without packages gets no build/ for it
         memo.save()
     return Discovery(packages=check_unique(found), warnings=tuple(warnings))

@@ -40,6 +40,11 @@ _CANONICAL_VERSION = re.compile(r"(?:0|[1-9][0-9]*)(?:\.(?:0|[1-9][0-9]*)){2}").
 _FORMATS = {"1": 1, "2": 2, "3": 3}
 #: how close an unknown element must be to a known one to count as its misspelling
 _MISSPELT = 0.8
+#: ... and to be named as what it may have meant
+_NEAR = 0.6
+#: the emails catkin_pkg takes (catkin_pkg.package.Person.validate)
+_CATKIN_EMAIL = re.compile(r"[-a-zA-Z0-9_%+]+(\.[-a-zA-Z0-9_%+]+)*@[-a-zA-Z0-9%]+"
+                           r"(\.[-a-zA-Z0-9%]+)*\.[a-zA-Z]{2,}").fullmatch
 
 _METADATA_TAGS = frozenset(
     {"name", "version", "description", "maintainer", "license", "url", "author", "export"}
@@ -167,6 +172,7 @@ class _Reader(ElementReader):
             dependencies=expand_dependencies(found.raws, depends),
             member_of_groups=members,
             exports=other_exports,
+            refused=tuple(self.refused),
         )
 
     def read_root(self, root: etree._Element) -> int:
@@ -191,7 +197,8 @@ class _Reader(ElementReader):
             self.format = fmt
         for key in root.keys():
             if key != "format" and key[0] != "{":
-                self.warn(root_line, f"unknown attribute {key!r} on <package> ignored")
+                self.refuse(root_line, f"unknown attribute {key!r} on <package>",
+                            "remove it: <package> takes only 'format'")
         return root_line
 
     def collect(
@@ -222,6 +229,8 @@ class _Reader(ElementReader):
                     found.exports.append(element)
                 else:  # url, author: not part of the model, but still text-only
                     self.text_of(element)
+                    if tag == "author":
+                        self.check_email(element, element.get("email"))
             elif tag == "member_of_group" and self.format >= 3:
                 found.groups.append(read_dependency(self, element, tag, GROUP_ATTRIBUTES))
             elif tag in ALL_FORMAT_TAGS:
@@ -240,8 +249,12 @@ class _Reader(ElementReader):
         if close:
             raise self.error(f"unknown element <{tag}> (package format {self.format})",
                              element.sourceline, f"did you mean <{close[0]}>?")
-        self.warn(element.sourceline,
-                  f"unknown element <{tag}> ignored (not part of package format {self.format})")
+        near = close_to(tag, known, cutoff=_NEAR)
+        fix = f"did you mean <{near[0]}>? Else remove it" if near else "remove it"
+        self.refuse(element.sourceline,
+                    f"unknown element <{tag}> (not part of package format {self.format})",
+                    f"{fix}, or put a tool's own element inside <export>",
+                    f"unknown element <{tag}> ignored (not part of package format {self.format})")
 
     def wrong_format(self, element: etree._Element, tag: str) -> ManifestError:
         fmt = self.format
@@ -270,9 +283,26 @@ class _Reader(ElementReader):
                 element.sourceline,
                 f'write <maintainer email="you@example.com">{name or "Your Name"}</maintainer>',
             )
+        self.check_email(element, email)
         return Person(name, email)
 
+    def check_email(self, element: etree._Element, email: str | None) -> None:
+        """An email catkin_pkg refuses (`a@b.c`: its domain must end in two letters or more)."""
+        if email and not _CATKIN_EMAIL(email):
+            self.refuse(element.sourceline, f"invalid email {email!r} of <{element.tag}>",
+                        "write a full address, e.g. email=\"you@example.com\"",
+                        f"email {email!r} of <{element.tag}> is not an address catkin_pkg "
+                        "takes (ament_cmake packages refuse it)")
+
     def license(self, element: etree._Element) -> str:
+        # wsbuild reads `type` and `source-files` (format 4); catkin_pkg refuses them, and
+        # `file` before format 3
+        for key in element.keys():
+            if key in _ATTRIBUTES["license"] and (key != "file" or self.format < 3):
+                self.refused.append((element.sourceline or 1,
+                                     f"attribute {key!r} on <license>",
+                                     "remove it: catkin_pkg takes only <license file=...>, "
+                                     "in package format 3"))
         text = self.text_of(element)
         if not text:
             raise self.error(

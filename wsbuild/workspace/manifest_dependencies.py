@@ -110,7 +110,9 @@ def read_dependency(
         for key in keys:
             if key not in allowed:
                 if key[0] != "{":
-                    reader.warn(line, f"unknown attribute {key!r} on <{tag}> ignored")
+                    known = " or ".join(repr(k) for k in sorted(allowed))
+                    reader.refuse(line, f"unknown attribute {key!r} on <{tag}>",
+                                  f"remove it: <{tag}> takes {known}")
             elif key == "condition":
                 condition = element.get(key)
             else:

@@ -16,7 +16,7 @@ class ElementReader:
     """One manifest being read: where it is, the environment its conditions see, where its
     warnings go, and its package format (1 until the root says otherwise)."""
 
-    __slots__ = ("path", "environ", "warnings", "format")
+    __slots__ = ("path", "environ", "warnings", "format", "refused")
 
     def __init__(
         self, path: Path, environ: Mapping[str, str], warnings: list[str] | None
@@ -25,10 +25,18 @@ class ElementReader:
         self.environ = environ
         self.warnings = warnings
         self.format = 1
+        #: (line, problem, fix) of what catkin_pkg refuses (workspace/model.py's `refused`)
+        self.refused: list[tuple[int, str, str]] = []
 
     def warn(self, line: int | None, message: str) -> None:
         if self.warnings is not None:
             self.warnings.append(f"{self.path}:{line or 1}: {message}")
+
+    def refuse(self, line: int | None, problem: str, fix: str, warning: str = "") -> None:
+        """A problem wsbuild reads past (a warning: `warning`, else the problem "ignored")
+        that catkin_pkg, which ament_cmake reads package.xml with, refuses."""
+        self.warn(line, warning or f"{problem} ignored")
+        self.refused.append((line or 1, problem, fix))
 
     def error(self, message: str, line: int | None, hint: str) -> ManifestError:
         return ManifestError(message, path=self.path, line=line or 1, hint=hint)
@@ -59,9 +67,9 @@ class ElementReader:
     def check_attributes(self, element: etree._Element, allowed: frozenset[str]) -> None:
         for key in element.keys():
             if key not in allowed and key[0] != "{":  # namespaced (xsi:...) attributes are fine
-                self.warn(
-                    element.sourceline, f"unknown attribute {key!r} on <{element.tag}> ignored"
-                )
+                known = " or ".join(repr(k) for k in sorted(allowed)) if allowed else "none"
+                self.refuse(element.sourceline, f"unknown attribute {key!r} on <{element.tag}>",
+                            f"remove it: <{element.tag}> takes {known}")
 
     def single(self, elements: list[etree._Element], tag: str) -> None:
         if len(elements) > 1:

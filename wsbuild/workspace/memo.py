@@ -16,7 +16,7 @@ from wsbuild.workspace.model import Dependency, DepKind, Package, Person, Versio
 from wsbuild import inputs
 
 #: bump when the remembered form of a package changes
-FORMAT = 1
+FORMAT = 2
 #: `$NAME` in a condition (REP 149)
 _VARIABLE = re.compile(rb"\$([A-Za-z_][A-Za-z0-9_]*)")
 
@@ -98,6 +98,7 @@ def package_to_json(package: Package) -> dict[str, object]:
                           d.line] for d in package.dependencies],
         "member_of_groups": list(package.member_of_groups),
         "exports": [list(e) for e in package.exports],
+        "refused": [list(r) for r in package.refused],
     }
 
 
@@ -118,4 +119,5 @@ def package_from_json(data: Mapping[str, object]) -> Package:
             for name, kind, constraints, line in data["dependencies"]),  # type: ignore
         member_of_groups=tuple(str(x) for x in data["member_of_groups"]),  # type: ignore
         exports=tuple((str(t), str(x)) for t, x in data["exports"]),  # type: ignore
+        refused=tuple((int(n), str(p), str(f)) for n, p, f in data["refused"]),  # type: ignore
     )

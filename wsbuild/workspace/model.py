@@ -78,6 +78,9 @@ class Package:
     member_of_groups: tuple[str, ...] = ()
     #: extra `<export>` children other than build_type, as (tag, text) pairs
     exports: tuple[tuple[str, str], ...] = ()
+    #: what wsbuild only warns about but catkin_pkg (ament's package.xml reader) refuses, as
+    #: (line, problem, fix): an error for a build type whose build reads package.xml so
+    refused: tuple[tuple[int, str, str], ...] = ()
 
     def dependency_names(self, category: DepCategory) -> frozenset[str]:
         """Names of the dependencies in one colcon category (groups not yet expanded)."""

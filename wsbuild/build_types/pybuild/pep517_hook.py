@@ -125,5 +125,28 @@ def main(argv: list) -> int:
     return 0
 
 
+def _setup_py_line(exc: BaseException) -> str:
+    """setuptools runs setup.py from a string (`File "<string>", line 23`): the line naming
+    setup.py and that line, as for a syntax error ("" when the error was not raised there)."""
+    where = ""
+    tb = exc.__traceback__
+    while tb is not None:
+        frame = tb.tb_frame
+        script = frame.f_globals.get("__file__") or ""
+        if frame.f_code.co_filename == "<string>" and str(script).endswith("setup.py"):
+            where = f"{script}:{tb.tb_lineno}"
+        tb = tb.tb_next
+    return f"{where}: {type(exc).__name__}: {exc}" if where else ""
+
+
 if __name__ == "__main__":
-    sys.exit(main(sys.argv[1:]))
+    try:
+        sys.exit(main(sys.argv[1:]))
+    except Exception as error:  # the traceback as Python prints it, then where in setup.py
+        import traceback
+
+        traceback.print_exc()
+        line = _setup_py_line(error)
+        if line:
+            sys.stderr.write(line + "\n")
+        sys.exit(1)
