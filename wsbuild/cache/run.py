@@ -145,6 +145,28 @@ class RunCache:
     def _warn(self, text: str) -> None:
         self._emit(Notice(text, warning=True))
 
+    def _refused(self, key: CacheKey, found: Found, why_not: str) -> None:
+        """Note a refused entry: in the run's log, and counted when it came from the server
+        and no wsbuild could use it."""
+        with self._lock:
+            self._misses.append(f"{key.package}: {why_not}")
+            if why_not in UNUSABLE and not found.from_local:
+                self._unusable.add(key.package)
+
+    def _name_unusable_server(self) -> None:
+        """One warning naming a server that answered with entries no wsbuild could use."""
+        if not self._unusable or self.settings is None:
+            return
+        from wsbuild.redaction import redact
+        from wsbuild.words import plural
+
+        count = len(self._unusable)
+        self._warn(f"cache server {redact(self.settings.url or '')} answered "
+                   f"{plural(count, 'entry', 'entries')} wsbuild cannot use (no package record "
+                   "of these inputs: not a wsbuild cache, or it serves something else at "
+                   f"these addresses); {'it was' if count == 1 else 'they were'} refused "
+                   "before anything was unpacked, and built here")
+
     def key(self, name: str, build_type: str, inputs_key: str, prefix: Path) -> CacheKey | None:
         if self.settings is None:
             return None
