@@ -264,13 +264,12 @@ def plain(path: str) -> str:
     """`path` without `.`, `..` and doubled slashes, as the kernel resolved it (its directory's
     symlinks followed for a `..`, its last name kept: `src/pkg/../../shared/a.txt` is
     `shared/a.txt`, whatever `pkg` is)."""
-    if "/." not in path and "//" not in path:
+    if "//" not in path and "/./" not in path and "/../" not in path \
+            and not path.endswith(("/.", "/..")):
         return path
     head, tail = os.path.split(path)
     if tail in (".", ".."):
         return os.path.realpath(path)
-    if "/." not in head + "/" and "//" not in path:
-        return path  # a name that starts with a dot
     return os.path.join(os.path.realpath(head), tail)
 
 
