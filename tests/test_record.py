@@ -7,7 +7,10 @@ from __future__ import annotations
 
 import json
 import os
+import time
 from pathlib import Path
+
+import pytest
 
 from wsbuild import inputs
 from wsbuild.record.dirty import Environment, PackageNow, dirty_reason
@@ -263,6 +266,36 @@ def test_every_shortcut_asks_the_one_dirty_check() -> None:
             if isinstance(node, ast.Call) and isinstance(node.func, ast.Name) \
                     and node.func.id in ("dirty_reason", "changed_read"):
                 askers.setdefault(node.func.id, set()).add(str(path.relative_to(package)))
-    assert askers == {"dirty_reason": {"builder/plan.py"},
+    # (builder/changed_since.py: `wsbuild test` asks of a package's own files alone)
+    assert askers == {"dirty_reason": {"builder/plan.py", "builder/changed_since.py"},
                       "changed_read": {"builder/records.py", "cache/run.py"}}
     assert {kind.value for kind in Dirty} >= {"source", "environment", "dependency", "options"}
+
+
+def test_a_files_digest_is_kept_across_runs_only_for_its_signature_and_never_racy(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """record/file_digests.py: a digest taken by one run serves the next (another process,
+    another workspace) for the same stat signature; a file changed too shortly before its
+    digest was taken (within the file system's time granularity) is never kept."""
+    from wsbuild.record import file_digests
+    from wsbuild.record.file_digests import FileDigests
+
+    monkeypatch.setattr(file_digests, "RACY_NS", 200_000_000)  # the suite's 0.2 s
+    old = _write(tmp_path / "old.h", "int a;\n")
+    time.sleep(0.3)  # its times (the change time too) before the racy window
+    fresh = _write(tmp_path / "fresh.h", "int b;\n")
+    memo = FileDigests(tmp_path / "cache" / "digests.memo")
+    now = time.time_ns()
+    digests = Digests()
+    digests.kept = memo
+    for path in (old, fresh):
+        digests.file(str(path), inputs.signature(path))
+    memo.save()
+    assert (tmp_path / "cache" / "digests.memo").stat().st_mode & 0o777 == 0o600
+    later = FileDigests(tmp_path / "cache" / "digests.memo")  # the next run
+    assert later.get(str(old), inputs.signature(old)) == Digests().file(
+        str(old), inputs.signature(old))
+    assert later.get(str(fresh), inputs.signature(fresh)) is None  # changed < RACY_NS before
+    assert inputs.signature(fresh)[4] > now - file_digests.RACY_NS
+    old.write_text("int c;\n")  # same size, another signature
+    assert later.get(str(old), inputs.signature(old)) is None

@@ -29,8 +29,8 @@ from typing import TypeVar
 
 #: (absolute or relative path, kind, what the run saw: a stat signature, ABSENT or None)
 Listener = Callable[[str, str, "tuple[int, ...] | None"], None]
-STAT, LSTAT, FILE, LISTING, DECLARED, UNREADABLE, UNRECORDED = (
-    "stat", "lstat", "file", "listing", "declared", "unreadable", "unrecorded")
+STAT, LSTAT, FILE, LISTING, DECLARED, UNREADABLE, UNRECORDED, MEMO = (
+    "stat", "lstat", "file", "listing", "declared", "unreadable", "unrecorded", "memo")
 ABSENT: tuple[int, ...] = (0, 0, 0, 0, 0)
 _listeners: list[Listener] = []
 
@@ -155,6 +155,13 @@ def declare_file(path: str | os.PathLike[str]) -> None:
     """The run's answer depends on the file at `path` (or on its absence), read by another
     program."""
     _notify(path, DECLARED, None)
+
+
+def declare_memo(path: str | os.PathLike[str]) -> None:
+    """A file wsbuild keeps for itself, read: what it answers is derived from inputs that are
+    declared and checked against them (a digest by its file's signature), so it is no input of
+    a record itself."""
+    _notify(path, MEMO, None)
 
 
 def declare_unrecorded(why: str) -> None:

@@ -21,6 +21,7 @@ from wsbuild.record.outside import Digests
 if TYPE_CHECKING:
     from wsbuild.observe.library import Observer
     from wsbuild.record.dirty import Environment
+    from wsbuild.record.file_digests import FileDigests
 from wsbuild.underlay.environment import PreparedUnderlay, prepare_underlay
 from wsbuild.workspace.root import BUILD_MARKER, Workspace
 
@@ -127,9 +128,11 @@ class Session:
 
     def close(self) -> None:
         if not self.options.dry_run:
+            from wsbuild.record.file_digests import save_file_digests
             from wsbuild.record.memo import save_memos
 
             save_memos()
+            save_file_digests()
         if self._jobserver is not None:
             self._jobserver.close()
             self._jobserver = None
@@ -166,10 +169,19 @@ def open_session(workspace: Workspace, options: SessionOptions, emit: Emit) -> I
                          log=run_log / "cache.log" if run_log is not None else None)
         session = Session(workspace, options, merged, underlay, run_log, cache, tuple(notices))
         cache.environment = session.environment
+        session.digests.kept = _kept_digests()
         try:
             yield session
         finally:
             session.close()
+
+
+def _kept_digests() -> FileDigests:
+    """The digests of files earlier runs took (record/file_digests.py), beside the observer."""
+    from wsbuild.observe.library import home
+    from wsbuild.record.file_digests import file_digests
+
+    return file_digests(home(os.environ))
 
 
 def _prepare_install(workspace: Workspace, merged: bool) -> None:

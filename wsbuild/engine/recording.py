@@ -136,6 +136,8 @@ class ReplayRecorder:
         #: what the reporter showed, in order (a build's record draws it again)
         self._shown: list[list[object]] = []
         self._unlisten: Callable[[], None] | None = None
+        #: the files wsbuild keeps for itself that the run read (`inputs.declare_memo`)
+        self.memos: set[str] = set()
         #: the test suite's oracle (engine/inputs_oracle.py), when WSBUILD_INPUTS_ORACLE names
         #: its file: the process's own accesses traced, the undeclared ones written down
         self.oracle = InputsOracle.from_environment(self.cwd)
@@ -151,6 +153,9 @@ class ReplayRecorder:
             return
         name = self._absolute(path)
         if name is None:
+            return
+        if kind == inputs.MEMO:
+            self.memos.add(name)
             return
         if kind == inputs.LISTING:
             self.listed.add(name)
@@ -221,7 +226,8 @@ class ReplayRecorder:
         if self.oracle is not None and self.outcome is not None and exit_code == 0 \
                 and not self.spoiled:  # (a spoiled run leaves no record)
             outputs = (self.outcome.get("log_base", ""), str(RECORDS.absolute()),
-                       os.path.join(self.outcome["build_base"], ".wsbuild.build.lock"))
+                       os.path.join(self.outcome["build_base"], ".wsbuild.build.lock"),
+                       *sorted(self.memos))
             self.oracle.report_undeclared(self.seen, self.listed, outputs)
 
     def _write(self, exit_code: int) -> None:

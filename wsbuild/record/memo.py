@@ -50,8 +50,10 @@ class RecordsMemo:
         self._load()
 
     def _load(self) -> None:
+        inputs.declare_memo(self.path)  # each record it answers is checked by its file's stat
         try:
-            data = marshal.loads(inputs.read_bytes(self.path))
+            with open(self.path, "rb") as handle:
+                data = marshal.loads(handle.read())
         except (OSError, EOFError, ValueError, TypeError):
             return
         try:

@@ -18,12 +18,16 @@ import hashlib
 import os
 import stat as modes
 import threading
+import time
 from collections.abc import Callable, Collection, Iterable, Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
-from typing import NamedTuple
+from typing import TYPE_CHECKING, NamedTuple
 
 from wsbuild import inputs
 from wsbuild.record.own_files import content_digest
+
+if TYPE_CHECKING:
+    from wsbuild.record.file_digests import FileDigests
 
 #: the digest of a path that does not exist, of a directory read as a file, of a file that
 #: changed while the build ran (never equal to a digest taken later: the next check builds)
@@ -122,6 +126,8 @@ class Digests:
         self._signatures: dict[str, tuple[int, ...]] = {}
         #: the signatures of the files whose time wsbuild itself set forward in this run
         self._advanced: dict[str, tuple[int, ...]] = {}
+        #: the digests taken by earlier runs (record/file_digests.py), when the run keeps them
+        self.kept: FileDigests | None = None
 
     def advanced(self, path: str) -> None:
         """Note that wsbuild just set the file's modification time (its content unchanged):
@@ -154,13 +160,18 @@ class Digests:
             return DIRECTORY_DIGEST
         with self._lock:
             known = self._files.get((path, signature))
+        if known is None and self.kept is not None:
+            known = self.kept.get(path, signature)
         if known is None:
+            taken_ns = time.time_ns()
             try:
                 known = content_digest(path)
             except OSError as exc:
-                known = f"unreadable:{exc.errno}"
-            with self._lock:
-                self._files[(path, signature)] = known
+                return f"unreadable:{exc.errno}"
+            if self.kept is not None:
+                self.kept.put(path, signature, known, taken_ns)
+        with self._lock:
+            self._files[(path, signature)] = known
         return known
 
     def listing(self, path: str, signature: tuple[int, ...],
