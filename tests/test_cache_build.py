@@ -291,7 +291,9 @@ def test_a_server_whose_entries_no_wsbuild_can_use_is_named_once_with_their_coun
     evil = raw.getvalue()
     evil_digest = hashlib.sha256(evil).hexdigest()
     (nginx.root / "cas" / evil_digest).write_bytes(evil)
-    entries = list(nginx.stored("ac"))
+    # the action results (a key's variants documents, beside them, stay as they are)
+    entries = [path for path in nginx.stored("ac")
+               if parse_action_result(path.read_bytes()) is not None]
     for path in entries:
         record = parse_action_result(path.read_bytes())
         assert record is not None
@@ -300,12 +302,13 @@ def test_a_server_whose_entries_no_wsbuild_can_use_is_named_once_with_their_coun
     fresh_clone(ws, template)
     result = run_build(ws, "--cache", nginx.url, env=env_for(tmp_path / "m2"))
     assert warnings(result) == [
-        f"WARNING: cache server {nginx.url.rstrip('/')} answered {len(entries)} entries "
+        f"WARNING: cache server {nginx.url.rstrip('/')} answered {len(PACKAGES)} entries "
         "wsbuild cannot use "
         "(no package record of these inputs: not a wsbuild cache, or it serves something else "
         "at these addresses); they were refused before anything was unpacked, and built "
         "here"], output(result)
-    assert len(entries) == len(PACKAGES) and len(finished(result)) == len(PACKAGES)
+    # one refusal per package looked up (a key and its variant's key each hold a result)
+    assert len(entries) >= len(PACKAGES) and len(finished(result)) == len(PACKAGES)
     assert tree(ws / "install") == built
     assert not list(tmp_path.rglob("escaped.txt"))
 

@@ -589,3 +589,27 @@ def test_a_package_that_reads_an_undeclared_workspace_package_is_named(tmp_path:
                  "--cmake-force-configure", cwd=ws, env=env)
     assert strict.returncode != 0 and "does not declare provider" in strict.stdout, \
         output(strict)
+
+
+def test_a_merged_install_is_a_no_op_after_its_build_and_a_neighbour_builds_alone(
+        tmp_path: Path) -> None:
+    """In a merged install every package lists the shared prefix (Python's import system,
+    setuptools): what packages it does not depend on put there, and wsbuild's own stage, are
+    no input of its build, so the build after a build is a no-op and an edit of one package
+    rebuilds it and its dependents only."""
+    ws = tmp_path / "ws"
+    src = ws / "src"
+    write_ament_python(src, "base_py", modules={"core.py": "X = 1\n"})
+    write_ament_python(src, "user_py", modules={"main.py": "from base_py.core import X\n"},
+                       depend=["base_py"])
+    lone = write_ament_python(src, "lone_py", modules={"lone.py": "Y = 1\n"})
+    _build(ws, "--merge-install")
+    time.sleep(1.1)
+    again = _build(ws, "--merge-install")
+    assert _finished(again) == [], output(again)
+    write(lone / "lone_py" / "lone.py", "Y = 2\n")
+    write(lone / "lone_py" / "extra.py", "Z = 3\n")
+    edited = _build(ws, "--merge-install")
+    assert _finished(edited) == ["lone_py"], output(edited)
+    time.sleep(1.1)
+    assert _finished(_build(ws, "--merge-install")) == []

@@ -15,6 +15,8 @@ _UNIQUE = itertools.count()
 #: what a temporary file beside its target ends with (it also starts with a dot, so the prefix
 #: indexes and fingerprints, which skip hidden files, never see one)
 TEMP_SUFFIX = ".wsbuild-tmp"
+#: the directory of the install base where packages are staged during a run (prefix/stage.py)
+STAGE_DIR = ".wsbuild-stage"
 
 
 def atomic_write(path: Path, content: str | bytes, *, mode: int | None = None,
@@ -96,11 +98,16 @@ def create_if_missing(path: Path, content: str = "") -> bool:
 def private_directory(path: Path) -> Path:
     """`path` made (with its parents) and kept readable by its owner only (0o700): what
     wsbuild keeps for itself there is nobody else's to read."""
-    path.parent.mkdir(parents=True, exist_ok=True)
     try:
         os.mkdir(path, 0o700)
     except FileExistsError:
         pass
+    except FileNotFoundError:  # its parents first (never statted when they are there)
+        path.parent.mkdir(parents=True, exist_ok=True)
+        try:
+            os.mkdir(path, 0o700)
+        except FileExistsError:
+            pass
     # lstat (and no Path.mkdir(exist_ok=True), which stats): only the directory's identity
     # and mode matter here, so a no-op's record holds no more of it (its times change with
     # every file made in it)

@@ -170,6 +170,11 @@ def open_session(workspace: Workspace, options: SessionOptions, emit: Emit) -> I
         session = Session(workspace, options, merged, underlay, run_log, cache, tuple(notices))
         cache.environment = session.environment
         session.digests.kept = _kept_digests()
+        if merged:  # a listing in the shared prefix leaves out the other packages' entries
+            from wsbuild.prefix.stage import MERGED_RECORD
+            from wsbuild.record.merged_owners import register
+
+            register(workspace.install_base, workspace.build_base, MERGED_RECORD)
         try:
             yield session
         finally:

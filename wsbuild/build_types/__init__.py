@@ -19,6 +19,8 @@ third-party type the defaults.
 
 from __future__ import annotations
 
+import os
+
 from collections.abc import Callable, Collection, Iterator, Mapping, Sequence
 from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
@@ -470,11 +472,17 @@ def _checked(loaded: object, name: str, value: str) -> BuildType:
 
 
 def _entry_points() -> Sequence[EntryPoint]:
-    from importlib.metadata import entry_points
+    import sys
+    from importlib.metadata import distributions, entry_points
 
     found = [ep for ep in entry_points(group=ENTRY_POINT_GROUP) if ep.name not in BUILTIN]
-    for ep in found:  # which types there are, and where from: an input of the plan
-        where = getattr(ep.dist, "_path", None)
+    # which types there are, and where from, is an input of the plan: the distributions on
+    # the path (a new one is a new entry of its directory) and each one's entry points
+    for entry in sys.path:
+        if entry and os.path.isdir(entry):
+            inputs.declare_directory(entry)
+    for dist in distributions():
+        where = getattr(dist, "_path", None)
         if where is not None:
             inputs.declare_file(Path(where) / "entry_points.txt")
     return found

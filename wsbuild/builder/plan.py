@@ -287,7 +287,8 @@ def plan_package(planning: _Planning, name: str) -> PackagePlan:
                        dependency_inputs=dependency_inputs,
                        outside=refreshed(old.outside, session.digests,
                                          own=own_entries(str(selection.workspace.install_base),
-                                                         old.installed))).sealed()
+                                                         old.installed, package=old.package,
+                                                         keep=old.dependencies))).sealed()
         return PackagePlan(decision=Decision.UP_TO_DATE, reason=None, key=kept.key,
                            inputs_key=kept.inputs_key, note=note, previous=old, cut_off=kept,
                            **common)

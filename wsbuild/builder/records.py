@@ -58,7 +58,8 @@ def built_record(planned: PackagePlan, *, observations: StepObservations,
     reads = observed_reads(
         observations, where, digests, files=declared.files, listings=declared.listings,
         tracked=set(declared.files) | set(declared.listings), started_ns=started_ns,
-        own=own_entries(str(install_base), installed), settled=touched,
+        own=own_entries(str(install_base), installed, package=planned.name,
+                        keep=dependencies), settled=touched,
         extra_variables={"build": compiler_variables} if compiler_variables else None)
     ignored = (*environment.ignored, *observations.run_only)
     names = set(reads.seen)
@@ -125,7 +126,9 @@ def restored_record(planned: PackagePlan, entry: PackageRecord,
     the same here) and the installed files."""
     return replace(entry, own=planned.own.files,
                    outside=refreshed(entry.outside, digests,
-                                     own=own_entries(str(install_base), installed)),
+                                     own=own_entries(str(install_base), installed,
+                                                     package=entry.package,
+                                                     keep=entry.dependencies)),
                    installed=tuple(installed)).sealed()
 
 
@@ -142,7 +145,8 @@ def cut_off_record(planned: PackagePlan, dependencies: Mapping[str, str], *,
     if changed_read(previous, digests=digests, install_base=install_base, planning=False,
                     environment=environment, seen=True) is not None:
         return None
-    own = own_entries(str(install_base), previous.installed)
+    own = own_entries(str(install_base), previous.installed, package=previous.package,
+                      keep=previous.dependencies)
     return replace(previous, dependencies=dict(dependencies),
                    dependency_inputs=dict(planned.dependency_inputs),
                    outside=refreshed(previous.outside, digests, own=own)).sealed()

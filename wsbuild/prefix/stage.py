@@ -13,10 +13,9 @@ from contextlib import contextmanager
 from pathlib import Path
 
 from wsbuild.record.installed import Installed, installed_entries
-from wsbuild.files import atomic_write
+from wsbuild.files import STAGE_DIR, atomic_write
 from wsbuild import inputs
 
-STAGE_DIR = ".wsbuild-stage"
 #: record, per package, of the files it put into a merged prefix
 MERGED_RECORD = ".wsbuild/merged_files.txt"
 
@@ -67,6 +66,10 @@ def commit_merged(stage: Path, prefix: Path, record: Path,
     staged = _files(stage)
     new_files = sorted(set(staged) | set(in_place))
     old_files = record.read_text().splitlines() if record.exists() else []
+    # the list first: a file in the prefix is always on its package's list (what other
+    # packages' listings of the prefix leave out: record/merged_owners.py)
+    record.parent.mkdir(parents=True, exist_ok=True)
+    atomic_write(record, "".join(f"{rel}\n" for rel in sorted(set(new_files) | set(old_files))))
     for rel in sorted(set(old_files) - set(new_files), reverse=True):
         target = prefix / rel
         if target.is_symlink() or target.is_file():

@@ -152,11 +152,11 @@ def dirty_reason(old: PackageRecord | None, now: PackageNow, *, install_base: Pa
     if waiting:
         return Reason(Dirty.DEPENDENCY, f"dependency {', '.join(waiting)} is built first; this "
                       "package only if what it read of it changes", tuple(waiting), cutoff=True)
-    outside = first_change(old.outside, digests, planning=True,
-                           own=own_entries(str(install_base), old.installed))
+    own = own_entries(str(install_base), old.installed, package=old.package,
+                      keep=old.dependencies)
+    outside = first_change(old.outside, digests, planning=True, own=own)
     if outside is not None:
-        changed = tuple(changed_paths(old.outside, digests, planning=True,
-                                      own=own_entries(str(install_base), old.installed)))
+        changed = tuple(changed_paths(old.outside, digests, planning=True, own=own))
         redo = _redo(old, changed)
         if changed_deps:
             return Reason(Dirty.DEPENDENCY, "dependency rebuilt: " + ", ".join(changed_deps)
@@ -212,8 +212,9 @@ def changed_read(record: PackageRecord, *, digests: Digests, install_base: Path,
             return Reason(Dirty.ENVIRONMENT, f"read {', '.join(changed_variables[:5])}, which "
                           "differs here", changed_variables,
                           redo=_redo(record, (f"${n}" for n in changed_variables)))
-    changed = first_change(record.outside, digests, planning=planning,
-                           own=own_entries(str(install_base), record.installed),
+    own = own_entries(str(install_base), record.installed, package=record.package,
+                      keep=record.dependencies)
+    changed = first_change(record.outside, digests, planning=planning, own=own,
                            skip=str(install_base) + os.sep if waiting else "")
     if changed is not None:
         return Reason(Dirty.EXTERNAL, f"read {changed}, which differs here", (changed,),

@@ -24,6 +24,7 @@ from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, NamedTuple
 
 from wsbuild import inputs
+from wsbuild.files import STAGE_DIR, TEMP_SUFFIX
 from wsbuild.record.own_files import content_digest
 
 if TYPE_CHECKING:
@@ -42,9 +43,14 @@ def no_own_entries(_path: str) -> frozenset[str]:
     return frozenset()
 
 
-def own_entries(install_base: str, installed: Collection[Sequence[object]]) -> OwnEntries:
+def own_entries(install_base: str, installed: Collection[Sequence[object]], *,
+                package: str = "", keep: Collection[str] = ()) -> OwnEntries:
     """The names a package's installed files (relative to `install_base`) put into each
-    directory: what a listing of that directory leaves out."""
+    directory: what a listing of that directory leaves out; in a merged install also what
+    the workspace's packages but `package` and its dependencies (`keep`) put there
+    (record/merged_owners.py)."""
+    from wsbuild.record.merged_owners import others_in
+
     base = install_base.rstrip(os.sep) + os.sep
     files = [str(entry[0]) for entry in installed]
 
@@ -53,8 +59,9 @@ def own_entries(install_base: str, installed: Collection[Sequence[object]]) -> O
             return frozenset()
         rel = path[len(base):].strip(os.sep)
         prefix = rel + os.sep if rel else ""
-        return frozenset(f[len(prefix):].split(os.sep, 1)[0] for f in files
-                         if f.startswith(prefix) and len(f) > len(prefix))
+        own = frozenset(f[len(prefix):].split(os.sep, 1)[0] for f in files
+                        if f.startswith(prefix) and len(f) > len(prefix))
+        return own | others_in(install_base, rel, package, keep)
 
     return entries
 
@@ -284,7 +291,8 @@ def listing_digest(path: str, own: Collection[str] = ()) -> str:
         return f"unlistable:{exc.errno}"
     total = hashlib.blake2b(digest_size=16)
     for entry in sorted(entries, key=lambda e: e.name):
-        if entry.name in own:
+        # wsbuild's own passing entries (a stage, a file being replaced) are no one's input
+        if entry.name in own or entry.name == STAGE_DIR or entry.name.endswith(TEMP_SUFFIX):
             continue
         try:
             kind = "l" if entry.is_symlink() else "d" if entry.is_dir() else "f"
@@ -304,7 +312,11 @@ def take(files: Iterable[str], listings: Iterable[str], digests: Digests, *,
     changed since `started_ns` (the build's start) may have changed after the build read it:
     it is held as racy, so the next check builds again; but a file of `settled` (path -> its
     digest before the steps ran: a time the build set forward itself) with that digest
-    still, and a file as wsbuild left it when it set its time (`Digests.advanced`)."""
+    still, and a file as wsbuild left it when it set its time (`Digests.advanced`); nor a
+    listing in a merged install base (what changes there during a build is what its listing
+    leaves out: record/merged_owners.py)."""
+    from wsbuild.record.merged_owners import in_merged_install
+
     files, listings = sorted(set(files)), sorted(set(listings))
 
     def racy(signature: tuple[int, ...], directory_counts: bool) -> bool:
@@ -318,8 +330,9 @@ def take(files: Iterable[str], listings: Iterable[str], digests: Digests, *,
         # file counts by its type only, which its entries' changes leave alone
         digest = digests.listing(path, signature, own(path)) if listing \
             else digests.file(path, signature)
-        if racy(signature, listing) and (listing or (
-                (settled or {}).get(path) != digest and digests.advanced_to(path) != signature)):
+        if racy(signature, listing) and (
+                not in_merged_install(path) if listing else
+                (settled or {}).get(path) != digest and digests.advanced_to(path) != signature):
             return Seen(signature, RACY_DIGEST)
         return Seen(signature, digest)
 
