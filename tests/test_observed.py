@@ -613,3 +613,45 @@ def test_a_merged_install_is_a_no_op_after_its_build_and_a_neighbour_builds_alon
     assert _finished(edited) == ["lone_py"], output(edited)
     time.sleep(1.1)
     assert _finished(_build(ws, "--merge-install")) == []
+
+
+#: a program that probes with null paths, as Rust's standard library does for statx (sccache,
+#: a compiler cache wsbuild drives, does at its start), then reads a file
+NULL_PROBES = r"""
+#define _GNU_SOURCE
+#include <fcntl.h>
+#include <stdio.h>
+#include <sys/stat.h>
+#include <unistd.h>
+int main(int argc, char **argv) {
+    struct stat info;
+    const char *volatile none = NULL;
+    statx(0, none, 0, STATX_ALL, NULL);
+    fstatat(AT_FDCWD, none, &info, 0);
+    FILE *f = fopen(argv[1], "r");
+    return f == NULL;
+}
+"""
+
+
+def test_a_program_that_probes_with_null_paths_runs_observed_and_its_reads_are_seen(
+        tmp_path: Path) -> None:
+    """The observer must never change what a step does: a null path is passed through to the
+    C library (which answers EFAULT), and the program's later reads are still written down."""
+    from wsbuild.observe.library import observer
+    from wsbuild.observe.step_environment import observed
+
+    made = observer(tmp_path / "observer", os.environ)
+    assert not isinstance(made, str), made
+    write(tmp_path / "probe.c", NULL_PROBES)
+    subprocess.run(["cc", "-O2", "-o", str(tmp_path / "probe"), str(tmp_path / "probe.c")],
+                   check=True)
+    read = tmp_path / "input.txt"
+    read.write_text("x")
+    logs = tmp_path / "logs"
+    logs.mkdir()
+    done = subprocess.run([str(tmp_path / "probe"), str(read)], capture_output=True, text=True,
+                          env=observed(dict(os.environ), made, logs), timeout=60, check=False)
+    assert done.returncode == 0, done.stderr
+    lines = "".join(path.read_text() for path in logs.iterdir()).splitlines()
+    assert f"R {read}" in lines

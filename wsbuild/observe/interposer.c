@@ -240,8 +240,23 @@ static void emit(char kind, const char *text, int dedupe) {
     errno = saved;
 }
 
+/* `p` as the caller passed it, null or not: the C library declares most of the functions
+ * wrapped here with nonnull arguments, and the compiler then drops a wrapper's null check
+ * (-fno-delete-null-pointer-checks does not stop it); programs probe with null (Rust's
+ * standard library calls statx(0, NULL, 0, STATX_ALL, NULL) to learn whether it exists) */
+static inline const char *opaque(const char *p) {
+    __asm__("" : "+r"(p));
+    return p;
+}
+
+static int given(const char *path) {
+    path = opaque(path);
+    return path != NULL && path[0] != 0;
+}
+
 /* `path` made absolute against the working directory, or the directory `dirfd` names */
 static int absolute(int dirfd, const char *path, char *out, size_t size) {
+    path = opaque(path);
     if (path == NULL)
         return 0;
     if (path[0] == '/') {
@@ -590,7 +605,7 @@ EXPORT FILE *fopen64(const char *path, const char *mode) {
 EXPORT FILE *freopen(const char *path, const char *mode, FILE *stream) {
     REAL(freopen);
     FILE *f = real_freopen(path, mode, stream);
-    if (path)
+    if (opaque(path))
         note_open(f ? 0 : -1, AT_FDCWD, path, fopen_flags(mode));
     return f;
 }
@@ -598,7 +613,7 @@ EXPORT FILE *freopen(const char *path, const char *mode, FILE *stream) {
 EXPORT FILE *freopen64(const char *path, const char *mode, FILE *stream) {
     REAL(freopen64);
     FILE *f = real_freopen64(path, mode, stream);
-    if (path)
+    if (opaque(path))
         note_open(f ? 0 : -1, AT_FDCWD, path, fopen_flags(mode));
     return f;
 }
@@ -636,7 +651,7 @@ EXPORT int lstat64(const char *path, struct stat64 *buf) {
 EXPORT int fstatat(int dirfd, const char *path, struct stat *buf, int flags) {
     REAL(fstatat);
     int r = real_fstatat(dirfd, path, buf, flags);
-    if (path && path[0])
+    if (given(path))
         note_probe(r, dirfd, path);
     return r;
 }
@@ -644,7 +659,7 @@ EXPORT int fstatat(int dirfd, const char *path, struct stat *buf, int flags) {
 EXPORT int fstatat64(int dirfd, const char *path, struct stat64 *buf, int flags) {
     REAL(fstatat64);
     int r = real_fstatat64(dirfd, path, buf, flags);
-    if (path && path[0])
+    if (given(path))
         note_probe(r, dirfd, path);
     return r;
 }
@@ -654,7 +669,7 @@ int statx(int dirfd, const char *path, int flags, unsigned int mask, struct stat
 EXPORT int statx(int dirfd, const char *path, int flags, unsigned int mask, struct statx *buf) {
     REAL(statx);
     int r = real_statx(dirfd, path, flags, mask, buf);
-    if (path && path[0])
+    if (given(path))
         note_probe(r, dirfd, path);
     return r;
 }
@@ -698,7 +713,7 @@ EXPORT int __lxstat64(int ver, const char *path, struct stat64 *buf) {
 EXPORT int __fxstatat(int ver, int dirfd, const char *path, struct stat *buf, int flags) {
     REAL(__fxstatat);
     int r = real___fxstatat(ver, dirfd, path, buf, flags);
-    if (path && path[0])
+    if (given(path))
         note_probe(r, dirfd, path);
     return r;
 }
@@ -706,7 +721,7 @@ EXPORT int __fxstatat(int ver, int dirfd, const char *path, struct stat *buf, in
 EXPORT int __fxstatat64(int ver, int dirfd, const char *path, struct stat64 *buf, int flags) {
     REAL(__fxstatat64);
     int r = real___fxstatat64(ver, dirfd, path, buf, flags);
-    if (path && path[0])
+    if (given(path))
         note_probe(r, dirfd, path);
     return r;
 }
