@@ -171,7 +171,10 @@ def generate(root: Path, planned: Sequence[Planned]) -> Path:
             f"{' '.join(f'{d}::{d}' for d in package.depends)})\n" if package.depends else ""
         units = package.units or (1,)
         sources = " ".join(f"src/unit{i}.cpp" for i in range(len(units)))
-        extra = f"add_custom_target(takes_a_while ALL COMMAND sleep {package.sleep})\n" \
+        # slow once per fresh build: a target that always runs is never cached
+        extra = (f"add_custom_command(OUTPUT slow.stamp COMMAND sleep {package.sleep} "
+                 "COMMAND ${CMAKE_COMMAND} -E touch slow.stamp)\n"
+                 "add_custom_target(takes_a_while ALL DEPENDS slow.stamp)\n") \
             if package.sleep else ""
         _write(base / "CMakeLists.txt", CMAKELISTS.format(
             name=name, find=find, sources=sources, link=link, extra=extra))

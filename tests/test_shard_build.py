@@ -41,7 +41,10 @@ BASE = """\
 cmake_minimum_required(VERSION 3.14)
 project(base CXX)
 add_library(base SHARED base.cpp)
-add_custom_target(takes_a_while ALL COMMAND sleep 2)
+# slow once per fresh build (a target that always runs would make the package build every
+# time, and no such package is ever cached)
+add_custom_command(OUTPUT slow.stamp COMMAND sleep 2 COMMAND ${CMAKE_COMMAND} -E touch slow.stamp)
+add_custom_target(takes_a_while ALL DEPENDS slow.stamp)
 install(TARGETS base LIBRARY DESTINATION lib)
 install(FILES base.hpp DESTINATION include)
 """
