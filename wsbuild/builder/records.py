@@ -89,7 +89,8 @@ def _with_earlier(earlier: PackageRecord, reads: OutsideReads, values: dict[str,
     read and it did not read again (unchanged since, or this build would have redone the
     step that read it). What only the steps this build ran `afresh` read before no longer
     counts (a configure from a fresh cache, a build of everything: they read again what
-    they need)."""
+    they need), nor does the build system's earlier list of what it watches (`reads` holds
+    that list as this build left it)."""
     labels: dict[str, str] = {}
     gone: set[str] = set()
     for read, by in earlier.read_by.items():
@@ -103,7 +104,11 @@ def _with_earlier(earlier: PackageRecord, reads: OutsideReads, values: dict[str,
         labels[read] = ",".join(dict.fromkeys([*before, *by.split(",")]))
 
     def still(entries: Mapping[str, T]) -> dict[str, T]:
-        return {path: value for path, value in entries.items() if path not in gone}
+        # an earlier entry no step is named for was the build system's own list (what it
+        # watches, `tracked`): this build's list replaces it whole (a file deleted since is
+        # in neither the list nor a step's reads)
+        return {path: value for path, value in entries.items()
+                if path not in gone and path in earlier.read_by}
 
     old = earlier.outside
     merged_reads = OutsideReads({**still(old.files), **reads.files},
