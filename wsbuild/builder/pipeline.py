@@ -108,7 +108,7 @@ def run_build(selection: Selection, request: BuildRequest, emit: Emit) -> list[J
         run = PackageRun(selection, session.run_log, plan.jobs, report=request.report,
                          sample_cpu=bool(plan.to_do()), started=started, cpu_before=cpu_before)
         results, counts = execute(plan, selection, request, session, emit, run, shard=shard)
-        details = _finish(run, request, session, results, counts)
+        details = _finish(run, request, session, results, counts, plan)
         if shard is not None:  # what it waited for; the times of what it built
             details += shard_run.finish(plan, shard, results, session, emit)
     seconds = time.monotonic() - started
@@ -168,7 +168,7 @@ def execute(plan: BuildPlan, selection: Selection, request: BuildRequest, sessio
         counts = _stop_compilers(compilers, distribution, emit)
         results = _in_selection_order(selection, {**settled, **_by_name(interrupt.results)})
         write_setup_scripts(ws, session.merged, session.underlay, installed_changed=True)
-        details = _finish(run, request, session, results, counts)
+        details = _finish(run, request, session, results, counts, plan)
         emit(RunFinished(tuple(results), time.monotonic() - run.started, details=details))
         raise Interrupted("build interrupted") from None
     finally:
@@ -239,6 +239,11 @@ def _run_packages(plan: BuildPlan, selection: Selection, request: BuildRequest,
     jobserver = session.jobserver(options.jobs)
     if distribution is not None:
         distribution.watch(jobserver)
+    from wsbuild.builder.memory import open_governor
+
+    run.memory = open_governor(request.memory, plan, selection.workspace.build_base, jobserver,
+                               warn=lambda text: emit(Notice(text, warning=True)),
+                               shared=shard.memory if shard is not None else None)
     resources = RunResources(
         selection=selection, session=session, options=options, run_log=session.run_log,
         jobserver=jobserver, compilers=compilers, emit=run.timed(emit),
@@ -342,10 +347,13 @@ def _stop_compilers(compilers: CompilerCache | None, distribution: Distribution 
 
 
 def _finish(run: PackageRun, request: BuildRequest, session: Session,
-            results: Sequence[JobResult], counts: CompileCounts) -> tuple[str, ...]:
+            results: Sequence[JobResult], counts: CompileCounts,
+            plan: BuildPlan) -> tuple[str, ...]:
     """After the run: timings and the report into the log (runreport/package_run.py),
-    durations recorded for the scheduler's next run; the summary's lines: packages cut off,
-    the compiler cache's counts, with --timings the table and the report's path."""
+    durations and memory recorded for the next run; the summary's lines: packages cut off,
+    the compiler cache's counts, the memory budget and peaks, with --timings the table and
+    the report's path."""
+    from wsbuild.builder.memory import finish_memory
     from wsbuild.runreport.report_json import RunFacts
 
     lines = _cut_off_line(results)
@@ -360,7 +368,11 @@ def _finish(run: PackageRun, request: BuildRequest, session: Session,
                      compiler_cache_choice=request.compiler_cache, compiler=compiler,
                      cache=request.cache, symlink_install=request.build.symlink_install,
                      report=request.report, timings=request.timings)
-    end = run.finish(results, facts, compile_jobs=counts.jobs, job_budget=counts.budget)
+    memory = finish_memory(run.memory, session.workspace.build_base, results, plan)
+    if memory is not None:
+        lines += memory.summary()
+    end = run.finish(results, facts, compile_jobs=counts.jobs, job_budget=counts.budget,
+                     memory=memory)
     record_durations(session.workspace.build_base, results)
     if request.timings:
         lines += [*end.timings.table(), end.timings.summary_line()]

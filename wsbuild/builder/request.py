@@ -11,6 +11,7 @@ from typing import TYPE_CHECKING
 
 from wsbuild.build_types import BuildOptions
 from wsbuild.cache.settings import CacheSettings
+from wsbuild.engine.memory_budget import MemoryLimit
 from wsbuild.engine.timings import cpu_count
 
 if TYPE_CHECKING:
@@ -75,6 +76,8 @@ class BuildRequest:
     env_ignore: tuple[str, ...] = ()
     #: --shard K/N: this job's share of a build split across a CI matrix (builder/shards.py)
     shard: ShardSpec | None = None
+    #: --memory-limit / --no-memory-limit: the memory budget (builder/memory.py)
+    memory: MemoryLimit = MemoryLimit()
 
 
 def options_of_record(options: Mapping[str, object]) -> BuildOptions:

@@ -1,0 +1,325 @@
+"""The memory governor: admits packages and hands out jobserver tokens so that what runs plus
+what it is predicted to take next fits the run's memory budget (engine/memory_budget.py), by
+the rule of engine/memory_admission.py.
+
+It holds every token of the run's jobserver (engine/jobserver.py) and, every `interval`
+seconds, measures the build's process tree (engine/memory_tree.py: each package's processes,
+each job under a make or Ninja), reads the free memory (the live guard), learns from what it
+measured (a job's peak when it ends, per package and step) and hands out or takes back tokens.
+The scheduler (engine/schedule.py) asks it before starting a package. A step is never killed
+for memory: a package that cannot fit even alone runs alone, and the governor says so
+(`warn`), as it says when free memory fell below the margin.
+
+At the end (`stop`) it tells what the run used (`MemoryUse`): the budget, the tree's peak, each
+package's peak and what each step needed (the records of engine/memory_records.py), how long
+packages waited to start and how many token-seconds were held back for memory.
+"""
+
+from __future__ import annotations
+
+import os
+import threading
+import time
+from collections.abc import Callable, Collection, Mapping
+from dataclasses import dataclass, field
+
+from wsbuild.engine.jobs import JobEvent, JobFinished, JobStarted, StepStarted
+from wsbuild.engine.jobserver import Jobserver
+from wsbuild.engine.memory_admission import (
+    MemoryState,
+    Prediction,
+    Running,
+    may_start,
+    tokens_wanted,
+)
+from wsbuild.engine.memory_budget import MemoryBudget, format_size, free_memory
+from wsbuild.engine.memory_records import PackageMemoryRecord, StepMemory
+from wsbuild.engine.memory_tree import TreeSnapshot, snapshot
+from wsbuild.engine.process import REGISTRY, ProcessRegistry
+
+INTERVAL = 0.1
+
+
+@dataclass(slots=True)
+class _StepMeasure:
+    tree: int = 0
+    job: int = 0
+    jobs: int = 0
+
+
+@dataclass(slots=True)
+class _Package:
+    """What the governor measured of one package in this run."""
+
+    peak: int = 0
+    label: str = ""
+    steps: dict[str, _StepMeasure] = field(default_factory=dict)
+    #: jobs running now: pid → (its step's label, its peak so far)
+    open_jobs: dict[int, tuple[str, int]] = field(default_factory=dict)
+    waited: float = 0.0
+
+    def step(self, label: str) -> _StepMeasure:
+        return self.steps.setdefault(label, _StepMeasure())
+
+    def close_jobs(self, still: Collection[int] = ()) -> None:
+        for pid in [p for p in self.open_jobs if p not in still]:
+            label, peak = self.open_jobs.pop(pid)
+            step = self.step(label)
+            step.job = max(step.job, peak)
+            step.jobs += 1
+
+    def record(self) -> PackageMemoryRecord:
+        return PackageMemoryRecord(self.peak, {
+            label: StepMemory(s.tree, s.job if s.jobs else None, s.jobs)
+            for label, s in self.steps.items() if s.tree or s.jobs})
+
+
+@dataclass(frozen=True, slots=True)
+class MemoryUse:
+    """What a run used of its budget."""
+
+    budget: MemoryBudget
+    #: the build's process tree at its largest (wsbuild's own process included)
+    peak: int
+    #: each package's peak, and what each of its steps needed
+    packages: Mapping[str, PackageMemoryRecord]
+    #: seconds each package waited to start for memory
+    waited: Mapping[str, float]
+    #: token-seconds held back for memory while a make or Ninja ran
+    held_back: float
+    #: packages that could not fit beside others and ran alone
+    alone: tuple[str, ...] = ()
+
+    def as_json(self) -> dict[str, object]:
+        return {"budget": self.budget.as_json(), "peak": self.peak,
+                "waited_seconds": round(sum(self.waited.values()), 3),
+                "held_back_token_seconds": round(self.held_back, 3),
+                "alone": list(self.alone),
+                "packages": {name: {**record.as_json(),
+                                    "waited": round(self.waited.get(name, 0.0), 3)}
+                             for name, record in sorted(self.packages.items())}}
+
+    def summary(self, largest: int = 5) -> list[str]:
+        """The summary's lines: budget and peak, the waits, the largest packages."""
+        waited = sum(self.waited.values())
+        lines = [f"memory: budget {self.budget.text()}; the build peaked at "
+                 f"{format_size(self.peak)}"]
+        if waited or self.held_back:
+            lines.append(f"waited for memory: packages {waited:.1f} s before starting, "
+                         f"{self.held_back:.1f} token-seconds of jobs held back")
+        ranked = sorted(self.packages.items(), key=lambda item: (-item[1].peak, item[0]))
+        ranked = [(n, r) for n, r in ranked if r.peak]
+        if ranked:
+            shown = ", ".join(f"{n} {format_size(r.peak)}" for n, r in ranked[:largest])
+            more = f" (and {len(ranked) - largest} more: timings.txt)" \
+                if len(ranked) > largest else ""
+            lines.append(f"peak memory by package: {shown}{more}")
+        return lines
+
+
+class MemoryGovernor:
+    """One run's memory admission (see the module). `predictions`: what each package is
+    recorded to need; `light`: packages whose job needs no memory of its own (a restore)."""
+
+    def __init__(self, budget: MemoryBudget, jobserver: Jobserver,
+                 predictions: Mapping[str, PackageMemoryRecord], *,
+                 warn: Callable[[str], None], light: Collection[str] = (),
+                 interval: float = INTERVAL, registry: ProcessRegistry = REGISTRY,
+                 root: int | None = None,
+                 read_free: Callable[[], int | None] | None = None) -> None:
+        self.budget = budget
+        self.jobserver = jobserver
+        self._recorded = dict(predictions)
+        self._light = frozenset(light)
+        self._warn = warn
+        self.interval = interval
+        self._registry = registry
+        self._root = os.getpid() if root is None else root
+        self._read_free = read_free or (lambda: free_memory(budget))
+        self._lock = threading.Lock()
+        self._running: dict[str, float] = {}
+        self._measured: dict[str, _Package] = {}
+        self._refused: dict[str, float] = {}
+        self._snapshot = TreeSnapshot(0)
+        self._low = False
+        self._peak = 0
+        self._held_back = 0.0
+        self._alone: list[str] = []
+        self._said: set[str] = set()
+        self._pending: list[str] = []
+        self._stopped = threading.Event()
+        self._thread: threading.Thread | None = None
+        self._last_tick = 0.0
+
+    # ------------------------------------------------------------------ the scheduler's side
+
+    def start(self) -> MemoryGovernor:
+        self.jobserver.hold()
+        self._tick()
+        self._thread = threading.Thread(target=self._run, name="wsbuild-memory", daemon=True)
+        self._thread.start()
+        return self
+
+    def may_start(self, name: str) -> bool:
+        """Whether `name` may start now (the scheduler asks before it starts a package)."""
+        with self._lock:
+            state = self._state()
+            prediction = self._prediction(name)
+            verdict = may_start(state, prediction)
+            if verdict.start and verdict.alone and name not in self._alone:
+                self._alone.append(name)
+                self._say(name, f"{name} is predicted to need "
+                          f"{format_size(prediction.slot or 0)}, more than the memory budget "
+                          f"of {format_size(self.budget.bytes)} leaves beside wsbuild: it "
+                          "builds alone, its jobs one at a time")
+            if not verdict.start:
+                self._refused.setdefault(name, time.monotonic())
+        self._flush()
+        return verdict.start
+
+    def hear(self, event: JobEvent | object) -> None:
+        """The run's events: a package started (its wait ends), a step started (its label), a
+        package finished."""
+        if isinstance(event, JobFinished):
+            self._finished(event.result.package)
+        elif isinstance(event, JobStarted):
+            with self._lock:
+                now = time.monotonic()
+                self._running[event.package] = now
+                package = self._measured.setdefault(event.package, _Package())
+                refused = self._refused.pop(event.package, None)
+                if refused is not None:
+                    package.waited += now - refused
+        elif isinstance(event, StepStarted):
+            with self._lock:
+                if event.package in self._measured:
+                    self._measured[event.package].label = event.label
+
+    def _finished(self, name: str) -> None:
+        """`name` ended: its open jobs are measured, it holds nothing any more."""
+        with self._lock:
+            self._running.pop(name, None)
+            package = self._measured.get(name)
+            if package is not None:
+                package.close_jobs()
+            self._refused.pop(name, None)
+
+    def stop(self) -> MemoryUse:
+        """Stop measuring (the tokens stay held: the run's packages are done)."""
+        self._stopped.set()
+        if self._thread is not None:
+            self._thread.join()
+        with self._lock:
+            return MemoryUse(
+                self.budget, self._peak,
+                {name: p.record() for name, p in self._measured.items() if p.peak},
+                {name: p.waited for name, p in self._measured.items() if p.waited},
+                self._held_back, tuple(self._alone))
+
+    # ------------------------------------------------------------------ predictions
+
+    def _prediction(self, name: str, label: str | None = None) -> Prediction:
+        """What `name` is predicted to need: its record's (in the step `label`), raised by
+        what this run measured of its jobs; a restore needs nothing."""
+        if name in self._light:
+            return Prediction(0, 0)
+        record = self._recorded.get(name)
+        recorded = record.prediction(label) if record is not None else Prediction()
+        package = self._measured.get(name)
+        if package is None:
+            return recorded
+        measured = [s for lab, s in package.steps.items()
+                    if s.jobs and (label is None or lab == label)]
+        job = max([s.job for s in measured], default=None)
+        if job is None:
+            return recorded
+        return Prediction(max(job, recorded.job or 0),
+                          max(job, recorded.step or 0))
+
+    def _fallback(self) -> int | None:
+        """The largest need known: of any package recorded, or of a package that finished in
+        this run (not of a job that ended: a configure's compiler checks are no compile)."""
+        known = [r.prediction().slot for r in self._recorded.values()]
+        known += [package.peak for name, package in self._measured.items()
+                  if name not in self._running and name not in self._light]
+        values = [v for v in known if v]
+        return max(values) if values else None
+
+    def _state(self) -> MemoryState:
+        running = []
+        for name in self._running:
+            seen = self._snapshot.packages.get(name)
+            label = self._measured[name].label if name in self._measured else ""
+            current = self._prediction(name, label or None)
+            # a package never recorded is unknown until it finishes: what its first steps
+            # measured (a configure's compiler checks) says nothing of its compiles
+            overall = self._prediction(name).slot if name in self._recorded else None
+            prediction = Prediction(current.job, overall)
+            if seen is None:
+                running.append(Running(name, prediction=prediction))
+            else:
+                running.append(Running(name, seen.rss, tuple(seen.jobs.values()), seen.driving,
+                                       prediction))
+        return MemoryState(self.budget.bytes, self._snapshot.total, tuple(running),
+                           self.jobserver.circulating, self._fallback(), self._low)
+
+    # ------------------------------------------------------------------ the tick
+
+    def _run(self) -> None:
+        while not self._stopped.wait(self.interval):
+            self._tick()
+
+    def _tick(self) -> None:
+        now = time.monotonic()
+        seen = snapshot(self._root, self._registry.owners())
+        free = self._read_free()
+        with self._lock:
+            dt = now - self._last_tick if self._last_tick else 0.0
+            self._last_tick = now
+            self._snapshot = seen
+            self._peak = max(self._peak, seen.total)
+            low = free is not None and free < self.budget.margin
+            if low and not self._low:
+                self._say("", f"free memory fell to {format_size(free or 0)}, below the "
+                          f"margin of {format_size(self.budget.margin)}: no new jobs start "
+                          "until it recovers")
+            self._low = low
+            self._learn(seen)
+            state = self._state()
+            capacity = self.jobserver.tokens - self.jobserver.withheld
+            wanted = tokens_wanted(state, capacity)
+            out = state.tokens_out
+            if any(p.driving for p in state.running):
+                self._held_back += max(0, capacity - out) * dt
+        if wanted > out:
+            self.jobserver.release(wanted - out)
+        elif wanted < out:
+            self.jobserver.reclaim(out - wanted)
+        self._flush()
+
+    def _learn(self, seen: TreeSnapshot) -> None:
+        """Each running package's peak, its step's, and its jobs' (a job gone has ended)."""
+        for name, memory in seen.packages.items():
+            package = self._measured.setdefault(name, _Package())
+            package.peak = max(package.peak, memory.rss)
+            step = package.step(package.label)
+            step.tree = max(step.tree, memory.rss)
+            package.close_jobs(memory.jobs)
+            for pid, rss in memory.jobs.items():
+                label, peak = package.open_jobs.get(pid, (package.label, 0))
+                package.open_jobs[pid] = (label, max(peak, rss))
+        for name, package in self._measured.items():
+            if name not in seen.packages:
+                package.close_jobs()
+
+    def _say(self, key: str, text: str) -> None:
+        """Say `text` once per `key` (after the lock is released: see `_flush`)."""
+        if key not in self._said:
+            self._said.add(key)
+            self._pending.append(text)
+
+    def _flush(self) -> None:
+        with self._lock:
+            pending, self._pending = self._pending, []
+        for text in pending:
+            self._warn(text)
