@@ -248,7 +248,8 @@ def _run_packages(plan: BuildPlan, selection: Selection, request: BuildRequest,
         selection=selection, session=session, options=options, run_log=session.run_log,
         jobserver=jobserver, compilers=compilers, emit=run.timed(emit),
         unresolved=plan.unresolved, order=tuple(selection.graph.topological_order()),
-        distribution=distribution, strict_dependencies=request.strict_dependencies)
+        distribution=distribution, strict_dependencies=request.strict_dependencies,
+        memory_gate=run.memory.wait_for_step if run.memory is not None else None)
     policy = FailurePolicy.SKIP_DEPENDENTS if request.run.continue_on_error \
         else FailurePolicy.STOP
     planned = {p.name: p for p in plan.to_do()}

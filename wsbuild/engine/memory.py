@@ -27,7 +27,7 @@ from wsbuild.engine.jobs import JobEvent, JobFinished, JobStarted, StepStarted
 from wsbuild.engine.jobserver import Jobserver
 from wsbuild.engine.memory_admission import (
     MemoryState,
-    Prediction,
+    Need,
     Running,
     may_start,
     tokens_wanted,
@@ -38,6 +38,10 @@ from wsbuild.engine.memory_tree import TreeSnapshot, snapshot
 from wsbuild.engine.process import REGISTRY, ProcessRegistry
 
 INTERVAL = 0.1
+#: the label of the phase in which a step waits for memory (timings, the status line)
+WAIT_LABEL = "wait for memory"
+#: how often a waiting step asks again
+_STEP_POLL = 0.05
 
 
 @dataclass(slots=True)
@@ -69,9 +73,11 @@ class _Package:
             step.jobs += 1
 
     def record(self) -> PackageMemoryRecord:
+        """What it measured, every labelled step (one that ran in wsbuild's own process holds
+        nothing: a package between its steps needs no room for it)."""
         return PackageMemoryRecord(self.peak, {
             label: StepMemory(s.tree, s.job if s.jobs else None, s.jobs)
-            for label, s in self.steps.items() if s.tree or s.jobs})
+            for label, s in self.steps.items() if label})
 
 
 @dataclass(frozen=True, slots=True)
@@ -140,13 +146,15 @@ class MemoryGovernor:
         self._running: dict[str, float] = {}
         self._measured: dict[str, _Package] = {}
         self._refused: dict[str, float] = {}
+        #: steps waiting to start (wait_for_step) → what they need
+        self._pending: dict[str, Need] = {}
         self._snapshot = TreeSnapshot(0)
         self._low = False
         self._peak = 0
         self._held_back = 0.0
         self._alone: list[str] = []
         self._said: set[str] = set()
-        self._pending: list[str] = []
+        self._to_say: list[str] = []
         self._stopped = threading.Event()
         self._thread: threading.Thread | None = None
         self._last_tick = 0.0
@@ -162,17 +170,42 @@ class MemoryGovernor:
 
     def may_start(self, name: str) -> bool:
         """Whether `name` may start now (the scheduler asks before it starts a package)."""
+        return self._admit(name, None)
+
+    def wait_for_step(self, name: str, label: str, emit: Callable[[JobEvent], None]) -> None:
+        """Return when the step `label` of the running package `name` may start: while it may
+        not, it holds room for what it needs (no token goes to others meanwhile) and its
+        package is in the phase WAIT_LABEL (`emit`). Never waits once the run is cancelled."""
+        if self._admit(name, label):
+            return
+        emit(StepStarted(name, WAIT_LABEL))
+        began = time.monotonic()
+        while not self._stopped.is_set() and not self._registry.cancelled.is_set():
+            time.sleep(_STEP_POLL)
+            if self._admit(name, label):
+                break
         with self._lock:
-            state = self._state()
-            prediction = self._prediction(name)
-            verdict = may_start(state, prediction)
+            self._pending.pop(name, None)
+            self._measured.setdefault(name, _Package()).waited += time.monotonic() - began
+
+    def _admit(self, name: str, label: str | None) -> bool:
+        """The rule's verdict for the package `name` (`label` None) or its step `label`; a
+        step refused holds room for what it needs until it starts."""
+        with self._lock:
+            need = self._need(name, label)
+            verdict = may_start(self._state(), name, need)
             if verdict.start and verdict.alone and name not in self._alone:
                 self._alone.append(name)
-                self._say(name, f"{name} is predicted to need "
-                          f"{format_size(prediction.slot or 0)}, more than the memory budget "
-                          f"of {format_size(self.budget.bytes)} leaves beside wsbuild: it "
-                          "builds alone, its jobs one at a time")
-            if not verdict.start:
+                self._say(name, f"{name} is predicted to need {format_size(need.start or 0)}"
+                          f"{f' in its step {label}' if label else ''}, more than the memory "
+                          f"budget of {format_size(self.budget.bytes)} leaves beside wsbuild: "
+                          "it runs alone, its jobs one at a time")
+            if label is not None:
+                if verdict.start:
+                    self._pending.pop(name, None)
+                else:
+                    self._pending[name] = need
+            elif not verdict.start:
                 self._refused.setdefault(name, time.monotonic())
         self._flush()
         return verdict.start
@@ -192,8 +225,10 @@ class MemoryGovernor:
                     package.waited += now - refused
         elif isinstance(event, StepStarted):
             with self._lock:
-                if event.package in self._measured:
-                    self._measured[event.package].label = event.label
+                if event.package in self._measured and event.label != WAIT_LABEL:
+                    package = self._measured[event.package]
+                    package.label = event.label
+                    package.step(event.label)
 
     def _finished(self, name: str) -> None:
         """`name` ended: its open jobs are measured, it holds nothing any more."""
@@ -203,6 +238,7 @@ class MemoryGovernor:
             if package is not None:
                 package.close_jobs()
             self._refused.pop(name, None)
+            self._pending.pop(name, None)
 
     def stop(self) -> MemoryUse:
         """Stop measuring (the tokens stay held: the run's packages are done)."""
@@ -218,28 +254,27 @@ class MemoryGovernor:
 
     # ------------------------------------------------------------------ predictions
 
-    def _prediction(self, name: str, label: str | None = None) -> Prediction:
-        """What `name` is predicted to need: its record's (in the step `label`), raised by
-        what this run measured of its jobs; a restore needs nothing."""
+    def _need(self, name: str, label: str | None = None) -> Need:
+        """What `name` needs to start (`label` None or ""), or its step `label`: as recorded,
+        with a job's peak raised by what this run measured of that step's jobs; a package
+        never recorded is unknown; a restore needs nothing."""
         if name in self._light:
-            return Prediction(0, 0)
+            return Need(0, 0, True)
         record = self._recorded.get(name)
-        recorded = record.prediction(label) if record is not None else Prediction()
         package = self._measured.get(name)
-        if package is None:
-            return recorded
-        measured = [s for lab, s in package.steps.items()
-                    if s.jobs and (label is None or lab == label)]
-        job = max([s.job for s in measured], default=None)
-        if job is None:
-            return recorded
-        return Prediction(max(job, recorded.job or 0),
-                          max(job, recorded.step or 0))
+        step = package.steps.get(label) if package is not None and label else None
+        measured = step.job if step is not None and step.jobs else None
+        if record is None:
+            return Need(measured, None, False)
+        need = record.need(label or None)
+        if measured is not None:
+            need = Need(max(measured, need.job or 0), need.start, True)
+        return need
 
     def _fallback(self) -> int | None:
         """The largest need known: of any package recorded, or of a package that finished in
         this run (not of a job that ended: a configure's compiler checks are no compile)."""
-        known = [r.prediction().slot for r in self._recorded.values()]
+        known = [r.largest for r in self._recorded.values()]
         known += [package.peak for name, package in self._measured.items()
                   if name not in self._running and name not in self._light]
         values = [v for v in known if v]
@@ -249,17 +284,15 @@ class MemoryGovernor:
         running = []
         for name in self._running:
             seen = self._snapshot.packages.get(name)
-            label = self._measured[name].label if name in self._measured else ""
-            current = self._prediction(name, label or None)
-            # a package never recorded is unknown until it finishes: what its first steps
-            # measured (a configure's compiler checks) says nothing of its compiles
-            overall = self._prediction(name).slot if name in self._recorded else None
-            prediction = Prediction(current.job, overall)
+            need = self._pending.get(name)
+            if need is None:
+                need = self._need(name, self._measured[name].label
+                                  if name in self._measured else None)
             if seen is None:
-                running.append(Running(name, prediction=prediction))
+                running.append(Running(name, need=need))
             else:
                 running.append(Running(name, seen.rss, tuple(seen.jobs.values()), seen.driving,
-                                       prediction))
+                                       need))
         return MemoryState(self.budget.bytes, self._snapshot.total, tuple(running),
                            self.jobserver.circulating, self._fallback(), self._low)
 
@@ -316,10 +349,10 @@ class MemoryGovernor:
         """Say `text` once per `key` (after the lock is released: see `_flush`)."""
         if key not in self._said:
             self._said.add(key)
-            self._pending.append(text)
+            self._to_say.append(text)
 
     def _flush(self) -> None:
         with self._lock:
-            pending, self._pending = self._pending, []
-        for text in pending:
+            said, self._to_say = self._to_say, []
+        for text in said:
             self._warn(text)

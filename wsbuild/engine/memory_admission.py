@@ -1,49 +1,48 @@
-"""The admission rule: may a package start, and how many jobserver tokens may circulate, so
-that what runs plus what it is predicted to take next fits the memory budget. Pure logic: the
-memory governor (engine/memory.py) hands in what it measured and predicts.
+"""The admission rule: may a package start, may one of its steps start, and how many
+jobserver tokens may circulate, so that what runs plus what it is predicted to take next fits
+the memory budget. Pure logic: the memory governor (engine/memory.py) hands in what it
+measured and predicts.
 
-What is committed (`committed`) is what the tree holds now, with each running job raised to
-its package's predicted job peak (it may still grow to it), each package between its jobs
-holding room for its next one (make's or Ninja's implicit slot), and each token that
-circulates unused holding room for the largest job a running make or Ninja could start with
-it. Tokens go to whoever asks first (one FIFO for every package): so a free token is worth the
-largest job of any package that could take it.
+What is committed (`committed`) is what the build's process tree holds now, with each running
+job raised to its step's predicted job peak (it may still grow to it), each package between
+its jobs holding room for its next one (the implicit slot of its make or Ninja), each step
+without a make or Ninja (configure, a Python build) holding room for its predicted peak, a
+step waiting to start holding room for what it needs, and each token that circulates unused
+holding room for the largest job a running package could start with it: tokens go to
+whichever make or Ninja asks first (one FIFO for every package).
 
 - A token is handed out when the committed memory plus one more such job fits the budget,
-  while no make or Ninja of a package without a prediction runs (its first job is measured
-  alone: `unmeasured`), and while the live guard sees enough free memory (`low` is False).
-- A package starts when the committed memory plus its predicted peak (of a job, or of a step
-  with no make or Ninja: configure, a Python build) fits, or when nothing runs: a package
-  that cannot fit even alone then runs alone (`alone`). A package without a prediction
-  starts with the largest prediction known; while none is known, only one such package runs.
+  while no make or Ninja of a step without a prediction runs (its first job is measured
+  alone: `unmeasured`) and while the live guard sees enough free memory (`low` is False).
+- A package starts (it takes a worker), and a step of it starts (its make or Ninja runs its
+  first job without a token), when the committed memory plus what it needs fits, or when
+  nothing else runs: what cannot fit even alone runs alone (`Verdict.alone`). A package
+  without a prediction needs the largest prediction known; while none is known, only one such
+  package runs.
 """
 
 from __future__ import annotations
 
-from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 
 @dataclass(frozen=True, slots=True)
-class Prediction:
-    """What one package needs, in bytes (None: not known)."""
+class Need:
+    """What a package, or one step of it, is predicted to need, in bytes (None: unknown)."""
 
     #: the peak of one job under its make or Ninja (a compile, a link)
     job: int | None = None
-    #: the package's largest need: of any step's processes (configure, setup.py) or job
-    #: (None: nothing known of it yet)
-    step: int | None = None
-
-    @property
-    def slot(self) -> int | None:
-        """What the package's one job (its implicit slot) may take: its larger peak."""
-        known = [v for v in (self.job, self.step) if v is not None]
-        return max(known) if known else None
+    #: the peak of its processes when it runs no make or Ninja, or of its first job when it
+    #: does: what it takes to start
+    start: int | None = None
+    #: anything is known of the package (recorded, or measured in this run)
+    known: bool = False
 
 
 @dataclass(frozen=True, slots=True)
 class Running:
-    """A running package as measured now, with what is predicted of it."""
+    """A package that holds a worker, as measured now, with what its step is predicted to
+    need."""
 
     name: str
     #: its processes' resident memory now
@@ -52,7 +51,7 @@ class Running:
     jobs: tuple[int, ...] = ()
     #: a make or Ninja of its runs (its jobs may take tokens)
     driving: bool = False
-    prediction: Prediction = Prediction()
+    need: Need = Need()
 
 
 @dataclass(frozen=True, slots=True)
@@ -65,18 +64,23 @@ class MemoryState:
     running: tuple[Running, ...]
     #: tokens in circulation (in the FIFO or held by a make or Ninja)
     tokens_out: int
-    #: the largest prediction known (of any package), for a package without one
+    #: the largest need known (of any package), for a package or step without one
     fallback: int | None
     #: free memory is below the margin (the live guard)
     low: bool = False
 
+    @property
+    def outside(self) -> int:
+        """What no package's processes hold: wsbuild itself, helpers."""
+        return max(0, self.total - sum(p.rss for p in self.running))
+
 
 def _job(package: Running, fallback: int | None) -> int:
-    """The job peak a package is predicted to reach: its own, else the fallback; never below
+    """The job peak a package's step is predicted to reach (else the fallback), never below
     what its running jobs hold now."""
-    predicted = package.prediction.job
+    predicted = package.need.job
     if predicted is None:
-        predicted = fallback or 0
+        predicted = package.need.start if package.need.start is not None else fallback or 0
     return max([predicted, *package.jobs])
 
 
@@ -89,19 +93,19 @@ def _own(package: Running, fallback: int | None) -> tuple[int, int]:
         return overhead + sum(max(rss, job) for rss in package.jobs), len(package.jobs) - 1
     if package.driving:  # between jobs: the implicit slot's next one
         return package.rss + job, 0
-    slot = package.prediction.slot
-    return max(package.rss, job if slot is None else slot), 0
+    start = package.need.start
+    return max(package.rss, (fallback or 0) if start is None else start), 0
 
 
 def _token_job(state: MemoryState) -> int:
-    """What a free token may start: the largest job of a running make or Ninja."""
-    return max((_job(p, state.fallback) for p in state.running if p.driving), default=0)
+    """What a free token may start: the largest job of a running package (one that runs no
+    make or Ninja yet may start one that takes it)."""
+    return max((_job(p, state.fallback) for p in state.running), default=0)
 
 
 def committed(state: MemoryState) -> tuple[int, int]:
     """The memory committed now, and the tokens in circulation that no job holds."""
-    outside = state.total - sum(p.rss for p in state.running)
-    total, held = max(0, outside), 0
+    total, held = state.outside, 0
     for package in state.running:
         own, tokens = _own(package, state.fallback)
         total += own
@@ -111,8 +115,8 @@ def committed(state: MemoryState) -> tuple[int, int]:
 
 
 def unmeasured(state: MemoryState) -> list[str]:
-    """Running packages whose make or Ninja runs before any job of theirs was measured."""
-    return [p.name for p in state.running if p.driving and p.prediction.job is None]
+    """Running packages whose make or Ninja runs a step of which no job was measured."""
+    return [p.name for p in state.running if p.driving and p.need.job is None]
 
 
 def tokens_wanted(state: MemoryState, capacity: int) -> int:
@@ -135,40 +139,37 @@ def tokens_wanted(state: MemoryState, capacity: int) -> int:
 
 @dataclass(frozen=True, slots=True)
 class Verdict:
-    """May a package start now; when not, why; `alone`: it cannot fit even alone."""
+    """May it start now; when not, why; `alone`: it cannot fit even alone."""
 
     start: bool
     why: str = ""
     alone: bool = False
 
 
-def may_start(state: MemoryState, prediction: Prediction) -> Verdict:
-    """Whether a package predicted to need `prediction` may start now (see the module)."""
-    slot = prediction.slot
-    if slot is None:
-        slot = state.fallback
-    outside = state.total - sum(p.rss for p in state.running)
-    alone = slot is not None and max(0, outside) + slot > state.budget
-    if not state.running:
+def may_start(state: MemoryState, name: str, need: Need) -> Verdict:
+    """Whether the package (or the step of it) `name`, predicted to need `need`, may start
+    now (see the module): a package's own entry in `state`, if any, is what it holds now,
+    replaced by what the step needs."""
+    others = tuple(p for p in state.running if p.name != name)
+    own = next((p for p in state.running if p.name == name), None)
+    start = need.start if need.known else None
+    if start is None:
+        start = state.fallback
+    alone = start is not None and state.outside + start > state.budget
+    if not others:
         return Verdict(True, alone=alone)
     if state.low:
         return Verdict(False, "free memory is below the margin")
     if alone:
         return Verdict(False, "it does not fit beside others", alone=True)
-    if slot is None:
-        waiting = [p.name for p in state.running if p.prediction.step is None]
-        if waiting:
-            return Verdict(False, f"nothing is known yet: {waiting[0]} is measured first")
-        slot = 0
-    memory, _ = committed(state)
-    if memory + slot > state.budget:
+    if start is None:
+        if any(not p.need.known for p in others) and own is None:
+            first = next(p.name for p in others if not p.need.known)
+            return Verdict(False, f"nothing is known yet: {first} is measured first")
+        start = 0
+    waiting = Running(name, own.rss if own is not None else 0, need=replace(
+        need, start=start, job=need.job if need.job is not None else start))
+    memory, _ = committed(replace(state, running=(*others, waiting)))
+    if memory > state.budget:
         return Verdict(False, "what runs leaves no room")
     return Verdict(True)
-
-
-def over_budget(state: MemoryState) -> bool:
-    return committed(state)[0] > state.budget
-
-
-__all__: Sequence[str] = ("MemoryState", "Prediction", "Running", "Verdict", "committed",
-                          "may_start", "over_budget", "tokens_wanted", "unmeasured")

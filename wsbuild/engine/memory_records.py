@@ -1,7 +1,7 @@
 """What each package's build needed in memory, kept beside the recorded durations
 (`build/.wsbuild/memory.json`, as engine/timings.py keeps `durations.json`): per package its
 peak (all its processes at once) and, per labelled step, the peak of one job under its make or
-Ninja and of the step's processes, with how many jobs were measured. The memory governor
+Ninja and of the step's processes, with how many jobs were measured, in the order the steps ran. The memory governor
 (engine/memory.py) predicts from it; a CI matrix shares it through the cache server as it
 shares the times (builder/shard_run.py).
 
@@ -18,11 +18,15 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from wsbuild import inputs
-from wsbuild.engine.memory_admission import Prediction
+from wsbuild.engine.memory_admission import Need
 from wsbuild.files import atomic_write
 
 #: under the build base, beside durations.json
 MEMORY_FILE = Path(".wsbuild") / "memory.json"
+
+
+#: what a make or Ninja and `cmake --build` hold around the first job of a step
+DRIVER_OVERHEAD = 32 * 1024 * 1024
 
 
 @dataclass(frozen=True, slots=True)
@@ -34,36 +38,49 @@ class StepMemory:
     job: int | None = None
     jobs: int = 0
 
+    @property
+    def start(self) -> int:
+        """What the step takes to start: its processes' peak, or with a make or Ninja, its
+        first job and the driver around it."""
+        return self.tree if self.job is None else min(self.tree, self.job + DRIVER_OVERHEAD)
+
     def as_json(self) -> dict[str, object]:
         return {"tree": self.tree, "job": self.job, "jobs": self.jobs}
 
 
 @dataclass(frozen=True, slots=True)
 class PackageMemoryRecord:
-    """A package's memory: its peak, and its steps' by label."""
+    """A package's memory: its peak, and its steps' by label, in the order they ran."""
 
     peak: int = 0
     steps: Mapping[str, StepMemory] = field(default_factory=dict)
 
-    def prediction(self, label: str | None = None) -> Prediction:
-        """`job`: a job's peak in the step `label` (None: not measured there; without a label
-        the largest of any step); `step`: the package's largest need (any step's processes, or
-        any job)."""
-        largest = max([self.peak, *(s.tree for s in self.steps.values()),
-                       *(s.job or 0 for s in self.steps.values())], default=0)
-        if label is None:
-            jobs = [s.job for s in self.steps.values() if s.job is not None]
-            return Prediction(max(jobs) if jobs else None, largest or None)
-        step = self.steps.get(label)
-        return Prediction(step.job if step is not None else None, largest or None)
+    @property
+    def largest(self) -> int:
+        """Its largest need: its peak, or any step's or job's."""
+        return max([self.peak, *(s.tree for s in self.steps.values()),
+                    *(s.job or 0 for s in self.steps.values())])
 
     @property
     def job(self) -> int | None:
-        return self.prediction().job
+        """The peak of its largest job (None: it ran none under a make or Ninja)."""
+        jobs = [s.job for s in self.steps.values() if s.job is not None]
+        return max(jobs) if jobs else None
+
+    def need(self, label: str | None = None) -> Need:
+        """What the package needs to start (`label` None: its first step), or its step
+        `label` (a step never recorded: the package's largest need)."""
+        if label is None:
+            first = next((s for s in self.steps.values() if s.tree), None)
+            return Need(self.job, first.start if first is not None else self.largest, True)
+        step = self.steps.get(label)
+        if step is None:
+            return Need(None, self.largest, True)
+        return Need(step.job, step.start, True)
 
     def as_json(self) -> dict[str, object]:
         return {"peak": self.peak,
-                "steps": {label: step.as_json() for label, step in sorted(self.steps.items())}}
+                "steps": {label: step.as_json() for label, step in self.steps.items()}}
 
 
 def record_from_json(data: object) -> PackageMemoryRecord | None:
