@@ -374,7 +374,8 @@ def _finish(run: PackageRun, request: BuildRequest, session: Session,
         lines += memory.summary()
     end = run.finish(results, facts, compile_jobs=counts.jobs, job_budget=counts.budget,
                      memory=memory)
-    record_durations(session.workspace.build_base, results)
+    record_durations(session.workspace.build_base, results,
+                     memory.in_steps if memory is not None else None)
     if request.timings:
         lines += [*end.timings.table(), end.timings.summary_line()]
         if counts.jobs is not None:

@@ -61,6 +61,8 @@ class _Package:
     #: jobs running now: pid → (its step's label, its peak so far)
     open_jobs: dict[int, tuple[str, int]] = field(default_factory=dict)
     waited: float = 0.0
+    #: of it, the seconds its steps waited (inside its build's duration)
+    waited_in_steps: float = 0.0
 
     def step(self, label: str) -> _StepMeasure:
         return self.steps.setdefault(label, _StepMeasure())
@@ -89,12 +91,14 @@ class MemoryUse:
     peak: int
     #: each package's peak, and what each of its steps needed
     packages: Mapping[str, PackageMemoryRecord]
-    #: seconds each package waited to start for memory
+    #: seconds each package waited for memory, to start or before a step
     waited: Mapping[str, float]
     #: token-seconds held back for memory while a make or Ninja ran
     held_back: float
     #: packages that could not fit beside others and ran alone
     alone: tuple[str, ...] = ()
+    #: of `waited`, the seconds spent before a step (part of the package's duration)
+    in_steps: Mapping[str, float] = field(default_factory=dict)
 
     def as_json(self) -> dict[str, object]:
         return {"budget": self.budget.as_json(), "peak": self.peak,
@@ -111,8 +115,8 @@ class MemoryUse:
         lines = [f"memory: budget {self.budget.text()}; the build peaked at "
                  f"{format_size(self.peak)}"]
         if waited or self.held_back:
-            lines.append(f"waited for memory: packages {waited:.1f} s before starting, "
-                         f"{self.held_back:.1f} token-seconds of jobs held back")
+            lines.append(f"waited for memory: packages {waited:.1f} s (to start, or before a "
+                         f"step), {self.held_back:.1f} token-seconds of jobs held back")
         ranked = sorted(self.packages.items(), key=lambda item: (-item[1].peak, item[0]))
         ranked = [(n, r) for n, r in ranked if r.peak]
         if ranked:
@@ -186,7 +190,9 @@ class MemoryGovernor:
                 break
         with self._lock:
             self._pending.pop(name, None)
-            self._measured.setdefault(name, _Package()).waited += time.monotonic() - began
+            package = self._measured.setdefault(name, _Package())
+            package.waited += time.monotonic() - began
+            package.waited_in_steps += time.monotonic() - began
 
     def _admit(self, name: str, label: str | None) -> bool:
         """The rule's verdict for the package `name` (`label` None) or its step `label`; a
@@ -250,7 +256,9 @@ class MemoryGovernor:
                 self.budget, self._peak,
                 {name: p.record() for name, p in self._measured.items() if p.peak},
                 {name: p.waited for name, p in self._measured.items() if p.waited},
-                self._held_back, tuple(self._alone))
+                self._held_back, tuple(self._alone),
+                {name: p.waited_in_steps for name, p in self._measured.items()
+                 if p.waited_in_steps})
 
     # ------------------------------------------------------------------ predictions
 
@@ -272,11 +280,18 @@ class MemoryGovernor:
         return need
 
     def _fallback(self) -> int | None:
-        """The largest need known: of any package recorded, or of a package that finished in
-        this run (not of a job that ended: a configure's compiler checks are no compile)."""
+        """The largest need known: of any package recorded, of a package that finished in
+        this run, or of a job that ended in a step after a package's first (the jobs of its
+        first, a configure's compiler checks, are no compiles)."""
         known = [r.largest for r in self._recorded.values()]
-        known += [package.peak for name, package in self._measured.items()
-                  if name not in self._running and name not in self._light]
+        for name, package in self._measured.items():
+            if name in self._light:
+                continue
+            if name not in self._running:
+                known.append(package.peak)
+                continue
+            ran = [step for step in package.steps.values() if step.tree or step.jobs]
+            known += [step.job for step in ran[1:] if step.jobs]
         values = [v for v in known if v]
         return max(values) if values else None
 

@@ -17,8 +17,8 @@ whichever make or Ninja asks first (one FIFO for every package).
 - A package starts (it takes a worker), and a step of it starts (its make or Ninja runs its
   first job without a token), when the committed memory plus what it needs fits, or when
   nothing else runs: what cannot fit even alone runs alone (`Verdict.alone`). A package
-  without a prediction needs the largest prediction known; while none is known, only one such
-  package runs.
+  without a prediction needs the largest prediction known; while none is known, no other
+  package without one starts beside it.
 """
 
 from __future__ import annotations

@@ -58,9 +58,13 @@ def read_durations(build_base: Path) -> dict[str, float]:
     return {str(k): float(v) for k, v in data.items() if isinstance(v, (int, float)) and v >= 0}
 
 
-def record_durations(build_base: Path, results: Iterable[JobResult]) -> None:
-    """Keep the durations of packages built in this run (others keep their earlier record)."""
-    built = {r.package: round(r.seconds, 3) for r in results if r.outcome is Outcome.FINISHED}
+def record_durations(build_base: Path, results: Iterable[JobResult],
+                     waited: Mapping[str, float] | None = None) -> None:
+    """Keep the durations of packages built in this run (others keep their earlier record),
+    less the seconds they `waited` for memory (a wait says nothing of the work)."""
+    waited = waited or {}
+    built = {r.package: round(max(0.0, r.seconds - waited.get(r.package, 0.0)), 3)
+             for r in results if r.outcome is Outcome.FINISHED}
     if not built:
         return
     durations = read_durations(build_base)
@@ -256,7 +260,8 @@ class RunTimings:
 def write_timings(run_log: Path, timings: RunTimings) -> None:
     """`timings.json` (machine-readable) and `timings.txt` (the table) in the run's log."""
     extra = [timings.compile_jobs.summary()] if timings.compile_jobs else []
-    if timings.memory is not None:
-        extra += timings.memory.summary(largest=len(timings.memory.packages))
+    # the memory lines (every package's peak) before the summary line, which ends the file
+    memory = timings.memory.summary(largest=len(timings.memory.packages)) \
+        if timings.memory is not None else []
     write_timing_files(run_log, timings.as_json(),
-                       [*timings.table(), "", timings.summary_line(), *extra])
+                       [*timings.table(), "", *memory, timings.summary_line(), *extra])

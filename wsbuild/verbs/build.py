@@ -61,16 +61,14 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     how.add_argument("--install-deps", action="store_true",
                      help="first install what nothing provides (wsbuild deps install -y)")
     how.add_argument("--force", action="store_true", help="rebuild even what is up to date")
-    how.add_argument("--memory-limit", metavar="SIZE|PCT%",
-                     help="memory the build may use: 8G, 512M, or 50%% of the machine's "
-                          "(default: the cgroup's limit, else what is available at the start, "
-                          "less a margin); packages and jobs wait for room, none is killed")
+    how.add_argument("--memory-limit", metavar="SIZE",
+                     help="memory for the build: 8G, 50%% (default: free memory less a margin)")
     secondary(how.add_argument("--no-memory-limit", action="store_true",
                                help="no memory budget: packages and jobs start as the CPUs "
                                     "allow"))
     add_env_ignore_argument(how)
-    how.add_argument("--allow-overriding", nargs="+", default=[], metavar="PKG",
-                     help="no override warning for these packages")
+    secondary(how.add_argument("--allow-overriding", nargs="+", default=[], metavar="PKG",
+                               help="no override warning for these packages"))
     how.add_argument("--dry-run", action="store_true",
                      help="print the plan (order, why each builds, critical path) only")
     how.add_argument("--json", action="store_true", help="with --dry-run: machine-readable")
@@ -317,5 +315,5 @@ def _dry_run(selection: Selection, request: BuildRequest, *, json_output: bool) 
         print(json.dumps({**plan_json(build_plan, steps),
                           "memory_budget": budget_json(request.memory)}, indent=2))
     else:
-        print("\n".join([*plan_lines(build_plan, steps), budget_line(request.memory)]))
+        print("\n".join(plan_lines(build_plan, steps, memory=budget_line(request.memory))))
     return 2 if build_plan.refusal else 0
