@@ -95,3 +95,46 @@ def test_the_jobserver_hands_out_only_what_is_released_and_takes_back_what_waits
         assert jobserver.release(5) == 3
     finally:
         jobserver.close()
+
+
+def test_two_steps_waiting_for_room_never_wait_for_each_other() -> None:
+    """Two packages reach a step that needs more than half the budget while a third holds it:
+    when the third ends, the step that waited first starts, then the other."""
+    from wsbuild.engine.memory_records import PackageMemoryRecord, StepMemory
+
+    here = sum(p.rss for p in read_tree(os.getpid()).values())
+    compile_step = {"configure": StepMemory(10 * M), "build": StepMemory(330 * M, 300 * M, 4)}
+    records = {name: PackageMemoryRecord(330 * M, compile_step) for name in ("a", "b", "c")}
+    jobserver = Jobserver(2)
+    governor = MemoryGovernor(MemoryBudget(here + 500 * M, 0, "test", 8 * 1024 * M), jobserver,
+                              records, warn=lambda text: None, read_free=lambda: None).start()
+    from wsbuild.engine.jobs import StepStarted
+
+    started: list[str] = []
+    try:
+        for name in ("c", "a", "b"):
+            governor.hear(JobStarted(name))
+        governor.hear(StepStarted("c", "build"))  # c compiles: no room for another compile
+
+        def step(name: str) -> None:
+            governor.wait_for_step(name, "build", governor.hear)
+            started.append(name)
+            governor.hear(StepStarted(name, "build"))
+
+        waiting_a = threading.Thread(target=step, args=("a",))
+        waiting_a.start()
+        while "a" not in governor._pending:  # noqa: SLF001 - a waits before b asks
+            waiting_a.join(0.01)
+        waiting_b = threading.Thread(target=step, args=("b",))
+        waiting_b.start()
+        waiting_b.join(0.5)
+        assert started == []
+        governor.hear(JobFinished(JobResult("c", Outcome.FINISHED)))
+        waiting_a.join(10)
+        assert started == ["a"]
+        governor.hear(JobFinished(JobResult("a", Outcome.FINISHED)))
+        waiting_b.join(10)
+        assert started == ["a", "b"]
+    finally:
+        governor.stop()
+        jobserver.close()

@@ -199,7 +199,8 @@ class MemoryGovernor:
         step refused holds room for what it needs until it starts."""
         with self._lock:
             need = self._need(name, label)
-            verdict = may_start(self._state(), name, need)
+            verdict = may_start(self._state(waiter=name if label is not None else None),
+                                name, need)
             if verdict.start and verdict.alone and name not in self._alone:
                 self._alone.append(name)
                 self._say(name, f"{name} is predicted to need {format_size(need.start or 0)}"
@@ -265,8 +266,9 @@ class MemoryGovernor:
     def _need(self, name: str, label: str | None = None) -> Need:
         """What `name` needs to start (`label` None or ""), or its step `label`: as recorded,
         with a job's peak raised by what this run measured of that step's jobs; a package
-        never recorded is unknown; a restore needs nothing."""
-        if name in self._light:
+        never recorded is unknown; a restore needs nothing to start (a restore that builds
+        after all has steps, which need what the package's record says)."""
+        if name in self._light and not label:
             return Need(0, 0, True)
         record = self._recorded.get(name)
         package = self._measured.get(name)
@@ -295,9 +297,18 @@ class MemoryGovernor:
         values = [v for v in known if v]
         return max(values) if values else None
 
-    def _state(self) -> MemoryState:
+    def _state(self, waiter: str | None = None) -> MemoryState:
+        """What runs now. For the step `waiter` waiting to start: the steps that began to
+        wait after it are left out (they hold no process and must not hold it back, or two
+        waiting steps would wait for each other for ever); those before it hold their room."""
+        later: set[str] = set()
+        if waiter is not None and waiter in self._pending:
+            order = list(self._pending)
+            later = set(order[order.index(waiter) + 1:])
         running = []
         for name in self._running:
+            if name in later:
+                continue
             seen = self._snapshot.packages.get(name)
             need = self._pending.get(name)
             if need is None:
