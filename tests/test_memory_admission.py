@@ -99,3 +99,15 @@ def test_a_step_holds_room_for_what_it_needs_in_place_of_what_its_package_holds(
                      COMPILING).start  # 50 + 320 + 320
     assert not may_start(state(compiling("a", 300 * M, 300 * M), between, budget=900 * M), "b",
                          COMPILING).start  # 50 + 620 + 320
+
+
+def test_one_unmeasured_make_or_ninja_at_a_time() -> None:
+    # a's make runs its first job, never measured: b (never recorded either) waits for it
+    measuring = Running("a", 60 * M, (40 * M,), True, Need(known=False), measuring=True)
+    verdict = may_start(state(measuring, Running("b"), fallback=100 * M), "b", Need())
+    assert not verdict.start and "first job of a is measured first" in verdict.why
+    # a's first job measured: b's step needs the largest known and fits
+    measured = Running("a", 60 * M, (40 * M,), True, Need(job=150 * M, known=False))
+    assert may_start(state(measured, Running("b"), fallback=150 * M), "b", Need()).start
+    # a recorded package's step does not wait for it
+    assert may_start(state(measuring, fallback=100 * M), "c", COMPILING).start

@@ -152,6 +152,8 @@ class MemoryGovernor:
         self._refused: dict[str, float] = {}
         #: steps waiting to start (wait_for_step) → what they need
         self._pending: dict[str, Need] = {}
+        #: packages never recorded whose step (its label) started, none of its jobs measured
+        self._measuring: dict[str, str] = {}
         self._snapshot = TreeSnapshot(0)
         self._low = False
         self._peak = 0
@@ -210,6 +212,8 @@ class MemoryGovernor:
             if label is not None:
                 if verdict.start:
                     self._pending.pop(name, None)
+                    if not need.known and need.job is None:
+                        self._measuring[name] = label  # until one of its jobs is measured
                 else:
                     self._pending[name] = need
             elif not verdict.start:
@@ -236,6 +240,8 @@ class MemoryGovernor:
                     package = self._measured[event.package]
                     package.label = event.label
                     package.step(event.label)
+                    if self._measuring.get(event.package, event.label) != event.label:
+                        del self._measuring[event.package]  # that step ended
 
     def _finished(self, name: str) -> None:
         """`name` ended: its open jobs are measured, it holds nothing any more."""
@@ -246,6 +252,7 @@ class MemoryGovernor:
                 package.close_jobs()
             self._refused.pop(name, None)
             self._pending.pop(name, None)
+            self._measuring.pop(name, None)
 
     def stop(self) -> MemoryUse:
         """Stop measuring (the tokens stay held: the run's packages are done)."""
@@ -314,11 +321,12 @@ class MemoryGovernor:
             if need is None:
                 need = self._need(name, self._measured[name].label
                                   if name in self._measured else None)
+            measuring = name in self._measuring
             if seen is None:
-                running.append(Running(name, need=need))
+                running.append(Running(name, need=need, measuring=measuring))
             else:
                 running.append(Running(name, seen.rss, tuple(seen.jobs.values()), seen.driving,
-                                       need))
+                                       need, measuring))
         return MemoryState(self.budget.bytes, self._snapshot.total, tuple(running),
                            self.jobserver.circulating, self._fallback(), self._low)
 
@@ -370,6 +378,10 @@ class MemoryGovernor:
         for name, package in self._measured.items():
             if name not in seen.packages:
                 package.close_jobs()
+        for name, label in list(self._measuring.items()):
+            step = self._measured[name].steps.get(label) if name in self._measured else None
+            if step is not None and step.jobs:
+                del self._measuring[name]  # its first job is measured
 
     def _say(self, key: str, text: str) -> None:
         """Say `text` once per `key` (after the lock is released: see `_flush`)."""

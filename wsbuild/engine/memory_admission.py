@@ -18,7 +18,8 @@ whichever make or Ninja asks first (one FIFO for every package).
   first job without a token), when the committed memory plus what it needs fits, or when
   nothing else runs: what cannot fit even alone runs alone (`Verdict.alone`). A package
   without a prediction needs the largest prediction known; while none is known, no other
-  package without one starts beside it.
+  package without one starts beside it; and while a make or Ninja of one without a
+  prediction runs its first, unmeasured job, no step of another such package starts.
 """
 
 from __future__ import annotations
@@ -52,6 +53,8 @@ class Running:
     #: a make or Ninja of its runs (its jobs may take tokens)
     driving: bool = False
     need: Need = Need()
+    #: a step of it with no prediction started and none of its jobs was measured yet
+    measuring: bool = False
 
 
 @dataclass(frozen=True, slots=True)
@@ -167,6 +170,12 @@ def may_start(state: MemoryState, name: str, need: Need) -> Verdict:
             first = next(p.name for p in others if not p.need.known)
             return Verdict(False, f"nothing is known yet: {first} is measured first")
         start = 0
+    if not need.known and need.job is None:
+        # a make or Ninja of a package never recorded runs one job until it is measured:
+        # two such at once could each need the whole budget
+        measuring = [p.name for p in others if p.measuring]
+        if measuring:
+            return Verdict(False, f"the first job of {measuring[0]} is measured first")
     waiting = Running(name, own.rss if own is not None else 0, need=replace(
         need, start=start, job=need.job if need.job is not None else start))
     memory, _ = committed(replace(state, running=(*others, waiting)))
