@@ -97,9 +97,13 @@ def test_the_jobserver_hands_out_only_what_is_released_and_takes_back_what_waits
         jobserver.close()
 
 
-def test_two_steps_waiting_for_room_never_wait_for_each_other() -> None:
-    """Two packages reach a step that needs more than half the budget while a third holds it:
-    when the third ends, the step that waited first starts, then the other."""
+def test_steps_waiting_for_room_start_in_the_schedulers_order_and_never_wait_for_each_other(
+        ) -> None:
+    """Two packages reach a step that needs more than half the budget while a third holds it;
+    the one the scheduler started later asks first. When the third ends, the step of the one
+    started first starts (it came first in the scheduler's order: the critical path), then
+    the other; neither waits for the other for ever."""
+    from wsbuild.engine.jobs import StepStarted
     from wsbuild.engine.memory_records import PackageMemoryRecord, StepMemory
 
     here = sum(p.rss for p in read_tree(os.getpid()).values())
@@ -108,11 +112,9 @@ def test_two_steps_waiting_for_room_never_wait_for_each_other() -> None:
     jobserver = Jobserver(2)
     governor = MemoryGovernor(MemoryBudget(here + 500 * M, 0, "test", 8 * 1024 * M), jobserver,
                               records, warn=lambda text: None, read_free=lambda: None).start()
-    from wsbuild.engine.jobs import StepStarted
-
     started: list[str] = []
     try:
-        for name in ("c", "a", "b"):
+        for name in ("c", "a", "b"):  # the scheduler's order
             governor.hear(JobStarted(name))
         governor.hear(StepStarted("c", "build"))  # c compiles: no room for another compile
 
@@ -121,13 +123,13 @@ def test_two_steps_waiting_for_room_never_wait_for_each_other() -> None:
             started.append(name)
             governor.hear(StepStarted(name, "build"))
 
-        waiting_a = threading.Thread(target=step, args=("a",))
-        waiting_a.start()
-        while "a" not in governor._pending:  # noqa: SLF001 - a waits before b asks
-            waiting_a.join(0.01)
         waiting_b = threading.Thread(target=step, args=("b",))
         waiting_b.start()
-        waiting_b.join(0.5)
+        while "b" not in governor._pending:  # noqa: SLF001 - b waits before a asks
+            waiting_b.join(0.01)
+        waiting_a = threading.Thread(target=step, args=("a",))
+        waiting_a.start()
+        waiting_a.join(0.5)
         assert started == []
         governor.hear(JobFinished(JobResult("c", Outcome.FINISHED)))
         waiting_a.join(10)

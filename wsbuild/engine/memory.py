@@ -201,8 +201,7 @@ class MemoryGovernor:
         step refused holds room for what it needs until it starts."""
         with self._lock:
             need = self._need(name, label)
-            verdict = may_start(self._state(waiter=name if label is not None else None),
-                                name, need)
+            verdict = may_start(self._state(waiter=name), name, need)
             if verdict.start and verdict.alone and name not in self._alone:
                 self._alone.append(name)
                 self._say(name, f"{name} is predicted to need {format_size(need.start or 0)}"
@@ -270,11 +269,11 @@ class MemoryGovernor:
 
     # ------------------------------------------------------------------ predictions
 
-    def _need(self, name: str, label: str | None = None) -> Need:
-        """What `name` needs to start (`label` None or ""), or its step `label`: as recorded,
-        with a job's peak raised by what this run measured of that step's jobs; a package
-        never recorded is unknown; a restore needs nothing to start (a restore that builds
-        after all has steps, which need what the package's record says)."""
+    def _need(self, name: str, label: str | None = None, *, ahead: bool = False) -> Need:
+        """What `name` needs to start (`label` None or ""), or its step `label` (`ahead`: and
+        the steps after it): as recorded, with a job's peak raised by what this run measured
+        of that step's jobs; a package never recorded is unknown; a restore needs nothing to
+        start (a restore that builds after all has steps, which need what its record says)."""
         if name in self._light and not label:
             return Need(0, 0, True)
         record = self._recorded.get(name)
@@ -283,7 +282,9 @@ class MemoryGovernor:
         measured = step.job if step is not None and step.jobs else None
         if record is None:
             return Need(measured, None, False)
-        need = record.need(label or None)
+        need = record.need_ahead(label) if ahead and label else record.need(label or None)
+        if ahead and not label:  # before its first step: all of them are ahead
+            need = Need(need.job, record.largest, True)
         if measured is not None:
             need = Need(max(measured, need.job or 0), need.start, True)
         return need
@@ -305,28 +306,45 @@ class MemoryGovernor:
         return max(values) if values else None
 
     def _state(self, waiter: str | None = None) -> MemoryState:
-        """What runs now. For the step `waiter` waiting to start: the steps that began to
-        wait after it are left out (they hold no process and must not hold it back, or two
-        waiting steps would wait for each other for ever); those before it hold their room."""
-        later: set[str] = set()
-        if waiter is not None and waiter in self._pending:
-            order = list(self._pending)
-            later = set(order[order.index(waiter) + 1:])
+        """What runs now, with what each running package is predicted to need.
+
+        For the package or step `waiter` asking to start, the scheduler's priority decides (a
+        package that started earlier came first in its order): a package that started before
+        it holds room for what it needs from its step to its end (a waiting step: what that
+        step needs), so a later one never takes the room of an earlier one's next step; one
+        that started after it counts only with its processes, so that what waits the longest
+        in that order is never held back by what waits behind it (two steps would wait for
+        each other for ever). Without a `waiter` (the tokens), each holds what its step, or
+        the step it waits to start, needs."""
+        names = list(self._running)
+        rank = names.index(waiter) if waiter in self._running else len(names)
         running = []
-        for name in self._running:
-            if name in later:
+        for index, name in enumerate(names):
+            if name == waiter:
                 continue
             seen = self._snapshot.packages.get(name)
-            need = self._pending.get(name)
-            if need is None:
-                need = self._need(name, self._measured[name].label
-                                  if name in self._measured else None)
+            label = self._measured[name].label if name in self._measured else None
             measuring = name in self._measuring
+            if waiter is not None and index > rank:  # behind it: its processes only
+                if seen is None or not seen.rss:
+                    continue
+                need = self._need(name, label)
+                need = Need(need.job, 0, need.known)
+            else:
+                need = self._need(name, label, ahead=waiter is not None)
+                pending = self._pending.get(name)
+                if pending is not None:
+                    need = pending if waiter is None else Need(
+                        pending.job, max(pending.start or 0, need.start or 0) or None,
+                        pending.known)
             if seen is None:
                 running.append(Running(name, need=need, measuring=measuring))
             else:
                 running.append(Running(name, seen.rss, tuple(seen.jobs.values()), seen.driving,
                                        need, measuring))
+        if waiter in self._running:  # what it holds now, in place of which its step asks
+            seen = self._snapshot.packages.get(waiter)
+            running.append(Running(waiter, seen.rss if seen is not None else 0))
         return MemoryState(self.budget.bytes, self._snapshot.total, tuple(running),
                            self.jobserver.circulating, self._fallback(), self._low)
 

@@ -5,11 +5,11 @@ measured and predicts.
 
 What is committed (`committed`) is what the build's process tree holds now, with each running
 job raised to its step's predicted job peak (it may still grow to it), each package between
-its jobs holding room for its next one (the implicit slot of its make or Ninja), each step
-without a make or Ninja (configure, a Python build) holding room for its predicted peak, a
-step waiting to start holding room for what it needs, and each token that circulates unused
-holding room for the largest job a running package could start with it: tokens go to
-whichever make or Ninja asks first (one FIFO for every package).
+its jobs holding room for its next one (the implicit slot of its make or Ninja), each package
+holding at least what it is predicted to need (`Need.start`: its step's, or what it needs
+ahead), a step waiting to start holding room for what it needs, and each token that
+circulates unused holding room for the largest job a running package could start with it:
+tokens go to whichever make or Ninja asks first (one FIFO for every package).
 
 - A token is handed out when the committed memory plus one more such job fits the budget,
   while no make or Ninja of a step without a prediction runs (its first job is measured
@@ -91,13 +91,15 @@ def _own(package: Running, fallback: int | None) -> tuple[int, int]:
     """What a running package commits (bytes), and how many tokens its jobs hold: a make or
     Ninja runs one job on its implicit slot, each further job holds a token."""
     job = _job(package, fallback)
+    start = package.need.start
+    floor = (fallback or 0) if start is None else start
     if package.driving and package.jobs:
         overhead = package.rss - sum(package.jobs)
-        return overhead + sum(max(rss, job) for rss in package.jobs), len(package.jobs) - 1
+        return max(floor, overhead + sum(max(rss, job) for rss in package.jobs)), \
+            len(package.jobs) - 1
     if package.driving:  # between jobs: the implicit slot's next one
-        return package.rss + job, 0
-    start = package.need.start
-    return max(package.rss, (fallback or 0) if start is None else start), 0
+        return max(floor, package.rss + job), 0
+    return max(package.rss, floor), 0
 
 
 def _token_job(state: MemoryState) -> int:

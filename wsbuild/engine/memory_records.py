@@ -78,6 +78,16 @@ class PackageMemoryRecord:
             return Need(None, self.largest, True)
         return Need(step.job, step.start, True)
 
+    def need_ahead(self, label: str) -> Need:
+        """What the package needs from its step `label` to its end: the largest start of
+        that step and those after it (a step never recorded: the package's largest), and a
+        job's peak in `label`."""
+        labels = list(self.steps)
+        if label not in labels:
+            return Need(None, self.largest, True)
+        ahead = [self.steps[name] for name in labels[labels.index(label):]]
+        return Need(self.steps[label].job, max(step.start for step in ahead), True)
+
     def as_json(self) -> dict[str, object]:
         return {"peak": self.peak,
                 "steps": {label: step.as_json() for label, step in self.steps.items()}}
