@@ -6,9 +6,11 @@ It holds every token of the run's jobserver (engine/jobserver.py) and, every `in
 seconds, measures the build's process tree (engine/memory_tree.py: each package's processes,
 each job under a make or Ninja), reads the free memory (the live guard), learns from what it
 measured (a job's peak when it ends, per package and step) and hands out or takes back tokens.
-The scheduler (engine/schedule.py) asks it before starting a package. A step is never killed
-for memory: a package that cannot fit even alone runs alone, and the governor says so
-(`warn`), as it says when free memory fell below the margin.
+The scheduler (engine/schedule.py) asks it before starting a package, and each command step
+of a package asks it before it starts (`wait_for_step`); among those asking, the scheduler's
+order decides (see `_state`). A step is never killed for memory: a package that cannot fit
+even alone runs alone, and the governor says so (`warn`), as it says when free memory fell
+below the margin.
 
 At the end (`stop`) it tells what the run used (`MemoryUse`): the budget, the tree's peak, each
 package's peak and what each step needed (the records of engine/memory_records.py), how long
@@ -190,11 +192,12 @@ class MemoryGovernor:
             time.sleep(_STEP_POLL)
             if self._admit(name, label):
                 break
+        waited = time.monotonic() - began
         with self._lock:
             self._pending.pop(name, None)
             package = self._measured.setdefault(name, _Package())
-            package.waited += time.monotonic() - began
-            package.waited_in_steps += time.monotonic() - began
+            package.waited += waited
+            package.waited_in_steps += waited
 
     def _admit(self, name: str, label: str | None) -> bool:
         """The rule's verdict for the package `name` (`label` None) or its step `label`; a
