@@ -25,11 +25,11 @@ HOLDER = f"import time; block = b'x' * {HOLD}; time.sleep(1.0)"
 
 
 def _run(names: list[str], budget: int, predictions: dict | None = None,
-         tmp: Path | None = None) -> tuple[list[object], object]:
+         tmp: Path | None = None, said: list[str] | None = None) -> tuple[list[object], object]:
     """Run one holder per job under a governor of `budget`; the events, and what it used."""
     jobserver = Jobserver(2)
     governor = MemoryGovernor(MemoryBudget(budget, 0, "test", 8 * 1024 * M), jobserver,
-                              predictions or {}, warn=lambda text: None,
+                              predictions or {}, warn=(said if said is not None else []).append,
                               read_free=lambda: None).start()
     events: list[object] = []
     lock = threading.Lock()
@@ -79,6 +79,19 @@ def test_with_nothing_recorded_one_runs_and_is_measured_then_the_measures_admit(
                        tmp=tmp_path)
     assert _most_at_once(events) == 2
     assert use.peak <= use.budget.bytes
+
+
+def test_what_cannot_fit_even_alone_runs_alone_is_never_stopped_and_is_said(
+        tmp_path: Path) -> None:
+    here = sum(p.rss for p in read_tree(os.getpid()).values())
+    events, use = _run(["a", "b"], here + HOLD // 2, tmp=tmp_path)
+    said: list[str] = []
+    events, use = _run(["a", "b"], here + HOLD // 2, dict(use.packages), tmp=tmp_path,
+                       said=said)
+    assert _most_at_once(events) == 1  # each ran, alone, to its end
+    assert sorted(use.alone) == ["a", "b"]
+    assert any(text.startswith("a is predicted to need") and "it runs alone" in text
+               for text in said), said
 
 
 def test_the_jobserver_hands_out_only_what_is_released_and_takes_back_what_waits() -> None:
