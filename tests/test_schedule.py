@@ -111,3 +111,33 @@ def test_a_job_waiting_for_another_machine_takes_no_worker() -> None:
                        weights={"remote": 10.0, "local": 1.0}, waiting={"remote"})
     assert seen == {"local ran while remote waited": True}
     assert all(r.outcome is Outcome.FINISHED for r in results)
+
+
+def test_a_job_held_back_by_admission_is_overtaken_by_none_and_alone_it_starts() -> None:
+    started: list[str] = []
+    asked: list[tuple[str, tuple[str, ...]]] = []
+    running: set[str] = set()
+    lock = threading.Lock()
+
+    def admit(name: str) -> bool:
+        with lock:
+            asked.append((name, tuple(sorted(running))))
+            # "big" fits beside nothing; the others beside anything
+            return name != "big" or not running
+
+    def job(name: str) -> JobResult:
+        with lock:
+            started.append(name)
+            running.add(name)
+        time.sleep(0.05)
+        with lock:
+            running.discard(name)
+        return JobResult(name, Outcome.FINISHED)
+
+    # "first" starts first; then "big" (the most work behind it) waits for room while
+    # "small" could start at once: it does not overtake "big"
+    graph = JobGraph.of(["first", "big", "small", "tail"], {"tail": {"big"}})
+    run_jobs(graph, job, workers=3, policy=FailurePolicy.STOP, emit=lambda e: None,
+             weights={"first": 10, "big": 5, "small": 1, "tail": 1}, admit=admit)
+    assert started == ["first", "big", "small", "tail"]
+    assert ("big", ("first",)) in asked and ("big", ()) in asked

@@ -10,7 +10,7 @@ import contextlib
 import os
 import shlex
 import time
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
@@ -65,6 +65,8 @@ class RunResources:
     #: a package whose steps read another's install without declaring it fails
     #: (--strict-dependencies), instead of being warned about
     strict_dependencies: bool = False
+    #: returns when a command step may start (the memory governor, engine/memory.py)
+    memory_gate: Callable[[str, str, Emit], None] | None = None
 
 
 @dataclass(slots=True)
@@ -261,6 +263,8 @@ class PackageBuild:
         fifo = str(ctx.jobserver_fifo or "")
         for step in self.steps():
             self.step = step.label
+            if step.command is not None and self.run.memory_gate is not None:
+                self.run.memory_gate(self.name, step.label, self.run.emit)
             self.run.emit(StepStarted(self.name, step.label))
             if step.command is not None:
                 command = step.command

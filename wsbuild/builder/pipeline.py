@@ -123,7 +123,7 @@ def run_build(selection: Selection, request: BuildRequest, emit: Emit) -> list[J
         run = PackageRun(selection, session.run_log, plan.jobs, report=request.report,
                          sample_cpu=bool(plan.to_do()), started=started, cpu_before=cpu_before)
         results, counts = execute(plan, selection, request, session, emit, run, shard=shard)
-        details = _finish(run, request, session, results, counts)
+        details = _finish(run, request, session, results, counts, plan)
         if shard is not None:  # what it waited for; the times of what it built
             details += shard_run.finish(plan, shard, results, session, emit)
     seconds = time.monotonic() - started
@@ -185,7 +185,7 @@ def execute(plan: BuildPlan, selection: Selection, request: BuildRequest, sessio
         counts = _stop_compilers(compilers, distribution, emit)
         results = _in_selection_order(selection, {**settled, **_by_name(interrupt.results)})
         write_setup_scripts(ws, session.merged, session.underlay, installed_changed=True)
-        details = _finish(run, request, session, results, counts)
+        details = _finish(run, request, session, results, counts, plan)
         emit(RunFinished(tuple(results), time.monotonic() - run.started, details=details))
         raise Interrupted("build interrupted") from None
     finally:
@@ -256,11 +256,17 @@ def _run_packages(plan: BuildPlan, selection: Selection, request: BuildRequest,
     jobserver = session.jobserver(options.jobs)
     if distribution is not None:
         distribution.watch(jobserver)
+    from wsbuild.builder.memory import open_governor
+
+    run.memory = open_governor(request.memory, plan, selection.workspace.build_base, jobserver,
+                               warn=lambda text: emit(Notice(text, warning=True)),
+                               shared=shard.memory if shard is not None else None)
     resources = RunResources(
         selection=selection, session=session, options=options, run_log=session.run_log,
         jobserver=jobserver, compilers=compilers, emit=run.timed(emit),
         unresolved=plan.unresolved, order=tuple(selection.graph.topological_order()),
-        distribution=distribution, strict_dependencies=request.strict_dependencies)
+        distribution=distribution, strict_dependencies=request.strict_dependencies,
+        memory_gate=run.memory.wait_for_step if run.memory is not None else None)
     policy = FailurePolicy.SKIP_DEPENDENTS if request.run.continue_on_error \
         else FailurePolicy.STOP
     planned = {p.name: p for p in plan.to_do()}
@@ -389,10 +395,13 @@ def _compiler_choice_text(request: BuildRequest, results: Sequence[JobResult],
 
 
 def _finish(run: PackageRun, request: BuildRequest, session: Session,
-            results: Sequence[JobResult], counts: CompileCounts) -> tuple[str, ...]:
+            results: Sequence[JobResult], counts: CompileCounts,
+            plan: BuildPlan) -> tuple[str, ...]:
     """After the run: timings and the report into the log (runreport/package_run.py),
-    durations recorded for the scheduler's next run; the summary's lines: packages cut off,
-    the compiler cache's counts, with --timings the table and the report's path."""
+    durations and memory recorded for the next run; the summary's lines: packages cut off,
+    the compiler cache's counts, the memory budget and peaks, with --timings the table and
+    the report's path."""
+    from wsbuild.builder.memory import finish_memory
     from wsbuild.runreport.report_json import RunFacts
 
     lines = _cut_off_line(results)
@@ -408,10 +417,15 @@ def _finish(run: PackageRun, request: BuildRequest, session: Session,
                      compiler=compiler,
                      cache=request.cache, symlink_install=request.build.symlink_install,
                      report=request.report, timings=request.timings)
-    end = run.finish(results, facts, compile_jobs=counts.jobs, job_budget=counts.budget)
+    memory = finish_memory(run.memory, session.workspace.build_base, results, plan)
+    if memory is not None:
+        lines += memory.summary()
+    end = run.finish(results, facts, compile_jobs=counts.jobs, job_budget=counts.budget,
+                     memory=memory)
     # a restore's seconds say nothing of a build's: the next estimate would be far too short
     record_durations(session.workspace.build_base,
-                     [r for r in results if r.message != "restored from cache"])
+                     [r for r in results if r.message != "restored from cache"],
+                     memory.in_steps if memory is not None else None)
     if request.timings:
         lines += [*end.timings.table(), end.timings.summary_line()]
         if counts.jobs is not None:

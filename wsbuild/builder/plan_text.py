@@ -118,8 +118,10 @@ def _missing_scripts(commands: PlannedCommands) -> list[str]:
     return missing
 
 
-def plan_lines(build_plan: BuildPlan, commands: PlannedCommands | None = None) -> list[str]:
-    """The plan as a person reads it."""
+def plan_lines(build_plan: BuildPlan, commands: PlannedCommands | None = None,
+               memory: str = "") -> list[str]:
+    """The plan as a person reads it; `memory`: the line naming the memory budget
+    (builder/memory.py), after the critical path."""
     packages = build_plan.packages
     building = build_plan.to_do()
     lines = [f"dry run: {plural(len(packages), 'package')}, "
@@ -133,6 +135,8 @@ def plan_lines(build_plan: BuildPlan, commands: PlannedCommands | None = None) -
     if build_plan.critical_path:
         lines.append(f"critical path (about {build_plan.critical_seconds:.0f} s of the last "
                      f"recorded or estimated durations): {' → '.join(build_plan.critical_path)}")
+    if memory:
+        lines.append(memory)
     if build_plan.unresolved:
         lines.append("unresolved build dependencies (the build warns and goes on; "
                      "--strict-dependencies refuses):")

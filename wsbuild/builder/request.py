@@ -11,6 +11,7 @@ from typing import TYPE_CHECKING
 
 from wsbuild.build_types import BuildOptions
 from wsbuild.cache.settings import CacheSettings
+from wsbuild.engine.memory_budget import MemoryLimit
 from wsbuild.engine.timings import cpu_count
 
 if TYPE_CHECKING:
@@ -78,6 +79,8 @@ class BuildRequest:
     shard: ShardSpec | None = None
     #: --assemble N: the job after a matrix of N shards (builder/shard_cover.py)
     assemble: Assembly | None = None
+    #: --memory-limit / --no-memory-limit: the memory budget (builder/memory.py)
+    memory: MemoryLimit = MemoryLimit()
 
 
 def options_of_record(options: Mapping[str, object]) -> BuildOptions:

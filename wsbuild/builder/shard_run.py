@@ -52,6 +52,7 @@ if TYPE_CHECKING:
     from wsbuild.builder.plan import BuildPlan, PackagePlan
     from wsbuild.cache.documents import SharedDocuments
     from wsbuild.cache.settings import CacheSettings
+    from wsbuild.engine.memory_records import PackageMemoryRecord
     from wsbuild.session import Session
     from wsbuild.workspace.selection import Selection
 
@@ -97,6 +98,8 @@ class ShardPlan:
     #: lines said once the plan is made (taken split, another workspace)
     notices: tuple[tuple[str, bool], ...] = ()
     log: ShardLog = field(default_factory=ShardLog, compare=False)
+    #: what each package needed in memory, as the matrix's jobs shared it (builder/memory.py)
+    memory: Mapping[str, PackageMemoryRecord] = field(default_factory=dict, compare=False)
 
     def owner(self, name: str) -> int:
         return self.split.assignment[name]
@@ -150,9 +153,12 @@ def shard_selection(selection: Selection, spec: ShardSpec, workers: int,
     from wsbuild.cache.documents import SharedDocuments
     from wsbuild.workspace.selection import Selection as Selected
 
+    from wsbuild.builder.memory import shared_memory
+
     spec = replace(spec, run=run_of(selection, spec.run))
     documents = SharedDocuments.open(session.cache.settings)
     try:
+        memory = shared_memory(documents)
         split = split_of(selection, spec.count, workers, documents, spec.run, fix=True)
         workspace = graph_digest(split.jobs)
         notices: list[tuple[str, bool]] = []
@@ -171,7 +177,7 @@ def shard_selection(selection: Selection, spec: ShardSpec, workers: int,
              for name, seconds in split.waits(spec.index, needed).items()}
     notices.insert(0, (_plan_line(spec, split, own, waits), False))
     shard = ShardPlan(spec, split, own, waits, split.priorities(needed), workspace,
-                      frozenset(strangers), tuple(notices))
+                      frozenset(strangers), tuple(notices), memory=memory)
     return Selected(selection.workspace, selection.packages, selection.graph,
                     list(needed)), shard
 
@@ -284,9 +290,12 @@ def finish(plan: BuildPlan, shard: ShardPlan, results: Sequence[JobResult], sess
            emit: Emit) -> tuple[str, ...]:
     """After the packages: the times of what the shard built into the shared document, and
     the summary's line on what it waited for."""
+    from wsbuild.builder.memory import publish_memory
+
     times = built_times(shard, {p.name: p for p in plan.packages}, results)
     for problem in publish_times(session.cache.settings, times,
-                                 session.workspace.build_base / ".wsbuild"):
+                                 session.workspace.build_base / ".wsbuild") + publish_memory(
+            session.cache.settings, times, session.workspace.build_base):
         emit(Notice(f"cache: {problem}", warning=True))
     return tuple(summary_lines(shard, results))
 

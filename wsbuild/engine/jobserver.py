@@ -1,5 +1,7 @@
 """The GNU make jobserver every package's build shares: one job budget for the whole run (the
-local cores; with distributed compiles, the cores plus the remote hosts' slots)."""
+local cores; with distributed compiles, the cores plus the remote hosts' slots). wsbuild may
+hold tokens back (`hold`) and hand them out one by one (`release`): the memory governor
+(engine/memory.py) decides every token that way."""
 
 from __future__ import annotations
 
@@ -28,10 +30,15 @@ class Jobserver:
         os.set_inheritable(self.write_fd, True)
         # each running make holds one implicit slot; the FIFO holds the rest of the budget.
         # A gate that is no make (distcc's local gate) has no implicit slot: all in the FIFO
-        os.write(self.write_fd, b"+" * max(0, jobs - 1 if implicit_slot else jobs))
+        #: the tokens of the FIFO (the budget less the implicit slot of a make)
+        self.tokens = max(0, jobs - 1 if implicit_slot else jobs)
+        os.write(self.write_fd, b"+" * self.tokens)
         self._lock = threading.Lock()
         self._to_withhold = 0
         self._withheld = 0
+        #: tokens wsbuild holds back, out of circulation (`hold`, `release`, `reclaim`)
+        self._held = 0
+        self._reader: int | None = None
         self._closing = threading.Event()
         self._taker: threading.Thread | None = None
 
@@ -49,6 +56,46 @@ class Jobserver:
     def withheld(self) -> int:
         with self._lock:
             return self._withheld
+
+    def hold(self) -> int:
+        """Take every token out of the FIFO before any make or Ninja runs: from now on only
+        what `release` hands out circulates. Returns how many are held."""
+        return self.reclaim(self.tokens)
+
+    def release(self, count: int) -> int:
+        """Hand out up to `count` held tokens (into the FIFO); how many went out."""
+        with self._lock:
+            count = max(0, min(count, self._held))
+            self._held -= count
+        if count:
+            os.write(self.write_fd, b"+" * count)
+        return count
+
+    def reclaim(self, count: int) -> int:
+        """Take up to `count` tokens that wait unused in the FIFO back (never one a make or
+        Ninja holds: those come back when their jobs end); how many were taken."""
+        if count <= 0:
+            return 0
+        with self._lock:
+            if self._reader is None:
+                self._reader = os.open(self.fifo, os.O_RDONLY | os.O_NONBLOCK)
+            try:
+                taken = len(os.read(self._reader, count))
+            except BlockingIOError:
+                taken = 0
+            self._held += taken
+        return taken
+
+    @property
+    def circulating(self) -> int:
+        """Tokens out of wsbuild's hands: in the FIFO, or held by a make or Ninja."""
+        with self._lock:
+            return self.tokens - self._held - self._withheld
+
+    @property
+    def held(self) -> int:
+        with self._lock:
+            return self._held
 
     def _take(self) -> None:
         fd = os.open(self.fifo, os.O_RDONLY | os.O_NONBLOCK)
@@ -83,6 +130,8 @@ class Jobserver:
         self._closing.set()
         if self._taker is not None:
             self._taker.join()
+        if self._reader is not None:
+            os.close(self._reader)
         os.close(self.read_fd)
         os.close(self.write_fd)
         import shutil

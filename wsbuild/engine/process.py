@@ -31,26 +31,47 @@ _POLL_SECONDS = 0.05
 _PR_SET_CHILD_SUBREAPER = 36
 
 
+#: the job (a package) whose thread starts processes now: set by the scheduler's workers
+_job = threading.local()
+
+
+def start_processes_for(job: str | None) -> None:
+    """The processes this thread starts from now on are `job`'s (the memory governor,
+    engine/memory.py, measures them as that package's)."""
+    _job.name = job
+
+
 class ProcessRegistry:
     """Every child process group wsbuild started, so Ctrl-C can end all of them, and with
-    them every descendant, whatever process group or session it moved to."""
+    them every descendant, whatever process group or session it moved to; and which job
+    started each."""
 
     def __init__(self) -> None:
         self._lock = threading.Lock()
         self._running: dict[int, subprocess.Popen[bytes]] = {}
+        self._owners: dict[int, str] = {}
         self.cancelled = threading.Event()
         #: a second Ctrl-C: SIGKILL at once instead of waiting out the grace period
         self.hurried = threading.Event()
 
     def add(self, proc: subprocess.Popen[bytes]) -> None:
+        owner = getattr(_job, "name", None)
         with self._lock:
             self._running[proc.pid] = proc
+            if owner:
+                self._owners[proc.pid] = owner
         if self.cancelled.is_set():
             _signal_group(proc.pid, signal.SIGKILL if self.hurried.is_set() else signal.SIGTERM)
 
     def remove(self, proc: subprocess.Popen[bytes]) -> None:
         with self._lock:
             self._running.pop(proc.pid, None)
+            self._owners.pop(proc.pid, None)
+
+    def owners(self) -> dict[int, str]:
+        """The first process of each running step → the job that started it."""
+        with self._lock:
+            return dict(self._owners)
 
     def hurry(self) -> None:
         """Cut the grace period of `terminate_all` short (safe to call from a signal handler)."""

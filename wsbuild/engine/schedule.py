@@ -17,12 +17,21 @@ from collections.abc import Callable, Collection, Mapping
 from dataclasses import replace
 from enum import Enum
 
-from wsbuild.engine.process import REGISTRY, ProcessRegistry, adopt_orphans
+from wsbuild.engine.process import (
+    REGISTRY,
+    ProcessRegistry,
+    adopt_orphans,
+    start_processes_for,
+)
 from wsbuild.engine.jobs import JobEvent, JobFinished, JobStarted
 from wsbuild.engine.jobs import JobResult, Outcome
 from wsbuild.engine.ready_queue import JobGraph, ReadyQueue
 
 Job = Callable[[str], JobResult]
+#: may a job start now (besides its dependencies and a free worker)? the memory governor's
+#: answer (engine/memory.py); asked again every ADMISSION_POLL seconds while it says no
+Admission = Callable[[str], bool]
+ADMISSION_POLL = 0.05
 
 
 class FailurePolicy(Enum):
@@ -46,11 +55,13 @@ def run_jobs(
     registry: ProcessRegistry = REGISTRY,
     weights: Mapping[str, float] | None = None,
     waiting: Collection[str] = (),
+    admit: Admission | None = None,
 ) -> list[JobResult]:
     """Run `job` for every job of `jobs` once its dependencies finished, in the order of a
     `ReadyQueue` under `weights` (the most remaining work first). The jobs named in `waiting`
     mostly wait for another machine (a shard's packages of other shards, builder/shard_run.py):
-    they start as soon as they are ready and take no worker.
+    they start as soon as they are ready and take no worker. With `admit`, the next job in
+    that order starts only when `admit` says it may (memory): none overtakes it meanwhile.
 
     A failed job (outcome FAILED) affects the others as `policy` says.
     Ctrl-C (KeyboardInterrupt in the calling thread) terminates every child process group and
@@ -73,6 +84,7 @@ def run_jobs(
 
     def worker(name: str) -> None:
         start = time.monotonic()
+        start_processes_for(name)
         try:
             result = job(name)
         except BaseException as exc:  # reported as a failure of this package, never lost
@@ -113,7 +125,7 @@ def run_jobs(
                         settle(JobResult(name, Outcome.SKIPPED,
                                            message="not started after an earlier failure"))
             else:
-                while (name := _next_job(ready, running, workers, waiting)) is not None:
+                while (name := _next_job(ready, running, workers, waiting, admit)) is not None:
                     running[name] = time.monotonic()
                     emit(JobStarted(name))
                     threading.Thread(target=worker, args=(name,), daemon=True,
@@ -123,7 +135,12 @@ def run_jobs(
                     stalled = sorted(set(names) - set(results))
                     raise RuntimeError(f"scheduler stalled with {stalled} waiting (a bug)")
                 continue
-            result = done.get()
+            try:
+                # a job held back for memory is asked about again soon
+                result = done.get(timeout=ADMISSION_POLL if admit is not None
+                                  and ready.has_ready() else None)
+            except queue.Empty:
+                continue
             running.pop(result.package, None)
             settle(result)
             if result.outcome not in (Outcome.FINISHED, Outcome.UP_TO_DATE):
@@ -156,11 +173,26 @@ def run_jobs(
 
 
 def _next_job(ready: ReadyQueue, running: Collection[str], workers: int,
-              waiting: Collection[str]) -> str | None:
+              waiting: Collection[str], admit: Admission | None = None) -> str | None:
     """The next job to start: any ready one while a worker is free, else one that waits for
-    another machine (it takes no worker)."""
-    if sum(1 for name in running if name not in waiting) < workers:
-        return ready.pop()
+    another machine (it takes no worker). With `admit`, the first in the queue's order that
+    takes a worker starts only when admitted; while it is not, none after it starts. With no
+    job running, it starts regardless: a job that cannot fit beside others runs alone."""
+    busy = sum(1 for name in running if name not in waiting)
+    if busy < workers:
+        if admit is None:
+            return ready.pop()
+        asked: list[str] = []
+
+        def accept(name: str) -> bool:
+            if name in waiting:
+                return True
+            if asked:
+                return False
+            asked.append(name)
+            return admit(name) or not busy
+
+        return ready.pop(accept)
     return ready.pop(lambda name: name in waiting) if waiting else None
 
 

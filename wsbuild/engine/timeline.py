@@ -15,6 +15,7 @@ from html import escape
 #: phase -> (colour, legend text), in legend order
 PHASES: dict[str, tuple[str, str]] = {
     "waiting": ("#d9d9d9", "waiting for a worker"),
+    "memory": ("#ff9da7", "waiting for memory"),
     "check": ("#bab0ac", "up-to-date check"),
     "configure": ("#4e79a7", "configure"),
     "build": ("#f28e2b", "build"),
@@ -27,7 +28,9 @@ PHASES: dict[str, tuple[str, str]] = {
 }
 #: step labels (wsbuild's build types, colcon's progress names, test tools) -> phase drawn
 _PHASE_OF = {"configure": "configure", "cmake": "configure", "build": "build",
-             "install": "install", "pytest": "test", "ctest": "test", "check": "check"}
+             "install": "install", "pytest": "test", "ctest": "test", "check": "check",
+             # engine/memory.py's WAIT_LABEL
+             "wait": "memory"}
 
 ROW = 18
 LABEL_WIDTH = 200

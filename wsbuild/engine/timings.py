@@ -23,6 +23,7 @@ import time
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from wsbuild.engine.jobs import JobEvent, JobFinished, JobResult, JobStarted, Outcome, StepStarted
 from wsbuild.engine.timing_files import (
@@ -37,6 +38,9 @@ from wsbuild.engine.timing_files import (
 )
 from wsbuild.files import atomic_write
 from wsbuild import inputs
+
+if TYPE_CHECKING:  # what only a build that ran packages has: a no-op imports none of it
+    from wsbuild.engine.memory import MemoryUse
 
 __all__ = ["TIMINGS_JSON", "TIMINGS_TEXT"]
 
@@ -54,9 +58,13 @@ def read_durations(build_base: Path) -> dict[str, float]:
     return {str(k): float(v) for k, v in data.items() if isinstance(v, (int, float)) and v >= 0}
 
 
-def record_durations(build_base: Path, results: Iterable[JobResult]) -> None:
-    """Keep the durations of packages built in this run (others keep their earlier record)."""
-    built = {r.package: round(r.seconds, 3) for r in results if r.outcome is Outcome.FINISHED}
+def record_durations(build_base: Path, results: Iterable[JobResult],
+                     waited: Mapping[str, float] | None = None) -> None:
+    """Keep the durations of packages built in this run (others keep their earlier record),
+    less the seconds they `waited` for memory (a wait says nothing of the work)."""
+    waited = waited or {}
+    built = {r.package: round(max(0.0, r.seconds - waited.get(r.package, 0.0)), 3)
+             for r in results if r.outcome is Outcome.FINISHED}
     if not built:
         return
     durations = read_durations(build_base)
@@ -199,6 +207,8 @@ class RunTimings:
     #: the jobs the run's jobserver held (the cores, plus remote slots when distributing);
     #: 0: the cores
     job_budget: int = 0
+    #: what the run used of its memory budget (None: no budget, or nothing ran)
+    memory: MemoryUse | None = None
 
     @property
     def limit(self) -> float:
@@ -219,6 +229,7 @@ class RunTimings:
                 for p in self.packages
             ],
             **({"compile_jobs": self.compile_jobs.as_json()} if self.compile_jobs else {}),
+            **({"memory": self.memory.as_json()} if self.memory is not None else {}),
         }
 
     def summary_line(self) -> str:
@@ -249,5 +260,8 @@ class RunTimings:
 def write_timings(run_log: Path, timings: RunTimings) -> None:
     """`timings.json` (machine-readable) and `timings.txt` (the table) in the run's log."""
     extra = [timings.compile_jobs.summary()] if timings.compile_jobs else []
+    # the memory lines (every package's peak) before the summary line, which ends the file
+    memory = timings.memory.summary(largest=len(timings.memory.packages)) \
+        if timings.memory is not None else []
     write_timing_files(run_log, timings.as_json(),
-                       [*timings.table(), "", timings.summary_line(), *extra])
+                       [*timings.table(), "", *memory, timings.summary_line(), *extra])

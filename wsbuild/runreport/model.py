@@ -50,6 +50,10 @@ class PackageRow:
     #: seconds per drawn phase (configure, build, install, test, ...)
     phases: Mapping[str, float] = field(default_factory=dict)
     tests: Mapping[str, object] | None = None
+    #: its processes' peak resident memory (bytes; None: not measured), and the seconds it
+    #: waited for memory (to start, and before its steps)
+    memory_peak: int | None = None
+    memory_wait: float = 0.0
 
     @property
     def failed(self) -> bool:
@@ -73,6 +77,12 @@ class RunReport:
     @property
     def verb(self) -> str:
         return str(self.record.get("verb", "build"))
+
+    @property
+    def memory(self) -> Mapping[str, object] | None:
+        """What the run used of its memory budget (timings.json's `memory`; None: none)."""
+        value = self.timings.get("memory")
+        return value if isinstance(value, Mapping) else None
 
     @property
     def wall(self) -> float:
@@ -107,6 +117,9 @@ def load_run(run_dir: Path) -> RunReport:
     compiler = {name: compiler_cache_text(*tally) for name, tally in counts.items()}
     cache_on = str(record.get("artifact_cache", "off")).startswith("local")
     up_to_date = _up_to_date_reasons(run_dir)
+    memory = timings.get("memory")
+    by_package = memory.get("packages") if isinstance(memory, dict) else None
+    used: Mapping[str, Mapping[str, object]] = by_package if isinstance(by_package, dict) else {}
     rows = []
     for entry in entries:
         name = str(entry["name"])
@@ -125,12 +138,18 @@ def load_run(run_dir: Path) -> RunReport:
             waiting=float(timing["idle"]) if timing else 0.0,
             phases=_phase_seconds(timing) if timing else {},
             tests=entry.get("tests"),  # type: ignore[arg-type]
+            memory_peak=_int(used.get(name, {}).get("peak")),
+            memory_wait=float(used.get(name, {}).get("waited", 0.0) or 0.0),  # type: ignore
         ))
     packages = tuple(rows)
     compiled = (sum(h for h, _ in counts.values()), sum(m for _, m in counts.values())) \
         if (run_dir / CCACHE_STATS).is_file() else None
     return RunReport(run_dir, record, timings, packages, _bars(packages, times),
                      tuple(critical), compiled, tuple(chain))
+
+
+def _int(value: object) -> int | None:
+    return value if isinstance(value, int) and not isinstance(value, bool) else None
 
 
 def _command_log(run_dir: Path, log_dir: object) -> str:

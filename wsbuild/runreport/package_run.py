@@ -27,6 +27,7 @@ from wsbuild.runreport.report_json import RunFacts
 from wsbuild.runreport.write import start_sampler
 
 if TYPE_CHECKING:
+    from wsbuild.engine.memory import MemoryGovernor, MemoryUse
     from wsbuild.events import Emit, Event
     from wsbuild.workspace.selection import Selection
 
@@ -58,11 +59,16 @@ class PackageRun:
         self.recorder = TimingCollector(jobs.dependencies)
         # the report's CPU curve: nothing to sample when no job needs a worker
         self.sampler = start_sampler(report and sample_cpu, self.recorder.start)
+        #: the memory governor of the packages that run (engine/memory.py); None: no budget
+        self.memory: MemoryGovernor | None = None
 
     def timed(self, emit: Emit) -> Emit:
-        """`emit`, with each event noted in the run's timings first."""
+        """`emit`, with each event noted in the run's timings (and by the memory governor)
+        first."""
         def both(event: Event) -> None:
             self.recorder(event)
+            if self.memory is not None:
+                self.memory.hear(event)
             emit(event)
 
         return both
@@ -72,13 +78,16 @@ class PackageRun:
             waiting: Collection[str] = ()) -> list[JobResult]:
         """The scheduler over `jobs` (the run's, or those of them that need a worker), its
         events timed; Ctrl-C comes out as engine/schedule.py's RunInterrupted. `waiting`: the
-        jobs that take no worker while they wait for another machine."""
+        jobs that take no worker while they wait for another machine. With a memory
+        governor, it admits each package."""
         return run_jobs(jobs, job, workers=workers, policy=policy, emit=self.timed(emit),
-                        weights=weights, waiting=waiting)
+                        weights=weights, waiting=waiting,
+                        admit=self.memory.may_start if self.memory is not None else None)
 
     def finish(self, results: Sequence[JobResult], facts: RunFacts, *,
                extra: Mapping[str, Mapping[str, object]] | None = None,
-               compile_jobs: CompileJobs | None = None, job_budget: int = 0) -> RunEnd:
+               compile_jobs: CompileJobs | None = None, job_budget: int = 0,
+               memory: MemoryUse | None = None) -> RunEnd:
         """timings.json/txt (always), then unless `facts` turn the report off report.json and
         report.html; a build where every package was up to date draws its page only when
         asked (--timings, or later `wsbuild report`): a no-op stays quick."""
@@ -87,7 +96,7 @@ class PackageRun:
         self.sampler.stop()
         timings = RunTimings(time.monotonic() - self.started, cpu_times() - self.cpu_before,
                              facts.cores, tuple(self.recorder.rows()),
-                             compile_jobs=compile_jobs, job_budget=job_budget)
+                             compile_jobs=compile_jobs, job_budget=job_budget, memory=memory)
         try:
             write_timings(self.run_log, timings)
         except OSError as exc:

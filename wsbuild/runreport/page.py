@@ -7,6 +7,7 @@ from collections.abc import Sequence
 from html import escape
 from pathlib import Path
 
+from wsbuild.engine.memory_budget import format_size
 from wsbuild.engine.timeline import Timeline, render_cpu_svg, render_svg
 from wsbuild.engine.timing_files import bound_text
 from wsbuild.runreport.model import PackageRow, RunReport, compiler_cache_text, load_run
@@ -142,6 +143,7 @@ def _facts(report: RunReport) -> str:
         rows += [("generator", escape(str(record.get("generator", "")))),
                  ("compiler cache", escape(str(compiler_text))),
                  ("build cache", escape(str(record.get("artifact_cache", ""))))]
+    rows += _memory_rows(report)
     rows += [("wall", _seconds(report.wall)),
              ("CPU", f"{_seconds(total)} (wsbuild itself "
                      f"{_seconds(float(cpu.get('wsbuild', 0.0)))})"),
@@ -150,6 +152,33 @@ def _facts(report: RunReport) -> str:
              ("against the bound", escape(bound_text(report.wall, total, cores, report.chain)))]
     body = "".join(f"<tr><td>{k}</td><td>{v}</td></tr>" for k, v in rows)
     return f'<h2>Run</h2>\n<table class="facts">{body}</table>'
+
+
+def _memory_rows(report: RunReport) -> list[tuple[str, str]]:
+    """The memory budget and where it came from, the build's peak, the waits."""
+    memory = report.memory
+    if memory is None:
+        return []
+    budget = memory.get("budget")
+    if not isinstance(budget, dict):
+        return []
+    waited = float(memory.get("waited_seconds", 0.0) or 0.0)  # type: ignore[arg-type]
+    held = float(memory.get("held_back_token_seconds", 0.0) or 0.0)  # type: ignore[arg-type]
+    alone = [str(n) for n in memory.get("alone", []) or []]  # type: ignore[union-attr]
+    rows = [("memory budget", f"{_size(budget.get('bytes'))} "
+                              f"({escape(str(budget.get('source', '')))})"),
+            ("memory peak", f"{_size(memory.get('peak'))}: wsbuild and every process it "
+                            "started, at the largest (sampled every 0.1 s)"),
+            ("waited for memory", f"packages {waited:.1f} s before starting or before a "
+                                  f"step, {held:.1f} token-seconds of jobs held back")]
+    if alone:
+        rows.append(("ran alone", escape(", ".join(alone)) + ": more than the budget leaves "
+                     "beside others"))
+    return rows
+
+
+def _size(value: object) -> str:
+    return format_size(value) if isinstance(value, int) else "?"
 
 
 def _timeline(report: RunReport) -> str:
@@ -176,11 +205,14 @@ def _table(report: RunReport) -> str:
     testing = report.verb == "test"
     phases = [p for p in ("configure", "build", "install", "test", "other")
               if any(p in row.phases for row in report.packages)]
+    memory = not testing and report.memory is not None
     heads = ["package", "outcome", "duration", "waiting", *phases]
+    heads += ["peak memory", "waited for memory"] if memory else []
     heads += ["passed", "failed", "skipped", "note"] if testing else \
         ["reason to build", "compiler cache", "build cache"]
     heads.append("log")
-    numeric = {"duration", "waiting", "passed", "failed", "skipped", *phases}
+    numeric = {"duration", "waiting", "passed", "failed", "skipped", "peak memory",
+               "waited for memory", *phases}
     head = "".join(f'<th class="num">{h}</th>' if h in numeric else f"<th>{h}</th>"
                    for h in heads)
     rows = []
@@ -193,6 +225,11 @@ def _table(report: RunReport) -> str:
                  _cell(_seconds(row.waiting), row.waiting, num=True)]
         cells += [_cell(_seconds(row.phases[p]) if p in row.phases else "", row.phases.get(p, 0),
                         num=True) for p in phases]
+        if memory:
+            cells += [_cell(_size(row.memory_peak) if row.memory_peak is not None else "",
+                            row.memory_peak or 0, num=True),
+                      _cell(_seconds(row.memory_wait) if row.memory_wait else "",
+                            row.memory_wait, num=True)]
         if testing:
             tests = {k: int(v) for k, v in (row.tests or {}).items()  # type: ignore[call-overload]
                      if k in ("tests", "failures", "errors", "skipped")}

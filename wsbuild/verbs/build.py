@@ -62,9 +62,14 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     how.add_argument("--install-deps", action="store_true",
                      help="first install what nothing provides (wsbuild deps install -y)")
     how.add_argument("--force", action="store_true", help="rebuild even what is up to date")
+    how.add_argument("--memory-limit", metavar="SIZE",
+                     help="memory for the build: 8G, 50%% (default: free memory less a margin)")
+    secondary(how.add_argument("--no-memory-limit", action="store_true",
+                               help="no memory budget: packages and jobs start as the CPUs "
+                                    "allow"))
     add_env_ignore_argument(how)
-    how.add_argument("--allow-overriding", nargs="+", default=[], metavar="PKG",
-                     help="no override warning for these packages")
+    secondary(how.add_argument("--allow-overriding", nargs="+", default=[], metavar="PKG",
+                               help="no override warning for these packages"))
     how.add_argument("--dry-run", action="store_true",
                      help="print the plan (order, why each builds, critical path) only")
     how.add_argument("--json", action="store_true", help="with --dry-run: machine-readable")
@@ -174,6 +179,7 @@ def request_from_args(args: argparse.Namespace) -> BuildRequest:
     from wsbuild.build_types import BuildOptions
     from wsbuild.builder.distribute import distribute_spec
     from wsbuild.builder.request import BuildRequest, RunOptions, cpu_count
+    from wsbuild.engine.memory_budget import parse_memory_limit
 
     workers = args.parallel_workers if args.parallel_workers is not None else cpu_count()
     if workers < 1:
@@ -203,6 +209,7 @@ def request_from_args(args: argparse.Namespace) -> BuildRequest:
         distribute=distribute_spec(args.distribute, os.environ),
         shard=_shard_from_args(args),
         assemble=_assembly_from_args(args),
+        memory=parse_memory_limit(args.memory_limit, off=args.no_memory_limit),
     )
 
 
@@ -333,6 +340,7 @@ def _dry_run(selection: Selection, request: BuildRequest, *, json_output: bool,
     """Print what the build would do; exit 2 when it would refuse to start."""
     import json
 
+    from wsbuild.builder.memory import budget_json, budget_line
     from wsbuild.builder.pipeline import dry_run
     from wsbuild.builder.plan_text import plan_json, plan_lines
     from wsbuild.words import plural
@@ -341,9 +349,11 @@ def _dry_run(selection: Selection, request: BuildRequest, *, json_output: bool,
     # the plan goes to stdout (JSON for tools): a cache's warnings go to stderr
     build_plan, steps = dry_run(selection, request, Reporter(sys.stderr))
     if json_output:
-        print(json.dumps(plan_json(build_plan, steps), indent=2))
+        print(json.dumps({**plan_json(build_plan, steps),
+                          "memory_budget": budget_json(request.memory)}, indent=2))
     else:
-        print("\n".join(plan_lines(build_plan, steps if commands else None)))
+        print("\n".join(plan_lines(build_plan, steps if commands else None,
+                                    memory=budget_line(request.memory))))
         if not commands and steps.packages:
             print(f"commands: `wsbuild build --dry-run --commands` prints those that build "
                   f"{plural(len(steps.packages), 'package')}")
