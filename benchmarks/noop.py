@@ -8,9 +8,10 @@ Scenarios and targets (issue 23): no-op of the mixed 36-package workspace (≤ 1
 colcon), no-op of the upstream-pattern corpus (tests/data/corpus) built with default flags
 (≤ 120 ms), no-op of 1,000 synthetic packages (≤ 1 s), `list` of 1,000 packages (≤ 150 ms,
 ≥ 25× colcon), `wsbuild --version` (≤ 60 ms). Each wsbuild command runs as the README's user
-runs it: in a fresh terminal with the project venv activated (so the ROS wheels' bootstrapper
-re-executes the interpreter once), and again after `source install/setup.bash`, which sets the
-bootstrapper's guard. The breakdown comes from the same runs: the interpreter alone (`python -c
+runs it (the venv's `wsbuild` command, bin/wsbuild): in a fresh terminal with the project venv
+activated, and again after `source install/setup.bash`, which sets the ROS wheels'
+bootstrapper's guard (the command sets it for its own start, so the bootstrapper never starts
+the interpreter twice; `python -c pass` shows what that second start would cost). The breakdown comes from the same runs: the interpreter alone (`python -c
 pass`), `--version`, the run's own time (its Summary line), and `python -X importtime`.
 """
 
@@ -201,8 +202,9 @@ def render(bench: NoopBench, details: dict[str, str], command: str, started: str
              "install/setup.bash` | ratio; target |", "|---|---:|---:|---:|---|"]
     lines += [f"| {' | '.join(row)} |" for row in bench.rows]
     lines += ["", "Medians. \"Fresh terminal\": the project venv activated, as the README's "
-              "quick start runs wsbuild: the ROS wheels' bootstrapper re-executes the "
-              "interpreter once. After sourcing, its guard is set and it does not. "
+              "quick start runs wsbuild (the `wsbuild` command starts the interpreter once: it "
+              "sets the ROS wheels' bootstrapper's guard for its own start). After sourcing, "
+              "the guard is set for every Python. "
               "\"No-op build\" and \"repeated\": the command run again on an unchanged "
               "workspace, answered from the record of the run before (engine/replay.py); "
               "\"the first after a change\": the same command with no record, so it scans, "
