@@ -10,7 +10,7 @@ from pathlib import Path
 
 from wsbuild.engine.jobs import JobResult, JobStarted, Outcome
 from wsbuild.engine.jobserver import Jobserver
-from wsbuild.engine.memory import MemoryGovernor
+from wsbuild.engine.memory import PLENTIFUL_JOB, MemoryGovernor
 from wsbuild.engine.memory_budget import MemoryBudget
 from wsbuild.engine.memory_tree import read_tree
 from wsbuild.engine.process import run_command
@@ -30,7 +30,7 @@ def _run(names: list[str], budget: int, predictions: dict | None = None,
     jobserver = Jobserver(2)
     governor = MemoryGovernor(MemoryBudget(budget, 0, "test", 8 * 1024 * M), jobserver,
                               predictions or {}, warn=(said if said is not None else []).append,
-                              read_free=lambda: None).start()
+                              read_free=lambda: None, workers=3).start()
     events: list[object] = []
     lock = threading.Lock()
 
@@ -79,6 +79,18 @@ def test_with_nothing_recorded_one_runs_and_is_measured_then_the_measures_admit(
                        tmp=tmp_path)
     assert _most_at_once(events) == 2
     assert use.peak <= use.budget.bytes
+
+
+def test_with_plenty_of_memory_nothing_waits_to_be_measured_first(tmp_path: Path) -> None:
+    """A budget that holds a heavy compile for every job the run can start at once (three
+    workers' implicit slots and the jobserver's token): a cold build runs as without a budget;
+    one job less of room, and the first package is measured alone."""
+    slots = 3 + 1
+    events, use = _run(["a", "b", "c"], PLENTIFUL_JOB * slots, tmp=tmp_path)
+    assert _most_at_once(events) == 3 and not use.waited
+    events, use = _run(["a", "b", "c"], PLENTIFUL_JOB * slots - 1, tmp=tmp_path)
+    assert [type(e).__name__ for e in events[:2]] == ["JobStarted", "JobFinished"]
+    assert sum(use.waited.values()) > 0
 
 
 def test_what_cannot_fit_even_alone_runs_alone_is_never_stopped_and_is_said(

@@ -44,8 +44,8 @@ def budget_json(limit: MemoryLimit) -> dict[str, object] | None:
 
 def open_governor(limit: MemoryLimit, plan: BuildPlan, build_base: Path, jobserver: Jobserver,
                   warn: Callable[[str], None],
-                  shared: Mapping[str, PackageMemoryRecord] | None = None
-                  ) -> MemoryGovernor | None:
+                  shared: Mapping[str, PackageMemoryRecord] | None = None,
+                  workers: int | None = None) -> MemoryGovernor | None:
     """The run's memory governor, started (None: no budget). `shared`: what a CI matrix's
     other jobs recorded (builder/shard_run.py), under this workspace's own records."""
     budget = budget_of(limit)
@@ -57,7 +57,8 @@ def open_governor(limit: MemoryLimit, plan: BuildPlan, build_base: Path, jobserv
 
     predictions = {**(shared or {}), **read_memory(build_base)}
     light = [p.name for p in plan.to_do() if p.decision is Decision.RESTORE]
-    return MemoryGovernor(budget, jobserver, predictions, warn=warn, light=light).start()
+    return MemoryGovernor(budget, jobserver, predictions, warn=warn, light=light,
+                          workers=workers).start()
 
 
 def finish_memory(governor: MemoryGovernor | None, build_base: Path,

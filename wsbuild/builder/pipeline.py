@@ -260,7 +260,8 @@ def _run_packages(plan: BuildPlan, selection: Selection, request: BuildRequest,
 
     run.memory = open_governor(request.memory, plan, selection.workspace.build_base, jobserver,
                                warn=lambda text: emit(Notice(text, warning=True)),
-                               shared=shard.memory if shard is not None else None)
+                               shared=shard.memory if shard is not None else None,
+                               workers=request.run.workers)
     resources = RunResources(
         selection=selection, session=session, options=options, run_log=session.run_log,
         jobserver=jobserver, compilers=compilers, emit=run.timed(emit),

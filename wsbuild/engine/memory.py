@@ -40,6 +40,12 @@ from wsbuild.engine.memory_tree import TreeSnapshot, snapshot
 from wsbuild.engine.process import REGISTRY, ProcessRegistry
 
 INTERVAL = 0.1
+#: what a package or job never measured is taken to need when the budget holds that much for
+#: every job the run can start at once (each package's implicit slot and every token):
+#: memory is then plentiful, and nothing waits to be measured first (a heavy C++ compile, an
+#: rclcpp or a PCL user, takes 1-2 GiB; the live guard still holds tokens back if free
+#: memory runs low)
+PLENTIFUL_JOB = 2 * 1024**3
 #: the label of the phase in which a step waits for memory (timings, the status line)
 WAIT_LABEL = "wait for memory"
 #: how often a waiting step asks again
@@ -138,8 +144,13 @@ class MemoryGovernor:
                  warn: Callable[[str], None], light: Collection[str] = (),
                  interval: float = INTERVAL, registry: ProcessRegistry = REGISTRY,
                  root: int | None = None,
-                 read_free: Callable[[], int | None] | None = None) -> None:
+                 read_free: Callable[[], int | None] | None = None,
+                 workers: int | None = None) -> None:
         self.budget = budget
+        #: what a package never recorded is taken to need (None: it is measured first), see
+        #: PLENTIFUL_JOB; `workers`: the packages that may run at once (None: as many as jobs)
+        slots = jobserver.tokens + (workers if workers is not None else jobserver.tokens + 1)
+        self.prior = PLENTIFUL_JOB if budget.bytes >= PLENTIFUL_JOB * slots else None
         self.jobserver = jobserver
         self._recorded = dict(predictions)
         self._light = frozenset(light)
@@ -284,6 +295,8 @@ class MemoryGovernor:
         step = package.steps.get(label) if package is not None and label else None
         measured = step.job if step is not None and step.jobs else None
         if record is None:
+            if self.prior is not None:  # memory is plentiful: no need to measure it first
+                return Need(max(measured or 0, self.prior), self.prior, True)
             return Need(measured, None, False)
         need = record.need_ahead(label) if ahead and label else record.need(label or None)
         if ahead and not label:  # before its first step: all of them are ahead
@@ -327,7 +340,7 @@ class MemoryGovernor:
                 continue
             seen = self._snapshot.packages.get(name)
             label = self._measured[name].label if name in self._measured else None
-            measuring = name in self._measuring
+            measuring = name in self._measuring and self.prior is None
             if waiter is not None and index > rank:  # behind it: its processes only
                 if seen is None or not seen.rss:
                     continue
