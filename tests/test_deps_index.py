@@ -51,3 +51,18 @@ def test_remembered_names_are_not_asked_and_refresh_asks_again(tmp_path: Path) -
     assert not asked.exists and asked.detail.startswith("cannot run pip")
     # and that failure did not replace what the index had said
     assert memory(tmp_path, 3.0).recall(["psutil"])["psutil"].exists
+
+
+def test_the_answers_are_kept_in_wsbuilds_one_cache_directory(tmp_path: Path) -> None:
+    """One rule for wsbuild's cache directory: WSBUILD_CACHE_DIR, else $XDG_CACHE_HOME/wsbuild
+    (the build cache's rule, cache/settings.py)."""
+    from wsbuild.cache.settings import default_cache_dir
+
+    python = Path("/usr/bin/python3")
+    for environ in ({"WSBUILD_CACHE_DIR": str(tmp_path / "mine"),
+                     "XDG_CACHE_HOME": str(tmp_path / "xdg")},
+                    {"XDG_CACHE_HOME": str(tmp_path / "xdg")}):
+        kept = AnswerMemory.for_index(python, environ).path
+        assert kept.is_relative_to(default_cache_dir(environ)), (environ, kept)
+    assert AnswerMemory.for_index(python, {"WSBUILD_CACHE_DIR": str(tmp_path / "mine")}
+                                  ).path.is_relative_to(tmp_path / "mine")

@@ -5,6 +5,7 @@ from __future__ import annotations
 import itertools
 import os
 import stat
+from collections.abc import Mapping
 from pathlib import Path
 
 from wsbuild import inputs
@@ -93,6 +94,20 @@ def create_if_missing(path: Path, content: str = "") -> bool:
     path.parent.mkdir(parents=True, exist_ok=True)
     path.write_text(content)
     return True
+
+
+def user_cache_dir(environ: Mapping[str, str], name: str) -> Path:
+    """Where the tool `name` keeps its cache for this user: `$XDG_CACHE_HOME/<name>`, else
+    `~/.cache/<name>` (the XDG base directory rule: the one rule for every cache wsbuild keeps
+    or finds)."""
+    return Path(environ.get("XDG_CACHE_HOME") or Path.home() / ".cache") / name
+
+
+def wsbuild_cache_dir(environ: Mapping[str, str]) -> Path:
+    """wsbuild's own cache (the build cache's local tier, the dependency index's answers):
+    `WSBUILD_CACHE_DIR`, else `user_cache_dir(environ, "wsbuild")`."""
+    chosen = environ.get("WSBUILD_CACHE_DIR")
+    return Path(chosen) if chosen else user_cache_dir(environ, "wsbuild")
 
 
 def private_directory(path: Path) -> Path:

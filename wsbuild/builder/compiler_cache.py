@@ -276,8 +276,9 @@ def _storage(tool: str, executable: Path, environ: Mapping[str, str]) -> tuple[P
         return (Path(found),) if done.returncode == 0 and found.startswith("/") else ()
     if environ.get("SCCACHE_DIR"):
         return (Path(environ["SCCACHE_DIR"]),)
-    base = environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache")
-    return (Path(base) / "sccache",)
+    from wsbuild.files import user_cache_dir
+
+    return (user_cache_dir(environ, "sccache"),)
 
 
 def open_compiler_cache(choice: str, environ: Mapping[str, str], log_file: Path, *,

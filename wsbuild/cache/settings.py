@@ -31,10 +31,9 @@ class CacheSettings:
 
 def default_cache_dir(environ: Mapping[str, str]) -> Path:
     """WSBUILD_CACHE_DIR, else $XDG_CACHE_HOME/wsbuild, else ~/.cache/wsbuild."""
-    if environ.get("WSBUILD_CACHE_DIR"):
-        return Path(environ["WSBUILD_CACHE_DIR"])
-    base = environ.get("XDG_CACHE_HOME") or str(Path.home() / ".cache")
-    return Path(base) / "wsbuild"
+    from wsbuild.files import wsbuild_cache_dir  # (files imports inputs: not on a replay)
+
+    return wsbuild_cache_dir(environ)
 
 
 def parse_size(text: str) -> int:

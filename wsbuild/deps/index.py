@@ -105,10 +105,11 @@ class AnswerMemory:
 
     @classmethod
     def for_index(cls, python: Path, environ: Mapping[str, str]) -> AnswerMemory:
-        base = environ.get("XDG_CACHE_HOME") or str(Path.home() / ".cache")
+        from wsbuild.files import wsbuild_cache_dir
+
         settings = [str(python), *(f"{k}={environ.get(k, '')}" for k in _INDEX_SETTINGS)]
         scope = hashlib.sha256("\n".join(settings).encode()).hexdigest()[:16]
-        return cls(Path(base) / "wsbuild" / "deps" / "index-answers.json", scope)
+        return cls(wsbuild_cache_dir(environ) / "deps" / "index-answers.json", scope)
 
     def _read(self) -> dict[str, dict[str, list[object]]]:
         try:

@@ -18,7 +18,7 @@ from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
 
-from wsbuild.files import private_directory
+from wsbuild.files import private_directory, user_cache_dir
 
 #: the sources, beside this module
 SOURCE = Path(__file__).with_name("interposer.c")
@@ -46,8 +46,7 @@ class Observer:
 def home(environ: Mapping[str, str]) -> Path:
     """Where the observer is compiled: `$XDG_CACHE_HOME/wsbuild-observe`, else
     `~/.cache/wsbuild-observe`."""
-    base = environ.get("XDG_CACHE_HOME") or str(Path.home() / ".cache")
-    return Path(base) / "wsbuild-observe"
+    return user_cache_dir(environ, "wsbuild-observe")
 
 
 def observer(cache_dir: Path, environ: Mapping[str, str]) -> Observer | str:
