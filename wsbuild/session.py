@@ -48,9 +48,9 @@ class SessionOptions:
     symlink_install: bool = False
     #: the CPU budget the jobserver shares among every package's build
     jobs: int = 1
-    #: environment variables the user names as no input of any build (the defaults file's
-    #: `not-inputs`), besides record/environment.py's own list
-    not_inputs: tuple[str, ...] = ()
+    #: environment variables the user names as no input of any build (`--env-ignore`, the
+    #: defaults file's `env-ignore`), besides record/environment.py's own list
+    env_ignore: tuple[str, ...] = ()
 
 
 @dataclass(slots=True)
@@ -99,7 +99,7 @@ class Session:
         from wsbuild.record.dirty import Environment
 
         return Environment(self.environ, own_install=str(self.workspace.install_base),
-                           ignored=self.options.not_inputs)
+                           ignored=self.options.env_ignore)
 
     @property
     def observer(self) -> Observer | str:

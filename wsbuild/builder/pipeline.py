@@ -55,7 +55,7 @@ def session_options(request: BuildRequest, *, dry_run: bool = False) -> SessionO
                           dry_run=dry_run, wait_for_lock=request.run.wait_for_lock,
                           repair_underlay=request.repair_underlay, cache=request.cache,
                           symlink_install=request.build.symlink_install, jobs=request.build.jobs,
-                          not_inputs=request.env_ignore)
+                          env_ignore=request.env_ignore)
 
 
 def _shard_and_plan(selection: Selection, request: BuildRequest, session: Session

@@ -81,4 +81,4 @@ def environment_now(build: PackageBuild) -> Environment:
         if step.command is not None:
             environ.update(step.command.env)
     return Environment(environ, own_install=str(build.run.selection.workspace.install_base),
-                       ignored=session.options.not_inputs)
+                       ignored=session.options.env_ignore)
