@@ -383,6 +383,10 @@ def test_a_variable_is_an_input_where_a_step_read_it_whatever_its_name(tmp_path:
     assert _version(ws, "stamped") == "1.0.8"
     assert _program(ws, "flavored") == "sour" and _program(ws, "generated") == "bitter"
     assert _version(ws, "mapped") == f"2.0.{len(base['MAP_FILE'])}"
+    # the user says a variable reaches no build (--env-ignore): its change builds nothing
+    base["BUILD_NUMBER"] = "9"
+    ignored = _build(ws, "--env-ignore", "BUILD_NUMBER", env=clean_env(**base))
+    assert _finished(ignored) == [], output(ignored)
 
 
 def test_a_variable_read_when_the_build_step_configures_again_configures_again(

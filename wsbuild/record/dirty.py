@@ -12,6 +12,7 @@ from enum import Enum
 from pathlib import Path
 
 from wsbuild.record.environment import changed_names, names_digest, variable_digests
+from wsbuild.record.environment import held as is_held
 from wsbuild.record.installed import damaged_install
 from wsbuild.record.model import PENDING, PackageRecord
 from wsbuild.record.outside import Digests, changed_paths, first_change, own_entries
@@ -99,7 +100,9 @@ def environment_change(record: PackageRecord, environment: Environment, *,
                        seen: bool = False) -> tuple[str, ...]:
     """The variables the record's steps read whose value differs now (`seen`: compared with
     what the steps saw, their dependencies' hooks applied, and `environment` is such)."""
-    held = record.environment_seen if seen else record.environment
+    held = {name: digest for name, digest in
+            (record.environment_seen if seen else record.environment).items()
+            if is_held(name, environment.ignored)}  # what the user ignores now, too
     now = environment.digests(held)
     changed = tuple(changed_names(held, now))
     if record.environment_names and environment.names() != record.environment_names:
