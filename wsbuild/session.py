@@ -88,9 +88,7 @@ class Session:
         if build_type not in self._facts:
             from wsbuild.build_types import get_build_type
 
-            kind = get_build_type(build_type)
-            run_facts = getattr(kind, "run_facts", None)
-            self._facts[build_type] = run_facts(self.environ) if run_facts else None
+            self._facts[build_type] = get_build_type(build_type).run_facts(self.environ)
         return self._facts[build_type]
 
     @property

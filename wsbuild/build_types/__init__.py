@@ -228,12 +228,11 @@ def package_context(build_type: BuildType, *, package: Package, build_dir: Path,
     by-hand command's (builder/context.py works out the environment and options of the first
     two, by_hand.py takes them from its command line). The build type reads the state of the
     build directory here, once (`read_state`); `facts` are its run's (`run_facts`)."""
-    read_state = getattr(build_type, "read_state", None)
     return PackageContext(
         package=package, build_dir=build_dir, install_prefix=install_prefix,
         stage_prefix=stage_prefix, options=options, environ=dict(environ), run=run, warn=warn,
         dependency_prefixes=tuple(dependency_prefixes), jobserver_fifo=jobserver_fifo,
-        facts=facts, state=read_state(build_dir) if read_state is not None else None,
+        facts=facts, state=build_type.read_state(build_dir),
         redo=tuple(redo), observe=observe)
 
 
@@ -307,8 +306,18 @@ class BuildType(Protocol):
         """After a build: what its build system read outside the package (from the build
         system's own dependency lists), recorded in the package's record so that a change to
         one rebuilds it; None when the build cannot tell (a dependency's rebuild then always
-        rebuilds the package). A plain list names files. Optional for a third-party type
-        (BuildTypeBase: what its steps put in `ctx.outputs.read_outside`, else None)."""
+        rebuilds the package). A plain list names files. (BuildTypeBase: what its steps put
+        in `ctx.outputs.read_outside`, else None.)"""
+        ...
+
+    def run_facts(self, environ: Mapping[str, str]) -> object:
+        """What the type needs to know once per run (the tools it runs), handed to every
+        package's context as `facts` (BuildTypeBase: none)."""
+        ...
+
+    def read_state(self, build_dir: Path) -> object:
+        """What the type needs to know of a package's build directory, read once when its
+        context is made, handed in as `state` (BuildTypeBase: nothing)."""
         ...
 
 
@@ -452,7 +461,9 @@ def declared_options(*, plugins: bool) -> list[tuple[str, tuple[TypeOption, ...]
     return declared
 
 
-_REQUIRED = ("name", "steps", "test_runner", "hooks", "estimate_base", "key_options")
+#: every member of the `BuildType` protocol (BuildTypeBase has them all)
+_REQUIRED = ("name", "steps", "test_runner", "hooks", "estimate_base", "options", "key_options",
+             "external_inputs", "run_facts", "read_state")
 
 
 def _checked(loaded: object, name: str, value: str) -> BuildType:
