@@ -72,7 +72,7 @@ def finish_memory(governor: MemoryGovernor | None, build_base: Path,
     use = governor.stop()
     built = {p.name for p in plan.to_do() if p.decision is Decision.BUILD}
     finished = {r.package for r in results if r.outcome is Outcome.FINISHED
-                and r.message != "restored from cache"}
+                and not r.restored}
     record_memory(build_base, {name: record for name, record in use.packages.items()
                                if name in built & finished})
     return use

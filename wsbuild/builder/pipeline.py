@@ -425,7 +425,7 @@ def _finish(run: PackageRun, request: BuildRequest, session: Session,
                      memory=memory)
     # a restore's seconds say nothing of a build's: the next estimate would be far too short
     record_durations(session.workspace.build_base,
-                     [r for r in results if r.message != "restored from cache"],
+                     [r for r in results if not r.restored],
                      memory.in_steps if memory is not None else None)
     if request.timings:
         lines += [*end.timings.table(), end.timings.summary_line()]

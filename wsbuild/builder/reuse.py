@@ -42,7 +42,7 @@ def restore(build: PackageBuild) -> JobResult | None:
     build._log(f"Restored from the build cache ({entry.source}, archive {entry.digest})")
     build.run.emit(CacheRestored(build.name, entry.source))
     return JobResult(build.name, Outcome.FINISHED, build._seconds(), log_dir=build.log_dir,
-                     message="restored from cache")
+                     message="restored from cache", restored=True)
 
 
 def cut_off(build: PackageBuild) -> JobResult | None:

@@ -395,7 +395,7 @@ def _wait_then_build(shard: ShardPlan, planned: PackagePlan,
         with shard.log.lock:
             shard.log.waited[name] = (waited.seconds, True)
         result = build(replace(planned, decision=Decision.RESTORE, cache_entry=waited.proven))
-        if result.outcome is Outcome.FINISHED and not result.message.startswith("restored"):
+        if result.outcome is Outcome.FINISHED and not result.restored:
             with shard.log.lock:  # the restore was refused: it was built here
                 shard.log.built_here[name] = ("its entry could not be restored",
                                               result.seconds)

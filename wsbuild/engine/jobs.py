@@ -29,6 +29,8 @@ class JobResult:
     warnings: tuple[str, ...] = field(default=())
     #: a script doing what `reproduce` does, shown instead of its long line
     reproduce_script: Path | None = None
+    #: FINISHED by restoring a stored result (the build cache): nothing was built
+    restored: bool = False
 
 
 @dataclass(frozen=True, slots=True)

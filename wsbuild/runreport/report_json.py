@@ -110,7 +110,7 @@ def _generator(selection: Selection, results: Iterable[JobResult]) -> str:
 
 def _built_now(results: Iterable[JobResult]) -> set[str]:
     return {r.package for r in results
-            if r.outcome is Outcome.FINISHED and r.message != "restored from cache"}
+            if r.outcome is Outcome.FINISHED and not r.restored}
 
 
 def report_data(selection: Selection, facts: RunFacts, run_log: Path, jobs: JobGraph,
@@ -130,7 +130,7 @@ def report_data(selection: Selection, facts: RunFacts, run_log: Path, jobs: JobG
             "path": str(package.path),
             "build_dir": str(selection.workspace.build_base / result.package),
             "dependencies": sorted(jobs.dependencies.get(result.package, ())),
-            **({"restored": result.message == "restored from cache"} if building else {}),
+            **({"restored": result.restored} if building else {}),
             **_result_fields(result, run_log),
             **(extra or {}).get(result.package, {}),
         })
