@@ -27,6 +27,8 @@ import stat as modes
 from collections.abc import Callable
 from typing import TypeVar
 
+from wsbuild.signature import stat_signature
+
 #: (absolute or relative path, kind, what the run saw: a stat signature, ABSENT or None)
 Listener = Callable[[str, str, "tuple[int, ...] | None"], None]
 STAT, LSTAT, FILE, LISTING, DECLARED, UNREADABLE, UNRECORDED, MEMO = (
@@ -42,8 +44,7 @@ def _notify(path: str | os.PathLike[str], kind: str, seen: tuple[int, ...] | Non
             listener(name, kind, seen)
 
 
-def _signature(st: os.stat_result) -> tuple[int, ...]:
-    return (st.st_mode, st.st_ino, st.st_size, st.st_mtime_ns, st.st_ctime_ns)
+_signature = stat_signature
 
 
 _T = TypeVar("_T")

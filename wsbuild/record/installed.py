@@ -13,6 +13,7 @@ from typing import NamedTuple
 
 from wsbuild import inputs
 from wsbuild.record.own_files import content_digest
+from wsbuild.signature import stat_signature
 
 #: what a symlink's digest starts with (its target follows)
 LINK = "->"
@@ -27,8 +28,7 @@ class Installed(NamedTuple):
     digest: str
 
 
-def _signature(st: os.stat_result) -> tuple[int, ...]:
-    return (st.st_mode, st.st_ino, st.st_size, st.st_mtime_ns, st.st_ctime_ns)
+_signature = stat_signature
 
 
 def installed_entries(install_base: str, paths: Iterable[str]) -> list[Installed]:

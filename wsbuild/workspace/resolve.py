@@ -344,12 +344,14 @@ def _ask_pkg_config_default_path(tool: str) -> str:
 
 
 def _mtime(directory: str) -> list[int]:
-    """A directory's modification and change time and inode (0s when it does not exist)."""
+    """A directory's stat signature (0s when it does not exist)."""
+    from wsbuild.signature import stat_signature
+
     try:
         st = inputs.stat(directory)
     except OSError:
-        return [0, 0, 0]
-    return [st.st_mtime_ns, st.st_ctime_ns, st.st_ino]
+        return [0, 0, 0, 0, 0]
+    return list(stat_signature(st))
 
 
 def python_distributions(paths: Iterable[str], *, read_metadata: bool = False
