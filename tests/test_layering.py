@@ -13,7 +13,7 @@ PACKAGE = Path(__file__).resolve().parent.parent / "wsbuild"
 
 #: rank of each room: a module may import from its own rank or a lower one
 RANKS: dict[str, int] = {
-    "errors": 0, "files": 0, "words": 0, "substitution": 0, "inputs": 0, "redaction": 0,
+    "errors": 0, "files": 0, "words": 0, "substitution": 0, "inputs": 0, "signature": 0, "redaction": 0,
     "engine": 1, "workspace": 1, "events": 1, "record": 1, "observe": 1,
     "build_types": 2, "prefix": 2, "underlay": 2, "cache": 2,
     "session": 3, "deps": 3,
@@ -33,6 +33,7 @@ SIDEWAYS: dict[tuple[str, str], str] = {
     ("testing", "runreport"): "a test run runs its jobs and writes its report as a build does",
     ("verbs", "reporter"): "a verb hands the one reporter to the work it starts",
     ("files", "inputs"): "a write that compares with what is there reads it as a declared input",
+    ("inputs", "signature"): "a declared input is compared by the one stat signature",
     ("record", "observe"): "a record holds what the steps were observed to read",
 }
 

@@ -15,6 +15,9 @@ Everything a step touches (paths, environment, options, subprocesses) comes from
 the typed `BuildOutputs`. The built-in types register through the same entry-point group
 (`wsbuild.build_types`, in pyproject.toml) as another distribution's: `BuildTypeBase` gives a
 third-party type the defaults.
+
+Over 500 lines because it is the whole boundary a third-party build type meets, in one place:
+the protocol, the data it is handed and hands back, its defaults and its registration.
 """
 
 from __future__ import annotations

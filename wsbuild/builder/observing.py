@@ -14,7 +14,7 @@ from typing import TYPE_CHECKING
 from wsbuild.observe.steps import OBSERVE_DIR, StepObservations
 
 if TYPE_CHECKING:
-    from wsbuild.builder.package import PackageBuild
+    from wsbuild.builder.package import PackageBuild, RunResources
 
 
 def _tracer(build: PackageBuild) -> functools.partial[tuple[Sequence[str], Mapping[str, str]]]:
@@ -50,3 +50,16 @@ def _trace(build: PackageBuild, argv: Sequence[str], label: str, env: Mapping[st
            ) -> tuple[Sequence[str], Mapping[str, str]]:
     """A program of an in-process step (a warm helper) under the build-step oracle."""
     return build.traces.command(argv, label, build.build_dir, env)
+
+
+def reproducible(run: RunResources, delta: Mapping[str, str]) -> dict[str, str]:
+    """A step's environment `delta` without the variables that name this run's resources,
+    which a shell after the run does not have (what the reproduce script sets): the
+    jobserver's descriptors, the private directories of the compiler cache (stats logs, the
+    sccache server's socket) and of distcc."""
+    private = [str(run.compilers.private_dir)] if run.compilers is not None else []
+    if run.distribution is not None:
+        private.append(str(run.distribution.private_dir))
+    return {k: v for k, v in delta.items()
+            if not (k == "MAKEFLAGS" and v == run.jobserver.makeflags)
+            and not any(directory in v for directory in private)}

@@ -25,6 +25,7 @@ from wsbuild.build_types import (
 from wsbuild.builder.compiler_cache import CompilerCache
 from wsbuild.builder.context import RUN_JOBSERVER
 from wsbuild.observe.steps import StepObservations
+from wsbuild.builder.observing import reproducible
 from wsbuild.builder.step_trace import StepTraces
 from wsbuild.builder.distribute import Distribution
 from wsbuild.builder.plan import BUILDING_MARKER, FAILED_MARK, Decision, PackagePlan
@@ -441,8 +442,8 @@ class PackageBuild:
         which). `shown_env` is `env` without what only this run has (a stage's DESTDIR, a
         FIFO: `run_only` names them)."""
         use_env = dict(env) if env is not None else self._ctx().environ
-        delta = self._reproducible(env_delta(shown_env if shown_env is not None else use_env,
-                                             os.environ))
+        delta = reproducible(self.run, env_delta(shown_env if shown_env is not None else use_env,
+                                                 os.environ))
         self._log(f"Invoking command in '{cwd}': {format_command(command, cwd, delta)}")
         run_only = {k: v for k, v in env_delta(use_env, os.environ).items() if delta.get(k) != v}
         if run_only:
@@ -466,17 +467,6 @@ class PackageBuild:
                 exit_text(command[0], completed.returncode, completed.tail),
                 command=command, cwd=cwd, env_delta=delta, returncode=completed.returncode,
             )
-
-    def _reproducible(self, delta: Mapping[str, str]) -> dict[str, str]:
-        """`delta` without the variables that name this run's resources, which a shell
-        after the run does not have: the jobserver's descriptors, the private directories of
-        the compiler cache (stats logs, the sccache server's socket) and of distcc."""
-        private = [str(self.run.compilers.private_dir)] if self.run.compilers is not None else []
-        if self.run.distribution is not None:
-            private.append(str(self.run.distribution.private_dir))
-        return {k: v for k, v in delta.items()
-                if not (k == "MAKEFLAGS" and v == self.run.jobserver.makeflags)
-                and not any(directory in v for directory in private)}
 
     def _failed(self, failure: StepFailed) -> JobResult:
         from wsbuild.builder.failure import failed_result
