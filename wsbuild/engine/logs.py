@@ -4,7 +4,6 @@ writer of a package's `command.log` (every line redacted: wsbuild/redaction.py).
 from __future__ import annotations
 
 import os
-import shutil
 import time
 from pathlib import Path
 
@@ -60,4 +59,6 @@ def _prune(log_base: Path, verb: str) -> None:
     runs = sorted((p for p in log_base.glob(f"{verb}_*") if p.is_dir() and not p.is_symlink()),
                   key=_run_order)
     for old in runs[:-KEEP_RUNS]:
+        import shutil  # (not on a replay that prunes nothing)
+
         shutil.rmtree(old, ignore_errors=True)
