@@ -133,13 +133,11 @@ def _environ() -> str:
     written to the record: a token in the environment stays out of build/). LD_LIBRARY_PATH
     as a sorted set: the ROS wheels' bootstrapper writes its entries in a random (set) order
     in each process, and no plan reads their order."""
-    import hashlib
-
     environ = {k: v for k, v in os.environ.items() if k not in VOLATILE}
     if "LD_LIBRARY_PATH" in environ:
         entries = sorted(set(environ["LD_LIBRARY_PATH"].split(os.pathsep)))
         environ["LD_LIBRARY_PATH"] = os.pathsep.join(entries)
-    digest = hashlib.blake2b(digest_size=32)
+    digest = _blake2b(digest_size=32)
     for name in sorted(environ):
         digest.update(name.encode("utf-8", "surrogateescape") + b"\0"
                       + environ[name].encode("utf-8", "surrogateescape") + b"\0")
@@ -147,9 +145,17 @@ def _environ() -> str:
 
 
 def _digest(text: str) -> str:
-    import hashlib
+    return _blake2b(text.encode("utf-8", "surrogateescape"), digest_size=32).hexdigest()
 
-    return hashlib.blake2b(text.encode("utf-8", "surrogateescape"), digest_size=32).hexdigest()
+
+def _blake2b(*args: Any, **kwargs: Any) -> Any:
+    """hashlib's blake2b from CPython's built-in module: importing hashlib loads OpenSSL
+    first (3 ms of a replay), for a function it does not take from there."""
+    try:
+        from _blake2 import blake2b
+    except ImportError:  # another Python
+        from hashlib import blake2b
+    return blake2b(*args, **kwargs)
 
 
 def record_path(verb: str) -> Path:
