@@ -289,7 +289,7 @@ class PackageBuild:
             if failure.command or step.by_hand is None:
                 raise
             by_hand = step.by_hand
-            delta = self._reproducible(env_delta({**ctx.environ, **by_hand.env}, os.environ))
+            delta = reproducible(self.run, env_delta({**ctx.environ, **by_hand.env}, os.environ))
             raise StepFailed(str(failure), command=by_hand.argv, cwd=by_hand.cwd,
                              env_delta=delta) from None
 
