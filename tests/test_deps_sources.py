@@ -107,16 +107,16 @@ def test_index_answers_are_remembered_until_refresh(venv: Path, tmp_path: Path) 
     ws = tmp_path / "ws"
     write_package(ws / "src", "described", "ament_python", [],
                   kinds={"exec_depend": ["urdfdom_py"]})
-    cache = tmp_path / "cache"
-    first = wsbuild(venv, "deps", cwd=ws, env=venv_env(venv, XDG_CACHE_HOME=str(cache)))
+    cache = tmp_path / "cache"  # wsbuild's cache directory (the build cache's rule)
+    first = wsbuild(venv, "deps", cwd=ws, env=venv_env(venv, WSBUILD_CACHE_DIR=str(cache)))
     assert first.returncode == 1, output(first)
     wanted = ("missing: urdfdom_py (needed by described: exec_depend) -> ROS package on PyPI: "
               "pip urdfdom-py")
     assert wanted in first.stdout, output(first)
-    assert (cache / "wsbuild" / "deps" / "index-answers.json").is_file()
+    assert (cache / "deps" / "index-answers.json").is_file()
 
     # pip can no longer reach the index (a proxy nobody listens on): the answers come from memory
-    offline = venv_env(venv, XDG_CACHE_HOME=str(cache), PIP_PROXY="http://127.0.0.1:9",
+    offline = venv_env(venv, WSBUILD_CACHE_DIR=str(cache), PIP_PROXY="http://127.0.0.1:9",
                        PIP_RETRIES="0")
     second = wsbuild(venv, "deps", cwd=ws, env=offline)
     assert second.stdout == first.stdout, output(second)

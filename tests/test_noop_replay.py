@@ -24,6 +24,7 @@ from conftest import (
 
 from wsbuild import cli, launch
 from wsbuild.engine import replay
+from wsbuild.engine.recording import WHY_NOT
 
 #: a recording run must start this long after the last change it could read (engine/recording.py's
 #: racy rule): a change in the same timestamp tick as the read would not show
@@ -72,6 +73,12 @@ class Runs:
         return code, out.out + out.err, len(self.full) == before
 
 
+def _why_not(ws: Path) -> str:
+    """What the recorder says of why the last run left no record (engine/recording.py)."""
+    why = ws / replay.RECORDS / WHY_NOT
+    return why.read_text() if why.is_file() else "(it says nothing)"
+
+
 @pytest.fixture
 def built(make_workspace: Callable[..., Path], monkeypatch: pytest.MonkeyPatch) -> Path:
     """An ament_python and a cmake package, built, with no defaults file of the user's."""
@@ -93,7 +100,8 @@ def recorded(built: Path, monkeypatch: pytest.MonkeyPatch,
     """`built`, after a no-op (the real command) that left a record."""
     no_op = run_wsbuild("build", cwd=built)
     assert no_op.returncode == 0 and "2 packages up to date" in no_op.stdout, no_op.stderr
-    assert (built / replay.record_path("build")).is_file(), "a no-op of settled inputs leaves a record"
+    assert (built / replay.record_path("build")).is_file(), \
+        f"a no-op of settled inputs leaves a record: {_why_not(built)}"
     return built, Runs(built, monkeypatch, capsys)
 
 

@@ -28,6 +28,8 @@ import pytest
 from test_build_helpers import clean_env, output, sh_quote, write, write_ament_python, write_cmake
 from test_build_helpers import wsbuild as run
 
+from wsbuild.engine.recording import WHY_NOT
+
 #: a recording run must start this long after the last change it could read (the racy rule)
 SETTLE = 1.1
 #: every build step of this module's builds runs under strace, checked against the record
@@ -60,7 +62,9 @@ def _recorded_noop(ws: Path, env: dict[str, str] | None = None) -> None:
         assert "0 packages finished" in result.stdout, output(result)
         if (ws / RECORD).is_file():
             break
-    assert (ws / RECORD).is_file(), "two no-ops in a row left no record"
+    why = ws / RECORD.parent / WHY_NOT
+    assert (ws / RECORD).is_file(), \
+        f"two no-ops in a row left no record: {why.read_text() if why.is_file() else ''}"
 
 
 def _rebuilt(result: subprocess.CompletedProcess[str]) -> list[str]:

@@ -58,6 +58,8 @@ from wsbuild.engine.replay import (
 
 #: a path changed this recently (ns) before the run started may have changed unseen
 RACY_NS = 1_000_000_000
+#: beside the records: why the last run left none
+WHY_NOT = "not-recorded.txt"
 NOT_RECORDED = frozenset({"--install-deps", "--timings",
                           # they read test results (JUnit files under build/): run in full
                           "--packages-select-test-failures", "--packages-skip-test-passed"})
@@ -138,6 +140,8 @@ class ReplayRecorder:
         self._unlisten: Callable[[], None] | None = None
         #: the files wsbuild keeps for itself that the run read (`inputs.declare_memo`)
         self.memos: set[str] = set()
+        #: why the run leaves no record, once that is known (`_say_why_not`)
+        self.why_not = ""
         #: the test suite's oracle (engine/inputs_oracle.py), when WSBUILD_INPUTS_ORACLE names
         #: its file: the process's own accesses traced, the undeclared ones written down
         self.oracle = InputsOracle.from_environment(self.cwd)
@@ -237,6 +241,7 @@ class ReplayRecorder:
             return
         if os.path.abspath(RECORDS.parent.parent) != outcome["build_base"]:
             return  # a replay looks for the record under ./build only
+        self.why_not = ""
         inputs = self._paths(outcome)
         if "run_log" in outcome:  # a build: what its reporter showed, drawn again
             log = _log_of(Path(outcome["run_log"]), outcome["log_base"])
@@ -246,6 +251,8 @@ class ReplayRecorder:
             log = shown = None
             stdout, stderr = "".join(self.stdout.parts), "".join(self.stderr.parts)
         if inputs is None or log is None and "run_log" in outcome:
+            self._say_why_not(self.why_not or "its log directory holds what a replay cannot "
+                              "write again")
             return
         record = {"key": self.key, "build_base": outcome["build_base"], "paths": inputs[0],
                   "digest": inputs[1], "stdout": stdout, "stderr": stderr, "shown": shown,
@@ -259,6 +266,19 @@ class ReplayRecorder:
                          json.dumps(record, separators=(",", ":")), mode=0o600)
         except OSError as exc:  # a full disk, a read-only build base: the next run is full
             raise OSError(f"writing {record_path(self.verb)}: {exc.strerror or exc}") from exc
+        (RECORDS / WHY_NOT).absolute().unlink(missing_ok=True)
+
+    def _say_why_not(self, why: str) -> None:
+        """Why this run left no record (the next is a full one too), beside the records, for
+        whoever wonders why a no-op was not replayed: a path, never a value."""
+        from wsbuild.files import atomic_write, private_directory
+
+        try:
+            private_directory(RECORDS.parent)
+            private_directory(RECORDS)
+            atomic_write((RECORDS / WHY_NOT).absolute(), f"{self.verb}: {why}\n", mode=0o600)
+        except OSError:
+            pass  # only an explanation
 
     def _paths(self, outcome: dict[str, str]) -> tuple[list[list[object]], int] | None:
         """Every path the run looked at and each listed directory's entries that are not
@@ -291,11 +311,14 @@ class ReplayRecorder:
             now = signature(path, how) if saw is None or saw is OPENED or saw is DECLARED \
                 else saw
             if saw is OPENED and now == ABSENT:
-                return None  # deleted while the run ran
+                self.why_not = f"{path} was deleted while it ran"
+                return None
             if not follow and stat.S_ISDIR(now[0]) and path not in self.listed:
                 how |= IDENTITY
                 now = now[:2]
             elif max(now[3:], default=0) >= racy:
+                self.why_not = (f"{path} changed {(self.started_ns - max(now[3:])) / 1e9:.2f} s "
+                                "before it started (or later): too recently to trust")
                 return None
             directory, _, name = path.rpartition("/")
             if not name or not directory:  # "/" and the directories right under it
