@@ -99,6 +99,9 @@ def env_for(xdg: Path, **extra: str) -> dict[str, str]:
     the suite's cache directory)."""
     env = clean_env(**{"XDG_CACHE_HOME": str(xdg), "WSBUILD_CACHE": "", **extra})
     env.pop("WSBUILD_CACHE_DIR", None)
+    # Python writes bytecode, as on most users' machines: running a restored node must not
+    # rewrite its installed .pyc (they are checked by the source's hash, not its time)
+    env.pop("PYTHONDONTWRITEBYTECODE", None)
     return env
 
 

@@ -351,6 +351,7 @@ class HelperPool:
                  observe: StepObserver | None = None, label: str = "") -> _Helper:
         kind = self._kind(python_executable, observe)
         traced = observe is not None and bool(label) and observe.tracing
+        stopped: _Helper | None = None
         with self._cond:
             while True:
                 idle = self._idle.setdefault(kind, [])
@@ -359,10 +360,16 @@ class HelperPool:
                 if self._count.get(kind, 0) < self.max_helpers:
                     self._count[kind] = self._count.get(kind, 0) + 1
                     break
+                if idle:  # traced, and every helper is idle: one makes room (its slot passes)
+                    stopped = idle.pop()
+                    self._all = [h for h in self._all if h is not stopped]
+                    break
                 self._cond.wait()
             if not self._atexit:
                 atexit.register(self.shutdown)
                 self._atexit = True
+        if stopped is not None:
+            stopped.close()
         try:
             helper = _Helper(python_executable, environ, observe, label)
         except BaseException:

@@ -262,6 +262,11 @@ def _run_setup(req: dict) -> dict:
     setuptools.dist.Distribution.run_commands = run_commands
     setuptools._install_setup_requires = install_setup_requires
     sys.argv = ["setup.py", "egg_info", "--egg-base", req["egg_base"]]
+    # what setup.py imports writes no bytecode beside its sources (a helper module outside the
+    # package, the package's own __init__): reading a package's metadata changes no directory
+    # (a new __pycache__ would be a change of its listing). The install's byte-compiling is a
+    # request of its own (py_compile, which this flag does not stop).
+    writing_bytecode, sys.dont_write_bytecode = sys.dont_write_bytecode, True
     try:
         if os.path.exists("setup.py"):
             runpy.run_path("setup.py", run_name="__main__")
@@ -272,6 +277,7 @@ def _run_setup(req: dict) -> dict:
         if exc.code not in (None, 0) or not captured:
             raise RuntimeError(f"setup.py exited with {exc.code!r}") from None
     finally:
+        sys.dont_write_bytecode = writing_bytecode
         setuptools.dist.Distribution.run_commands = original_run_commands
     if not captured:
         result.setdefault("fallback", []).append("setup.py does not call setup()")
@@ -368,8 +374,13 @@ def _compile(req: dict) -> dict:
     errors = []
     for path, display in req["files"]:
         try:
+            # checked by the source's hash, not its time: an install restored from the cache,
+            # or whose times were set, keeps bytecode Python trusts (by time it would write
+            # the file again at the first import, and the install would no longer be the
+            # one recorded)
             py_compile.compile(path, cfile=importlib.util.cache_from_source(path), dfile=display,
-                               doraise=True)
+                               doraise=True,
+                               invalidation_mode=py_compile.PycInvalidationMode.CHECKED_HASH)
         except (py_compile.PyCompileError, OSError) as exc:
             errors.append(f"{display}: {exc}")
     return {"status": 0, "errors": errors}
