@@ -140,23 +140,9 @@ def living_descendants(root: int | None = None) -> list[int]:
     root = os.getpid() if root is None else root
     children: dict[int, list[int]] = {}
     exited: set[int] = set()
-    try:
-        entries = os.listdir("/proc")
-    except OSError:
-        return []
-    for entry in entries:
-        if not entry.isdigit():
-            continue
-        try:
-            with open(f"/proc/{entry}/stat", "rb") as handle:
-                stat = handle.read()
-        except OSError:  # gone meanwhile
-            continue
-        # "pid (comm) state ppid ...": comm may hold spaces and parentheses
-        fields = stat.rpartition(b")")[2].split()
+    for pid, _name, fields in _processes():
         if len(fields) < 2:
             continue
-        pid = int(entry)
         children.setdefault(int(fields[1]), []).append(pid)
         if fields[0] in (b"Z", b"X"):
             exited.add(pid)
@@ -253,24 +239,31 @@ class Completed:
 def session_members(sid: int) -> dict[int, str]:
     """The living processes of session `sid` (pid → name), from /proc; a zombie has ended."""
     found: dict[int, str] = {}
+    for pid, name, fields in _processes():
+        # after the name: state, ppid, pgrp, session
+        if len(fields) > 3 and int(fields[3]) == sid and fields[0] not in (b"Z", b"X"):
+            found[pid] = name
+    return found
+
+
+def _processes() -> Iterator[tuple[int, str, list[bytes]]]:
+    """Every process in /proc (none where there is no /proc): its pid, its name, and the
+    fields of its stat after the name (state, ppid, pgrp, session, ...)."""
     try:
         entries = os.listdir("/proc")
     except OSError:
-        return found
+        return
     for entry in entries:
         if not entry.isdigit():
             continue
         try:
             with open(f"/proc/{entry}/stat", "rb") as handle:
                 stat = handle.read()
-        except OSError:
+        except OSError:  # gone meanwhile
             continue
+        # "pid (comm) state ppid ...": comm may hold spaces and parentheses
         name = stat[stat.find(b"(") + 1:stat.rfind(b")")].decode(errors="replace")
-        fields = stat.rpartition(b")")[2].split()
-        # after the name: state, ppid, pgrp, session
-        if len(fields) > 3 and int(fields[3]) == sid and fields[0] not in (b"Z", b"X"):
-            found[int(entry)] = name
-    return found
+        yield int(entry), name, stat.rpartition(b")")[2].split()
 
 
 def sweep_session(sid: int) -> tuple[str, ...]:
