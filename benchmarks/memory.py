@@ -103,7 +103,9 @@ def write_synthetic(root: Path, launcher: Path, quick: bool) -> dict[str, tuple[
     return depends
 
 
-def _tree_rss(root: int) -> int:
+def tree_rss(root: int) -> int:
+    """The resident memory of `root` and every process under it, read from /proc apart from
+    wsbuild's own code (the benchmark's and the suite's oracle)."""
     total, stack, seen = 0, [root], set()
     while stack:
         pid = stack.pop()
@@ -133,7 +135,7 @@ def sampled(cmd: Sequence[str], ws: Path, env: Mapping[str, str], log_file: Path
     reader.start()
     peak = 0
     while proc.poll() is None:
-        peak = max(peak, _tree_rss(proc.pid))
+        peak = max(peak, tree_rss(proc.pid))
         time.sleep(0.02)
     reader.join()
     seconds = time.perf_counter() - start

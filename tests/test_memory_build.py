@@ -15,6 +15,7 @@ from pathlib import Path
 
 import pytest
 
+from benchmarks.memory import tree_rss
 from tests.conftest import write_package
 
 pytestmark = pytest.mark.xdist_group("memory_build")
@@ -52,26 +53,6 @@ def _workspace(tmp_path: Path) -> tuple[Path, list[str]]:
     return ws, args
 
 
-def _tree_rss(root: int) -> int:
-    """The resident memory of `root` and every process under it (the oracle: read apart from
-    wsbuild's own code)."""
-    total, stack, seen = 0, [root], set()
-    while stack:
-        pid = stack.pop()
-        if pid in seen:
-            continue
-        seen.add(pid)
-        try:
-            with open(f"/proc/{pid}/statm") as handle:
-                total += int(handle.read().split()[1]) * os.sysconf("SC_PAGE_SIZE")
-            for task in os.listdir(f"/proc/{pid}/task"):
-                with open(f"/proc/{pid}/task/{task}/children") as handle:
-                    stack += [int(child) for child in handle.read().split()]
-        except (OSError, ValueError):
-            continue
-    return total
-
-
 def _build_sampled(ws: Path, *args: str) -> tuple[subprocess.CompletedProcess[str], int]:
     """`wsbuild build ARGS` in `ws`, and the peak of its process tree, sampled every 20 ms."""
     env = {**os.environ, "ROS_AUTOMATIC_DISCOVERY_RANGE": "LOCALHOST"}
@@ -82,7 +63,7 @@ def _build_sampled(ws: Path, *args: str) -> tuple[subprocess.CompletedProcess[st
     reader = threading.Thread(target=lambda: out.extend(proc.communicate()))
     reader.start()
     while proc.poll() is None:
-        peak = max(peak, _tree_rss(proc.pid))
+        peak = max(peak, tree_rss(proc.pid))
         time.sleep(0.02)
     reader.join()
     return subprocess.CompletedProcess(proc.args, proc.returncode, out[0], out[1]), peak
