@@ -629,6 +629,14 @@ def record(ws: Path, env: Mapping[str, str], command: Sequence[str], out: Path,
     and graph."""
     clean_outputs(ws)
     sample = run_timed(command, cwd=ws, env=env, log_file=log_file, timeout=7200)
+    save_recording(ws, env, out, depends)
+    return sample
+
+
+def save_recording(ws: Path, env: Mapping[str, str], out: Path,
+                   depends: Mapping[str, Sequence[str]]) -> None:
+    """What the model reads of the cold build just made in `ws`: its timings.json, the
+    packages' dependencies, each package's Ninja log and graph."""
     if out.exists():
         shutil.rmtree(out)
     (out / "ninja").mkdir(parents=True)
@@ -642,7 +650,6 @@ def record(ws: Path, env: Mapping[str, str], command: Sequence[str], out: Path,
             graph = subprocess.run([ninja, "-C", str(build_dir), "-t", "graph"], env=dict(env),
                                    capture_output=True, text=True, check=True)
             (out / "ninja" / f"{build_dir.name}.dot").write_text(graph.stdout)
-    return sample
 
 
 # ----------------------------------------------------------------------------- report

@@ -49,7 +49,14 @@ if __package__ in (None, ""):
     sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
 from benchmarks.compile_heavy import CompileHeavySpec, generate_compile_heavy, plan_workspace
-from benchmarks.distribute import Job, Slots, _topological, job_graph, load_recording
+from benchmarks.distribute import (
+    Job,
+    Slots,
+    _topological,
+    job_graph,
+    load_recording,
+    save_recording,
+)
 from benchmarks.measure import clean_outputs, empty_discarded
 from benchmarks.tools import DEFAULT_COLCON_VENV, DEFAULT_PROJECT_VENV, REPO, Log, cpu_model
 from benchmarks.tools import make_tools, write_section
@@ -145,24 +152,6 @@ def sampled(cmd: Sequence[str], ws: Path, env: Mapping[str, str], log_file: Path
     if proc.returncode != 0:
         raise RuntimeError(f"{shlex.join(cmd)} failed:\n" + "\n".join(out[0].splitlines()[-20:]))
     return seconds, peak, out[0]
-
-
-def save_recording(ws: Path, env: Mapping[str, str], out: Path,
-                   depends: Mapping[str, Sequence[str]]) -> None:
-    """What distribute.py's model reads of the cold build just made in `ws`: its timings.json,
-    the packages' dependencies, each package's Ninja log and graph."""
-    if out.exists():
-        shutil.rmtree(out)
-    (out / "ninja").mkdir(parents=True)
-    shutil.copy(ws / "log" / "latest_build" / "timings.json", out / "timings.json")
-    (out / "deps.json").write_text(json.dumps({k: list(v) for k, v in depends.items()}) + "\n")
-    ninja = shutil.which("ninja", path=env.get("PATH", "")) or "ninja"
-    for build_dir in sorted((ws / "build").iterdir()):
-        if (build_dir / ".ninja_log").is_file():
-            shutil.copy(build_dir / ".ninja_log", out / "ninja" / f"{build_dir.name}.log")
-            graph = subprocess.run([ninja, "-C", str(build_dir), "-t", "graph"], env=dict(env),
-                                   capture_output=True, text=True, check=True)
-            (out / "ninja" / f"{build_dir.name}.dot").write_text(graph.stdout)
 
 
 def _keep_records(ws: Path, into: Path) -> None:
