@@ -9,7 +9,7 @@ leaves on it, two CMake libraries and two ament_python packages. The recorded ti
 split balances on are written into the cache first (base 2 s, each leaf 10 s), so the split
 is known: with two shards, shard 1 builds base, leaf_a and leaf_b, shard 2 leaf_c and leaf_d
 and waits for base; with three, shard 1 builds base, leaf_a and leaf_b, shards 2 and 3 one
-leaf each. Its waits (builder/shards.py) are 13 s: one job building everything is predicted
+leaf each. Its waits (builder/shards/split.py) are 13 s: one job building everything is predicted
 to take 22 s, and base with a leaf 12 s, and a restore 3 s."""
 
 from __future__ import annotations
@@ -30,7 +30,7 @@ from nginx_server import NginxServer, nginx  # noqa: F401 (fixture)
 from one_path import run_at_path, start_at_path, stop
 from test_cache_build import tree
 from test_build_helpers import REQUIRES_ROS, clean_env, output, write_ament_python, write_cmake
-from wsbuild.builder.shard_run import TIMES, note_name
+from wsbuild.builder.shards.run import TIMES, note_name
 from wsbuild.cache.action_result import parse_action_result
 from wsbuild.cache.documents import SharedDocuments, document_address
 from wsbuild.cache.settings import CacheSettings

@@ -32,6 +32,7 @@ from typing import TYPE_CHECKING, Protocol
 if TYPE_CHECKING:
     from importlib.metadata import EntryPoint
 
+    from wsbuild.build_types.pybuild.recipe import PythonBuildPlan
     from wsbuild.build_types.test_runner import TestRunner
 
 from wsbuild import inputs
@@ -173,6 +174,8 @@ class BuildOutputs:
     installed_in_place: tuple[str, ...] = ()
     #: what the build read outside the package; None: the build cannot tell
     read_outside: ReadOutside | None = None
+    #: the Python types' configure step: how their install step installs (python.py)
+    python_plan: PythonBuildPlan | None = None
 
 
 @dataclass(slots=True)

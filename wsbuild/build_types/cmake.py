@@ -9,14 +9,13 @@ Both share the run's CPU budget: make through the jobserver's file descriptors, 
 through its named FIFO; an older Ninja gets a fixed `-j` of the budget.
 The compiler cache chosen for the run (`compiler_launcher`) becomes
 `CMAKE_<LANG>_COMPILER_LAUNCHER` for C and C++, unless `--cmake-args` set one. With
-distributed compiles (builder/distribute.py) the launcher is ccache calling distcc, or distcc;
+distributed compiles (builder/resources/distcc.py) the launcher is ccache calling distcc, or distcc;
 links and code generators then go through the local gate, whose CMake file the environment
 names (`WSBUILD_LOCAL_GATE_CMAKE`, given to CMake as `CMAKE_PROJECT_INCLUDE`).
 """
 
 from __future__ import annotations
 
-import functools
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -42,8 +41,8 @@ from wsbuild.build_types.cmake_facts import (
     user_generator,
 )
 from wsbuild.build_types.cmake_actions import (
-    empty, forget_cache, forget_configure_record, park_install, remove_cache, remove_tree, stage_direct_install,
-    take_destdir, write_configure_record)
+    clear_destdir, destdir_of, empty, forget_cache, forget_configure_record, park_install,
+    remove_cache, stage_direct_install, take_destdir, write_configure_record)
 from wsbuild.build_types.cmake_options import CMAKE_OPTIONS, CMakeOptions
 from wsbuild.prefix.hooks import EnvironmentHooks
 
@@ -52,7 +51,7 @@ NINJA = "Ninja"
 #: CMake's default generator on this platform, when nobody chooses one
 DEFAULT_GENERATOR = "Unix Makefiles"
 LAUNCHED_LANGUAGES = ("C", "CXX")
-#: the local gate's CMake file of a distributed build (builder/distribute.py)
+#: the local gate's CMake file of a distributed build (builder/resources/distcc.py)
 LOCAL_GATE_VAR = "WSBUILD_LOCAL_GATE_CMAKE"
 #: what CMake's Ninja generator runs every time, the same from the same (see
 #: `CMakeBuildType.deterministic_targets`)
@@ -273,9 +272,9 @@ class CMakeBuildType:
         build_dir = ctx.build_dir
         why = self._from_scratch(ctx, state)
         if state.cache and why:
-            description, warning = why
+            description, _ = why
             steps.append(Step(
-                "clean cache", functools.partial(remove_cache, warning=warning),
+                "clean cache", self.clean_cache,
                 description=f"remove the cache {description}",
                 by_hand=Command(("rm", "-rf", "--", "CMakeCache.txt", "CMakeFiles"), build_dir),
                 writes=(build_dir / "CMakeCache.txt", build_dir / "CMakeFiles")))
@@ -290,7 +289,7 @@ class CMakeBuildType:
         switched = self.install_mode_switched(ctx)
         if switched:
             steps.append(Step(
-                "empty build directory", functools.partial(empty, why=switched),
+                "empty build directory", self.empty_for_install_mode,
                 description=f"empty the build directory (but wsbuild's records): it was built "
                             f"{switched}", writes=(build_dir,)))
         record = build_dir / CONFIGURE_RECORD
@@ -333,10 +332,25 @@ class CMakeBuildType:
     def configure_record_step(self, ctx: PackageContext) -> Step:
         """After a configure: the record of what it used, which decides the next one."""
         record = ctx.build_dir / CONFIGURE_RECORD
-        return Step("configure record",
-                    functools.partial(write_configure_record, record=self._record(ctx)),
+        return Step("configure record", self.record_configure,
                     description="write what this configure used (its arguments, digests of "
                                 "the environment)", writes=(record,))
+
+    # the steps that run in wsbuild: each decides what it does from the context it runs with
+    # (the build's), not from values the plan bound
+
+    def clean_cache(self, ctx: PackageContext) -> None:
+        """Remove a cache CMake cannot configure again, warning why (when it was not asked)."""
+        why = self._from_scratch(ctx, self.state(ctx))
+        remove_cache(ctx, warning=why[1] if why is not None else "")
+
+    def empty_for_install_mode(self, ctx: PackageContext) -> None:
+        """Empty a build directory built for the other install mode."""
+        empty(ctx, why=self.install_mode_switched(ctx))
+
+    def record_configure(self, ctx: PackageContext) -> None:
+        """What the configure that just ran used: its arguments, its compilers' digests."""
+        write_configure_record(ctx, record=self._record(ctx))
 
     def install_mode_switched(self, ctx: PackageContext) -> str:
         """How the build directory was built, when it was for another install mode, whose
@@ -427,15 +441,15 @@ class CMakeBuildType:
                        reads=(ctx.build_dir,), writes=(prefix,))
         if ctx.options.merge_install and not self.installs_in_place(ctx):
             # the shared prefix cannot be swapped: stage through DESTDIR instead
-            destdir = ctx.build_dir / ".wsbuild" / "destdir"
+            destdir = destdir_of(ctx)
             return [
-                Step("clear destdir", functools.partial(remove_tree, path=destdir),
+                Step("clear destdir", clear_destdir,
                      description="remove what an earlier install left in DESTDIR",
                      writes=(destdir,)),
                 Step("install", command=Command(command, ctx.build_dir,
                                                 run_env={"DESTDIR": str(destdir)}),
                      reads=(ctx.build_dir,), writes=(destdir,)),
-                Step("stage", functools.partial(take_destdir, destdir=destdir),
+                Step("stage", take_destdir,
                      description="move what the install put into DESTDIR into the stage",
                      reads=(destdir,))]
         if ctx.options.merge_install:

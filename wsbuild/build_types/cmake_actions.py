@@ -58,12 +58,18 @@ def write_configure_record(ctx: PackageContext, *, record: Mapping[str, object])
     atomic_write(path, json.dumps(record, indent=1) + "\n", mode=0o600)
 
 
-def remove_tree(ctx: PackageContext, *, path: Path) -> None:
-    if path.exists():
-        shutil.rmtree(path)
+def destdir_of(ctx: PackageContext) -> Path:
+    """Where a merged install stages through DESTDIR."""
+    return ctx.build_dir / ".wsbuild" / "destdir"
 
 
-def take_destdir(ctx: PackageContext, *, destdir: Path) -> None:
+def clear_destdir(ctx: PackageContext) -> None:
+    if destdir_of(ctx).exists():
+        shutil.rmtree(destdir_of(ctx))
+
+
+def take_destdir(ctx: PackageContext) -> None:
+    destdir = destdir_of(ctx)
     staged = destdir / str(ctx.install_prefix).lstrip(os.sep)
     if staged.exists():
         shutil.rmtree(ctx.stage_prefix)

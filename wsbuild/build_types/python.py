@@ -8,12 +8,8 @@ from __future__ import annotations
 
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
 
 from wsbuild.build_types import PackageContext, BuildTypeBase, RunnerNamed, Step
-
-if TYPE_CHECKING:
-    from wsbuild.build_types.pybuild.recipe import PythonBuildPlan
 
 
 @dataclass(frozen=True, slots=True)
@@ -29,21 +25,19 @@ class PythonBuildType(BuildTypeBase):
 BUILD_TYPE = PythonBuildType()
 
 
-@dataclass(slots=True)
-class PythonBuild:
-    """One package's build: `configure` decides the plan `install` follows."""
+def configure(ctx: PackageContext) -> None:
+    """Decide how `install` installs (what setup() installs; the fast path or a PEP 517
+    wheel): the typed output the install step reads (`ctx.outputs.python_plan`)."""
+    from wsbuild.build_types.pybuild.recipe import configure as decide
 
-    plan: PythonBuildPlan | None = None
+    ctx.outputs.python_plan = decide(ctx)
 
-    def configure(self, ctx: PackageContext) -> None:
-        from wsbuild.build_types.pybuild.recipe import configure
 
-        self.plan = configure(ctx)
+def install(ctx: PackageContext) -> None:
+    """Install into the stage as the configure step decided."""
+    from wsbuild.build_types.pybuild.recipe import install as place
 
-    def install(self, ctx: PackageContext) -> None:
-        from wsbuild.build_types.pybuild.recipe import install
-
-        install(ctx, self.plan)
+    place(ctx, ctx.outputs.python_plan)
 
 
 #: what each in-process step does (printed by `--dry-run` next to its by-hand command)
@@ -52,7 +46,6 @@ DESCRIPTIONS = {
                  "choose between placing the files and a PEP 517 wheel",
     "install": "place the files into the stage, or build the wheel and install it there",
     "index": "install the ament index marker and package.xml if setup.py did not",
-    "record": "keep the list of installed files in the build directory",
 }
 
 
@@ -64,23 +57,14 @@ def python_steps(ctx: PackageContext, *,
     from wsbuild.build_types.pybuild.by_hand import STEPS as BY_HAND_STEPS
     from wsbuild.build_types.pybuild.by_hand import by_hand_command
 
-    build = PythonBuild()
     actions: dict[str, Callable[[PackageContext], None]] = {
-        "configure": build.configure, "install": build.install, **(extra or {})}
-    actions["record"] = record
+        "configure": configure, "install": install, **(extra or {})}
     source = ctx.source_dir.absolute()
-    reads = {"configure": (source,), "install": (source, ctx.build_dir), "index": (source,),
-             "record": (ctx.stage_prefix,)}
+    reads = {"configure": (source,), "install": (source, ctx.build_dir), "index": (source,)}
     writes = {"configure": (ctx.build_dir,), "install": (ctx.install_prefix,),
-              "index": (ctx.install_prefix,), "record": (ctx.build_dir,)}
+              "index": (ctx.install_prefix,)}
     return [Step(label, action, description=DESCRIPTIONS.get(label, label),
                  by_hand=by_hand_command(label, ctx) if label in BY_HAND_STEPS else None,
                  reads=reads.get(label, ()), writes=writes.get(label, ()))
             for label, action in actions.items()]
 
-
-def record(ctx: PackageContext) -> None:
-    """Keep the list of installed files in the build directory."""
-    from wsbuild.build_types.pybuild.recipe import record as record_files
-
-    record_files(ctx)

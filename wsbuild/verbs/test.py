@@ -23,7 +23,7 @@ from wsbuild.verbs.arguments import (
 from wsbuild.workspace.root import BUILD_BASE
 
 if TYPE_CHECKING:  # the modules of the work are imported when the verb runs, not to parse
-    from wsbuild.builder.shards import ShardSpec
+    from wsbuild.builder.shards.split import ShardSpec
     from wsbuild.reporter import Console, Reporter
     from wsbuild.workspace.selection import Selection
     from wsbuild.testing.request import TestRequest
@@ -170,7 +170,7 @@ class TestVerbRequest:
     test: TestRequest
     metadata: MetadataRequest
     console: Console
-    #: --shard K/N: this job's share of the split (builder/shard_run.py)
+    #: --shard K/N: this job's share of the split (builder/shards/run.py)
     shard: ShardSpec | None = None
     #: --build: build what changed since it was built first
     build_first: bool = False
@@ -185,7 +185,7 @@ def test_verb_request_from_args(args: argparse.Namespace) -> TestVerbRequest:
     test = request_from_args(args, workspace_root(args.workspace_dir))
     shard = None
     if args.shard is not None:
-        from wsbuild.builder.shards import parse_shard, shard_run_id
+        from wsbuild.builder.shards.split import parse_shard, shard_run_id
 
         shard = parse_shard(args.shard, run=shard_run_id(os.environ))
     return TestVerbRequest(
@@ -215,8 +215,8 @@ def run_test_verb(args: argparse.Namespace) -> int:
     selection = Selection(loaded.workspace, loaded.packages, loaded.graph, loaded.selected)
     shard_run = ""
     if verb.shard is not None:  # the packages `build --shard` built here
-        from wsbuild.builder.shard_cover import run_of
-        from wsbuild.builder.shard_run import test_selection
+        from wsbuild.builder.shards.cover import run_of
+        from wsbuild.builder.shards.run import test_selection
         from wsbuild.cache.settings import settings_from_environment
 
         shard_run = run_of(selection, verb.shard.run)
@@ -249,7 +249,7 @@ def run_test_verb(args: argparse.Namespace) -> int:
 
 
 def _note_tested(shard: ShardSpec, run: str, selection: Selection) -> None:
-    from wsbuild.builder.shard_cover import note_tested
+    from wsbuild.builder.shards.cover import note_tested
     from wsbuild.cache.settings import settings_from_environment
 
     settings = settings_from_environment(os.environ)
