@@ -197,6 +197,14 @@ def test_shards_restore_what_the_others_built_and_the_assembled_install_is_one_m
                           [sys.executable, "-m", "wsbuild", "plan", "--shards", "2", "--json",
                            *WORKERS], env=matrix.env("plan"))
     assert planned.returncode == 0, output(planned)
+    # the wait for another shard's package is a decision of the plan, and --dry-run says it
+    dry = run_at_path(matrix.workspace("two"), matrix.place.path,
+                      [sys.executable, "-m", "wsbuild", "build", *WORKERS, "--shard", "2/2",
+                       "--dry-run", "--json"], env=matrix.env("two"))
+    assert dry.returncode == 0, output(dry)
+    waits = {p["name"]: p["wait"] for p in json.loads(dry.stdout)["packages"]}
+    assert waits["base"] is not None and waits["base"]["shard"] == "1/2", waits
+    assert {name for name, wait in waits.items() if wait is not None} == {"base"}
     first, second = matrix.start("one", "build", *WORKERS, "--shard", "1/2"), \
         matrix.start("two", "build", *WORKERS, "--shard", "2/2")
     one, two = communicate(first), communicate(second)

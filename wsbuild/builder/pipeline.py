@@ -62,11 +62,11 @@ def _shard_and_plan(selection: Selection, request: BuildRequest, session: Sessio
     need, ranked by their work in the whole split (builder/shards/run.py)."""
     if request.shard is None:
         return selection, None, make_plan(selection, request, session)
-    from wsbuild.builder.shards.run import shard_selection
+    from wsbuild.builder.shards.run import shard_selection, with_waits
 
     selection, shard = shard_selection(selection, request.shard, request.run.workers, session)
-    return selection, shard, make_plan(selection, request, session,
-                                       priorities=shard.priorities)
+    return selection, shard, with_waits(make_plan(selection, request, session,
+                                                  priorities=shard.priorities), shard)
 
 
 def plan_build(selection: Selection, request: BuildRequest, emit: Emit) -> BuildPlan:

@@ -49,6 +49,14 @@ class Decision(Enum):
 
 
 @dataclass(frozen=True, slots=True)
+class ShardWait:
+    """Another shard builds it: waited for until `seconds` after the start, then restored."""
+
+    owner: str
+    seconds: float
+
+
+@dataclass(frozen=True, slots=True)
 class PackagePlan:
     name: str
     build_type: str
@@ -94,6 +102,7 @@ class PackagePlan:
     #: the builder's own steps before and after them (builder/bookkeeping.py)
     before: tuple[BuilderStep, ...] = ()
     after: tuple[BuilderStep, ...] = ()
+    wait: ShardWait | None = None  # another shard builds it (builder/shards/run.py)
 
     @property
     def own(self) -> OwnFiles:

@@ -174,6 +174,8 @@ def plan_json(build_plan: BuildPlan,
                 "up_to_date": p.decision is Decision.UP_TO_DATE,
                 "decision": p.decision.value,
                 "note": p.note or None,
+                "wait": None if p.wait is None else {"shard": p.wait.owner,
+                                                     "seconds": p.wait.seconds},
                 "reason": None if p.reason is None else {
                     "kind": p.reason.kind.value, "text": p.reason.text,
                     "details": list(p.reason.details),
@@ -207,6 +209,9 @@ def _what(package: PackagePlan) -> str:
         return f"up to date: {package.note}" if package.note else "up to date"
     if package.decision is Decision.RESTORE:
         return f"restore from cache: {package.reason.text}"
+    if package.wait is not None:
+        return (f"wait for shard {package.wait.owner} (up to {package.wait.seconds:.0f} s), "
+                f"then restore from cache, else build: {package.reason.text}")
     return f"build: {package.reason.text}"
 
 

@@ -350,6 +350,19 @@ class _Peers:
         return note
 
 
+def with_waits(plan: BuildPlan, shard: ShardPlan) -> BuildPlan:
+    """The plan of a shard: each package it would build that another shard builds (and whose
+    entry the plan did not find) is waited for first (`PackagePlan.wait`), as `--dry-run`
+    says."""
+    from wsbuild.builder.plan import Decision, ShardWait
+
+    count = shard.spec.count
+    return replace(plan, packages=tuple(
+        replace(p, wait=ShardWait(f"{shard.owner(p.name)}/{count}", shard.waits[p.name]))
+        if p.name in shard.waits and p.decision is Decision.BUILD and p.cache_key is not None
+        else p for p in plan.packages))
+
+
 def shard_jobs(shard: ShardPlan, planned: Mapping[str, PackagePlan],
                build: Callable[[PackagePlan], JobResult], session: Session, emit: Emit,
                started: float) -> tuple[Callable[[str], JobResult], frozenset[str]]:
@@ -357,18 +370,16 @@ def shard_jobs(shard: ShardPlan, planned: Mapping[str, PackagePlan],
     (those waiting for other shards): a package of another shard that the plan did not find
     in the cache is waited for until its deadline, then restored if it came, else built here
     (`build`: one package's build as the plan says, builder/package.py)."""
-    from wsbuild.builder.plan import Decision
 
     peers = _Peers(shard, session.cache.settings)
-    waiting = frozenset(name for name, p in planned.items()
-                        if name in shard.waits and p.decision is Decision.BUILD
-                        and p.cache_key is not None)
+    waiting = frozenset(name for name, p in planned.items() if p.wait is not None)
 
     def job(name: str) -> JobResult:
-        if name not in waiting:
+        wait = planned[name].wait
+        if wait is None:
             return build(planned[name])
         return _wait_then_build(shard, planned[name], build, session, emit,
-                                started + shard.waits[name], peers)
+                                started + wait.seconds, peers)
 
     return job, waiting
 
