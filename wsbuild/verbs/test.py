@@ -83,6 +83,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                           "they were built (default: say so, and test what was built)")
     how.add_argument("--no-test-cache", action="store_true",
                      help="run every test, even where the last passing result still applies")
+    how.add_argument("--dry-run", action="store_true",
+                     help="say which packages' tests would run and why, and which would reuse "
+                          "their last passing result; run and write nothing")
     how.add_argument("--shard", metavar="K/N",
                      help="test what `build --shard K/N` built here (docs/ci.md)")
     add_env_ignore_argument(how)
@@ -174,6 +177,8 @@ class TestVerbRequest:
     shard: ShardSpec | None = None
     #: --build: build what changed since it was built first
     build_first: bool = False
+    #: --dry-run: say what would run and why (testing/test_run.py: `test_plan`)
+    dry_run: bool = False
 
 
 def test_verb_request_from_args(args: argparse.Namespace) -> TestVerbRequest:
@@ -191,7 +196,7 @@ def test_verb_request_from_args(args: argparse.Namespace) -> TestVerbRequest:
     return TestVerbRequest(
         load=load_request_from_args(args, cache=cache_selection_from_args(args, test=test)),
         test=test, metadata=metadata_from_args(args), console=console_from_args(args),
-        shard=shard, build_first=args.build_first)
+        shard=shard, build_first=args.build_first, dry_run=args.dry_run)
 
 
 def run_test_verb(args: argparse.Namespace) -> int:
@@ -223,6 +228,11 @@ def run_test_verb(args: argparse.Namespace) -> int:
         selection, line = test_selection(selection, verb.shard, request.workers,
                                          settings_from_environment(os.environ))
         print_notes([line])
+    if verb.dry_run:
+        from wsbuild.testing.test_run import test_plan, test_plan_lines
+
+        print("\n".join(test_plan_lines(test_plan(selection, request))))
+        return 0
     console = verb.console
     reporter = Reporter(verb="test", console=console, log_base=loaded.workspace.log_base,
                         progress=progress_of(selection, request.workers, durations=False))
