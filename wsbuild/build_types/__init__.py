@@ -326,6 +326,36 @@ class BuildType(Protocol):
         context is made, handed in as `state` (BuildTypeBase: nothing)."""
         ...
 
+    #: the tool its build reads package.xml with when that tool refuses what wsbuild only
+    #: warns about (workspace/model.py's `Package.refused`); "": none does
+    manifest_reader: str
+
+    def work_left(self, ctx: PackageContext) -> str:
+        """What its build system would still do right after the steps ran (a custom target
+        that always runs): the package is then built every time; "" when nothing, or when the
+        type cannot tell (BuildTypeBase: "")."""
+        ...
+
+    def keeps_earlier_work(self, ctx: PackageContext) -> bool:
+        """Whether this build reuses what the last one left in the build directory (an
+        incremental build): asked before the steps run (BuildTypeBase: False)."""
+        ...
+
+    def steps_run_afresh(self, ctx: PackageContext) -> frozenset[str]:
+        """The labels of the steps that start from scratch in this build: what they read
+        replaces what the last build's did (BuildTypeBase: none)."""
+        ...
+
+    def open_run(self, environ: Mapping[str, str]) -> None:
+        """Once per run that builds one of its packages, before the first (BuildTypeBase:
+        nothing to open)."""
+        ...
+
+    def close_run(self) -> None:
+        """Once after the run's last package: stop what the run started for the type (the
+        Python types' warm setup.py helpers). Safe to call when nothing was started."""
+        ...
+
 
 #: the options every build type reads that change how a build runs, never what it installs
 _RUN_ONLY_OPTIONS = ("jobs", "compiler_launcher", "type_values")
@@ -392,6 +422,21 @@ class BuildTypeBase:
         the Python builds' setup.py, by an audit hook), else None."""
         return ctx.outputs.read_outside
 
+    def work_left(self, ctx: PackageContext) -> str:
+        return ""
+
+    def keeps_earlier_work(self, ctx: PackageContext) -> bool:
+        return False
+
+    def steps_run_afresh(self, ctx: PackageContext) -> frozenset[str]:
+        return frozenset()
+
+    def open_run(self, environ: Mapping[str, str]) -> None:
+        return None
+
+    def close_run(self) -> None:
+        return None
+
 
 _loaded: dict[str, BuildType] = {}
 
@@ -448,7 +493,7 @@ def declared_options(*, plugins: bool) -> list[tuple[str, tuple[TypeOption, ...]
                 for name, value in BUILTIN_OPTIONS.items()]
     if plugins:
         for entry in sorted(_entry_points(), key=lambda ep: ep.name):
-            own = tuple(getattr(get_build_type(entry.name), "options", ()))
+            own = tuple(get_build_type(entry.name).options)
             if own:
                 declared.append((entry.name, own))
     seen: dict[str, tuple[str, TypeOption]] = {}
@@ -468,8 +513,10 @@ def declared_options(*, plugins: bool) -> list[tuple[str, tuple[TypeOption, ...]
 
 
 #: every member of the `BuildType` protocol (BuildTypeBase has them all)
-_REQUIRED = ("name", "steps", "test_runner", "hooks", "estimate_base", "options", "key_options",
-             "external_inputs", "run_facts", "read_state")
+#: everything wsbuild calls of a build type (the `BuildType` protocol, in its order)
+_REQUIRED = ("name", "test_runner", "hooks", "estimate_base", "steps", "options", "key_options",
+             "external_inputs", "run_facts", "read_state", "manifest_reader", "work_left",
+             "keeps_earlier_work", "steps_run_afresh", "open_run", "close_run")
 
 
 def _checked(loaded: object, name: str, value: str) -> BuildType:

@@ -41,8 +41,8 @@ from wsbuild.build_types.cmake_facts import (
     user_generator,
 )
 from wsbuild.build_types.cmake_actions import (
-    clear_destdir, destdir_of, empty, forget_cache, forget_configure_record, park_install,
-    remove_cache, stage_direct_install, take_destdir, write_configure_record)
+    empty, forget_cache, forget_configure_record, remove_cache, write_configure_record)
+from wsbuild.build_types.staging import staged_install_steps
 from wsbuild.build_types.cmake_options import CMAKE_OPTIONS, CMakeOptions
 from wsbuild.prefix.hooks import EnvironmentHooks
 
@@ -105,6 +105,14 @@ class CMakeBuildType:
 
     #: --cmake-args, --cmake-target, … (cmake_options.py)
     options: tuple[TypeOption, ...] = CMAKE_OPTIONS
+    #: plain CMake reads package.xml with nothing stricter than wsbuild
+    manifest_reader: str = ""
+
+    def open_run(self, environ: Mapping[str, str]) -> None:
+        """Nothing to open: Ninja is found once per run by `run_facts`."""
+
+    def close_run(self) -> None:
+        """Nothing to stop: every step is a process of its own."""
 
     def key_options(self, options: BuildOptions) -> dict[str, object]:
         return key_options(options, self.options)
@@ -430,47 +438,14 @@ class CMakeBuildType:
         return False
 
     def install_steps(self, ctx: PackageContext) -> list[Step]:
-        """`cmake --install`: into the prefix CMake was configured with. Isolated, the previous
-        install is parked first and the new one moved into the stage after it (a failure puts
-        the previous one back); merged, it stages through DESTDIR (this run's only: pasted by
-        hand, it installs in place), or (a symlink install, which ignores DESTDIR) keeps the
-        manifests' list of what it wrote."""
-        command = ("cmake", "--install", str(ctx.build_dir))
-        prefix = ctx.install_prefix
-        install = Step("install", command=Command(command, ctx.build_dir),
-                       reads=(ctx.build_dir,), writes=(prefix,))
-        if ctx.options.merge_install and not self.installs_in_place(ctx):
-            # the shared prefix cannot be swapped: stage through DESTDIR instead
-            destdir = destdir_of(ctx)
-            return [
-                Step("clear destdir", clear_destdir,
-                     description="remove what an earlier install left in DESTDIR",
-                     writes=(destdir,)),
-                Step("install", command=Command(command, ctx.build_dir,
-                                                run_env={"DESTDIR": str(destdir)}),
-                     reads=(ctx.build_dir,), writes=(destdir,)),
-                Step("stage", take_destdir,
-                     description="move what the install put into DESTDIR into the stage",
-                     reads=(destdir,))]
-        if ctx.options.merge_install:
-            # symlink install into a merged prefix writes in place, as with colcon; the
-            # manifests say what it wrote, so the merged record keeps (and later prunes) it
-            return [install, Step("keep manifest", _keep_installed_in_place,
-                                  description="keep the install manifests' list of files",
-                                  reads=(ctx.build_dir,))]
-        return [
-            Step("park install", park_install,
-                 description="park the previous install aside (a failure puts it back)",
-                 writes=(prefix,)),
-            install,
-            Step("stage", stage_direct_install,
-                 description="move the new install into the stage, put the previous one back",
-                 reads=(prefix,), writes=(prefix,))]
-
-
-def _keep_installed_in_place(ctx: PackageContext) -> None:
-    ctx.outputs.installed_in_place = tuple(_manifest_files(ctx))
-
+        """`cmake --install` into the prefix CMake was configured with, staged
+        (build_types/staging.py): isolated, the previous install parked around it; merged,
+        through DESTDIR (this run's only: pasted by hand, it installs in place), or (a
+        symlink install, which ignores DESTDIR) with the manifests' list of what it wrote."""
+        install = Command(("cmake", "--install", str(ctx.build_dir)), ctx.build_dir)
+        return staged_install_steps(ctx, install, reads=(ctx.build_dir,),
+                                    in_place=_manifest_files if self.installs_in_place(ctx)
+                                    else None)
 
 def configure_problems(lines: list[str]) -> list[str]:
     """The warning and error blocks of a CMake configure's stderr. Plain `message()` output

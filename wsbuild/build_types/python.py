@@ -21,8 +21,21 @@ class PythonBuildType(BuildTypeBase):
     def steps(self, ctx: PackageContext) -> list[Step]:
         return python_steps(ctx)
 
+    def close_run(self) -> None:
+        close_python_run()
+
 
 BUILD_TYPE = PythonBuildType()
+
+
+def close_python_run() -> None:
+    """The run's warm setup.py helpers stopped (they run only once a Python package was
+    built: nothing is imported to stop none)."""
+    import sys
+
+    helpers = sys.modules.get("wsbuild.build_types.pybuild.setup_py")
+    if helpers is not None:
+        helpers.shutdown_helpers()
 
 
 def configure(ctx: PackageContext) -> None:

@@ -116,7 +116,7 @@ class PackageBuild(PackageJob):
             run_environ.update(self.run.distribution.environ)
         self.observations = self._observations(run_environ)
         reason = self.planned.reason
-        keeps = getattr(get_build_type(self.planned.build_type), "keeps_earlier_work", None)
+        build_type = get_build_type(self.planned.build_type)
         self.context = make_context(
             self.run.selection, self.run.session, self.name, prefix=self.prefix,
             options=self.planned.options.applied_to(self.run.options),
@@ -128,7 +128,7 @@ class PackageBuild(PackageJob):
             observe=self.observations)
         self.context.note = self._note
         # decided before the steps run (they change what the build directory holds)
-        self._kept_earlier_work = keeps is not None and keeps(self.context)
+        self._kept_earlier_work = build_type.keeps_earlier_work(self.context)
 
     def _observations(self, run_environ: Mapping[str, str]) -> StepObservations:
         """A fresh record of what this build's steps read (builder/observing.py)."""
@@ -145,8 +145,7 @@ class PackageBuild(PackageJob):
     def _work_left(self) -> str:
         """What the build system would still do right after the steps (its build type's
         `work_left`; "" when nothing, or when the type cannot tell)."""
-        work_left = getattr(get_build_type(self.planned.build_type), "work_left", None)
-        return work_left(self._ctx()) if work_left is not None else ""
+        return get_build_type(self.planned.build_type).work_left(self._ctx())
 
     def steps(self) -> Sequence[Step]:
         """The steps the plan decided, when the build type decides the same with the build's
@@ -285,13 +284,11 @@ class PackageBuild(PackageJob):
         build_type = get_build_type(self.planned.build_type)
         runner = build_type.test_runner
         assert self.observations is not None
-        keeps = getattr(build_type, "keeps_earlier_work", None)
         record = built_record(
             self.planned, observations=self.observations,
-            earlier=self.planned.previous if keeps is not None and self._kept_earlier_work
+            earlier=self.planned.previous if self._kept_earlier_work
             else None,
-            afresh=build_type.steps_run_afresh(ctx)
-            if hasattr(build_type, "steps_run_afresh") else (),
+            afresh=build_type.steps_run_afresh(ctx),
             declared=build_type.external_inputs(ctx), dependencies=self.dependency_keys(),
             installed=installed, where=where, touched=self.touched,
             install_base=self.run.selection.workspace.install_base,

@@ -28,6 +28,7 @@ from dataclasses import dataclass, replace
 
 from typing import TYPE_CHECKING
 
+from wsbuild.build_types import get_build_type
 from wsbuild.builder.plan import BuildPlan, Decision, make_plan
 from wsbuild.builder.request import BuildRequest
 from wsbuild.engine.jobs import JobFinished, JobResult, JobStarted, Outcome
@@ -42,6 +43,7 @@ from wsbuild.words import plural
 from wsbuild.runreport.package_run import PackageRun
 
 if TYPE_CHECKING:  # what only packages to build need: a no-op imports none of it
+    from wsbuild.build_types import BuildType
     from wsbuild.builder.resources.compiler_cache import CacheCounts, CompilerCache
     from wsbuild.builder.resources.distcc import Distribution
     from wsbuild.builder.plan_text import PlannedCommands
@@ -167,7 +169,12 @@ def execute(plan: BuildPlan, selection: Selection, request: BuildRequest, sessio
     compilers: CompilerCache | None = None
     distribution: Distribution | None = None
     counts = CompileCounts()
+    # each build type of a package the run may build (a refused restore builds), opened for
+    # the run and closed after it
+    build_types = [get_build_type(name) for name in sorted({p.build_type for p in plan.to_do()})]
     try:
+        for build_type in build_types:
+            build_type.open_run(session.environ)
         if any(p.decision is Decision.BUILD for p in plan.packages):
             from wsbuild.builder.resources.compiler_cache import open_compiler_cache
 
@@ -189,7 +196,7 @@ def execute(plan: BuildPlan, selection: Selection, request: BuildRequest, sessio
         raise Interrupted("build interrupted") from None
     finally:
         run.sampler.stop()
-        _after_packages(session, compilers, distribution)
+        _after_packages(session, compilers, distribution, build_types)
     results = _in_selection_order(selection, {**settled, **_by_name(built)})
     write_setup_scripts(ws, session.merged, session.underlay,
                         installed_changed=any(r.outcome is Outcome.FINISHED for r in results))
@@ -298,14 +305,12 @@ def _open_distribution(request: BuildRequest, session: Session,
 
 
 def _after_packages(session: Session, compilers: CompilerCache | None,
-                    distribution: Distribution | None) -> None:
-    import sys
-
+                    distribution: Distribution | None, build_types: Sequence[BuildType]
+                    ) -> None:
     from wsbuild.prefix.stage import recover_all
 
-    helpers = sys.modules.get("wsbuild.build_types.pybuild.setup_py")
-    if helpers is not None:  # setup.py readers run only if a Python package was built
-        helpers.shutdown_helpers()
+    for build_type in build_types:  # the Python types' warm setup.py helpers
+        build_type.close_run()
     if compilers is not None:
         compilers.close()
     if distribution is not None:

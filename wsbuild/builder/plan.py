@@ -366,7 +366,7 @@ def _steps(planning: _Planning, name: str, prefix: Path, own_options: PackageOpt
 def _forced_by_option(build_type: str, options: BuildOptions) -> bool:
     """Whether an option of its build type given on the command line builds every package of
     it (--cmake-force-configure, --cmake-clean-cache, …)."""
-    declared = getattr(get_build_type(build_type), "options", ())
+    declared = get_build_type(build_type).options
     return any(option.forces_build and options.value(option) for option in declared)
 
 

@@ -173,7 +173,7 @@ def refuse_manifests(packages: Mapping[str, Package], selected: Sequence[str]) -
         package = packages[name]
         if not package.refused:
             continue
-        reader = getattr(get_build_type(package.build_type), "manifest_reader", "")
+        reader = get_build_type(package.build_type).manifest_reader
         if reader:
             line, problem, fix = package.refused[0]
             raise ManifestError(f"{problem}: {reader} refuses it", path=package.manifest,
