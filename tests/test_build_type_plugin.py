@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import ast
 import os
+import stat
 import subprocess
 from importlib.metadata import entry_points
 from pathlib import Path
@@ -238,7 +239,11 @@ MAP_PLUGIN = (EXAMPLE / "wsb_map_type.py").read_text()
 
 
 def _map_distribution(root: Path) -> Path:
-    return _plugin_distribution(root, "wsb_map", MAP_PLUGIN)
+    """The example as a distribution installs it: its build type, and its identifier."""
+    found = _plugin_distribution(root, "wsb_map", MAP_PLUGIN)
+    with (found / "wsb_map_type-0.1.dist-info" / "entry_points.txt").open("a") as handle:
+        handle.write("[wsbuild.package_identification]\nwsb_map = wsb_map_type:identify\n")
+    return found
 
 
 def _map_workspace(ws: Path) -> None:
@@ -381,3 +386,30 @@ def test_the_documented_example_installs_with_pip_and_builds_its_package(tmp_pat
                         env={**os.environ, "PYTHONPATH": str(target)})
     assert built.returncode == 0, built.stdout + built.stderr
     assert (ws / "install" / "maps" / "share" / "maps" / "resolution.txt").read_text() == "0.5\n"
+
+
+def test_a_plugin_identifies_packages_that_have_no_package_xml(tmp_path: Path) -> None:
+    """A package identifier (group `wsbuild.package_identification`) recognises a directory
+    without package.xml; its package builds with its build type, and a package.xml always
+    wins over it. Edited, what it read is seen by the next plan."""
+    env = {**os.environ, "PYTHONPATH": str(_map_distribution(tmp_path / "plugins")),
+           "WSBUILD_CACHE_DIR": str(tmp_path / "cache")}
+    ws = tmp_path / "ws"
+    (ws / "src" / "floor").mkdir(parents=True)
+    (ws / "src" / "floor" / "map.yaml").write_text("name: floor_map\nresolution: 1\n")
+    _map_workspace(ws)  # `maps`, with a package.xml (and a map.yaml of another name)
+    (ws / "src" / "maps" / "map.yaml").write_text("name: not_this_one\n")
+    listed = run_wsbuild("list", cwd=ws, env=env)
+    assert listed.returncode == 0, listed.stdout + listed.stderr
+    assert [line.split()[0] for line in listed.stdout.splitlines()] == ["floor_map", "maps"]
+    built = run_wsbuild("build", "--map-resolution", "0.25", cwd=ws, env=env)
+    assert built.returncode == 0, built.stdout + built.stderr
+    assert (ws / "install" / "floor_map" / "share" / "floor_map" / "resolution.txt"
+            ).read_text() == "0.25\n"
+    # the plugins found were kept, private to the user
+    [kept] = (tmp_path / "cache" / "plugins").glob("*.json")
+    assert "wsb_map_type:identify" in kept.read_text()
+    assert stat.S_IMODE(kept.stat().st_mode) == 0o600
+    (ws / "src" / "floor" / "map.yaml").write_text("name: renamed_map\n")
+    again = run_wsbuild("list", cwd=ws, env=env)
+    assert [line.split()[0] for line in again.stdout.splitlines()] == ["maps", "renamed_map"]

@@ -22,20 +22,16 @@ the protocol, the data it is handed and hands back, its defaults and its registr
 
 from __future__ import annotations
 
-import os
-
 from collections.abc import Callable, Collection, Iterator, Mapping, Sequence
 from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
 from typing import TYPE_CHECKING, Protocol
 
 if TYPE_CHECKING:
-    from importlib.metadata import EntryPoint
-
+    from wsbuild.build_types.plugins import Entry
     from wsbuild.build_types.pybuild.recipe import PythonBuildPlan
     from wsbuild.build_types.test_runner import TestRunner
 
-from wsbuild import inputs
 from wsbuild.build_types.step_observer import StepObserver
 from wsbuild.errors import ManifestError, WsbuildError
 from wsbuild.prefix.hooks import EnvironmentHooks
@@ -43,7 +39,7 @@ from wsbuild.workspace.model import Package
 
 __all__ = ["StepObserver"]  # re-exported: the context's `observe` is one
 
-ENTRY_POINT_GROUP = "wsbuild.build_types"
+ENTRY_POINT_GROUP = "wsbuild.build_types"  # build_types/plugins.py: BUILD_TYPES
 
 #: The built-in build types, as pyproject.toml registers them in the entry-point group (a test
 #: holds the two equal). Discovery knows these names, and they load as entry points, without
@@ -467,7 +463,7 @@ def get_build_type(name: str) -> BuildType:
                 hint="known build types: " + ", ".join(known_build_types()),
             )
         value = matches[0].value
-        loaded = matches[0].load()
+        loaded = _load_entry_point(value)
     build_type = _checked(loaded, name, value)
     _loaded[name] = build_type
     return build_type
@@ -535,21 +531,11 @@ def _checked(loaded: object, name: str, value: str) -> BuildType:
     return loaded  # type: ignore[return-value]
 
 
-def _entry_points() -> Sequence[EntryPoint]:
-    import sys
-    from importlib.metadata import distributions, entry_points
+def _entry_points() -> Sequence[Entry]:
+    """The third-party build types' entry points (build_types/plugins.py)."""
+    from wsbuild.build_types.plugins import BUILD_TYPES, entries
 
-    found = [ep for ep in entry_points(group=ENTRY_POINT_GROUP) if ep.name not in BUILTIN]
-    # which types there are, and where from, is an input of the plan: the distributions on
-    # the path (a new one is a new entry of its directory) and each one's entry points
-    for entry in sys.path:
-        if entry and os.path.isdir(entry):
-            inputs.declare_directory(entry)
-    for dist in distributions():
-        where = getattr(dist, "_path", None)
-        if where is not None:
-            inputs.declare_file(Path(where) / "entry_points.txt")
-    return found
+    return [entry for entry in entries(BUILD_TYPES) if entry.name not in BUILTIN]
 
 
 class KnownBuildTypes(Collection[str]):

@@ -1,7 +1,8 @@
 """wsb_map: an example of a third-party build type (docs/examples/wsb_map/README.md).
 
-Packages whose package.xml says `<build_type>wsb_map</build_type>` get a map resolution
-file installed, written by an in-process step from an option of the type's own
+Packages whose package.xml says `<build_type>wsb_map</build_type>`, and directories holding a
+`map.yaml` that names them (`identify`: no package.xml needed), get a map resolution file
+installed, written by an in-process step from an option of the type's own
 (`wsbuild build --map-resolution 0.05`). tests/test_build_type_plugin.py builds with this very
 module, so what it shows is what works.
 """
@@ -73,3 +74,20 @@ def _run_log(what):
 
 #: what the entry point names (pyproject.toml)
 BUILD_TYPE = MapBuildType()
+
+
+def identify(path, names):
+    """A package without package.xml: a directory holding `map.yaml` whose first line is
+    `name: <package>` (the entry point of group `wsbuild.package_identification`). Called for
+    each directory of the workspace that none of wsbuild's own rules takes, with the names in
+    it; reads through wsbuild.inputs, as every read of a run that plans does."""
+    from wsbuild import inputs
+    from wsbuild.workspace.model import Package
+
+    if "map.yaml" not in names or "package.xml" in names:
+        return None
+    first = inputs.read_text(path / "map.yaml").partition("\n")[0]
+    key, _, name = first.partition(":")
+    if key.strip() != "name" or not name.strip():
+        return None
+    return Package(name=name.strip(), path=path, build_type="wsb_map")
