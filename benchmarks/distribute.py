@@ -12,7 +12,7 @@
 2. Model: every package is configure → its Ninja targets (in their own dependency order) →
    install and register. Compiles (Ninja's C/C++ compiler rules) may run on any machine;
    everything else (configure, links, code generators, install) runs on the first machine,
-   as `--distribute` keeps it (builder/distribute.py). At most C packages are in flight, as
+   as `--distribute` keeps it (builder/resources/distcc.py). At most C packages are in flight, as
    wsbuild's workers are the local cores.
 3. Simulate with the scheduler's rule (engine/schedule.py): whenever a core is free, the
    ready job with the longest chain of work behind it starts first; a compile takes a free
@@ -53,7 +53,7 @@ if __package__ in (None, ""):
 from wsbuild.engine.ready_queue import JobGraph
 
 if TYPE_CHECKING:
-    from wsbuild.builder.shards import Split
+    from wsbuild.builder.shards.split import Split
 
 from benchmarks.compile_heavy import CompileHeavySpec, generate_compile_heavy, plan_workspace
 from benchmarks.measure import CommandFailed, Sample, clean_outputs, empty_discarded, run_timed
@@ -448,7 +448,7 @@ class ShardRun:
     #: the slowest shard's time for its packages (wsbuild's fixed time not included)
     seconds: float
     per_shard: tuple[float, ...]
-    #: what the split itself predicted (builder/shards.py's list schedule)
+    #: what the split itself predicted (builder/shards/split.py's list schedule)
     split_predicted: float
     bound: float
     critical_path: float
@@ -460,7 +460,7 @@ class ShardRun:
 def simulate_shards(times: PackageTimes, shards: int, *, transfer: float | None = None,
                     delay: Mapping[int, float] | None = None,
                     split_weights: Mapping[str, float] | None = None) -> ShardRun:
-    """N shards as wsbuild runs them: the split of wsbuild/builder/shards.py; on each machine
+    """N shards as wsbuild runs them: the split of wsbuild/builder/shards/split.py; on each machine
     its workers take the ready packages, the most remaining work first (engine/schedule.py);
     a package of another shard takes no worker while it is waited for, and is there a
     `transfer` after the first machine that built it finished it, unless its wait
@@ -468,7 +468,7 @@ def simulate_shards(times: PackageTimes, shards: int, *, transfer: float | None 
     does). `delay`: shard → seconds it starts late (a CI queue); `split_weights`: what the
     split, the priorities and the waits are made of, when not the recorded times (a cold
     cache: estimates), while the packages take their recorded times."""
-    from wsbuild.builder.shards import TRANSFER_SECONDS, split_packages
+    from wsbuild.builder.shards.split import TRANSFER_SECONDS, split_packages
 
     transfer = TRANSFER_SECONDS if transfer is None else transfer
     jobs = JobGraph.of(times.order, times.depends)

@@ -9,7 +9,7 @@ recording the simulation runs on, and N real `wsbuild build --shard K/N` process
     .venv/bin/python benchmarks/shards.py all --docs # the three, then docs/benchmarks.md
 
 The simulation (`benchmarks/distribute.py`, `simulate_shards`) splits the recorded packages
-with wsbuild's own split (wsbuild/builder/shards.py) and plays the shards out as they run:
+with wsbuild's own split (wsbuild/builder/shards/split.py) and plays the shards out as they run:
 each machine's workers take its ready packages, the most remaining work first; a package of
 another shard is there a transfer after its shard finished it, unless the wait runs out first
 (then it is built here).
@@ -317,7 +317,7 @@ class Loopback:
         return [self.finish(machine, *process) for machine, process in started]
 
     def times(self) -> dict[str, object] | None:
-        from wsbuild.builder.shard_run import TIMES
+        from wsbuild.builder.shards.run import TIMES
         from wsbuild.cache.documents import SharedDocuments
         from wsbuild.cache.settings import CacheSettings
 
@@ -329,7 +329,7 @@ class Loopback:
             documents.close()
 
     def put_times(self, value: Mapping[str, object]) -> None:
-        from wsbuild.builder.shard_run import TIMES
+        from wsbuild.builder.shards.run import TIMES
         from wsbuild.cache.documents import SharedDocuments
         from wsbuild.cache.settings import CacheSettings
 

@@ -15,7 +15,7 @@ for tool in cmake make g++ zsh dash git nginx ccache distcc openssl; do
 done
 # the program ament_cppcheck (a wheel of the `ros` extra) runs when `wsbuild test` lints C/C++
 command -v cppcheck >/dev/null 2>&1 || need+=(cppcheck)
-# the build-step oracle of the suite runs build steps under strace (builder/step_trace.py)
+# the build-step oracle of the suite runs build steps under strace (builder/oracles/step_trace.py)
 command -v strace >/dev/null 2>&1 || need+=(strace)
 # the report tests open log/<run>/report.html in a real headless browser
 command -v chromium >/dev/null 2>&1 || need+=(chromium)

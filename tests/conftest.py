@@ -55,7 +55,7 @@ def _oracle_file() -> Path:
     return Path(os.environ[ORACLE_VARIABLE])
 
 
-# The build-step oracle (builder/step_trace.py): the builds of the tests that use the
+# The build-step oracle (builder/oracles/step_trace.py): the builds of the tests that use the
 # `traced_steps` fixture run each build step under strace, and write down every file a step
 # read that the package's record does not hold; a non-empty file fails the session, naming
 # the package, the step and the file.
@@ -103,7 +103,7 @@ def inputs_oracle(monkeypatch: pytest.MonkeyPatch, tmp_path_factory: pytest.Temp
 def traced_steps(monkeypatch: pytest.MonkeyPatch, tmp_path_factory: pytest.TempPathFactory
                  ) -> Iterator[Path]:
     """The builds this test starts run their steps under the build-step oracle (strace, held
-    against each package's record: builder/step_trace.py); a read no record holds fails this
+    against each package's record: builder/oracles/step_trace.py); a read no record holds fails this
     test. Their compiles go through ccache (`--compiler-cache auto` finds the ccache
     scripts/setup.sh installs): the oracle sees a compiler ccache runs, not one sccache's
     server runs, outside every step."""
@@ -113,7 +113,7 @@ def traced_steps(monkeypatch: pytest.MonkeyPatch, tmp_path_factory: pytest.TempP
     found = _findings(own, _step_oracle_file())
     if found:
         pytest.fail("the build-step oracle found reads no package record holds "
-                    "(builder/step_trace.py):\n" + "\n".join(found[:20]), pytrace=False)
+                    "(builder/oracles/step_trace.py):\n" + "\n".join(found[:20]), pytrace=False)
 
 PACKAGE_XML = """<?xml version="1.0"?>
 <package format="3">
@@ -397,7 +397,7 @@ def pytest_terminal_summary(terminalreporter: pytest.TerminalReporter) -> None:
         checked = []
     terminalreporter.write_line(
         f"{len(unrecorded)} reads of build steps no package record holds, in "
-        f"{len(checked)} traced package builds (builder/step_trace.py; the oracle's file: "
+        f"{len(checked)} traced package builds (builder/oracles/step_trace.py; the oracle's file: "
         f"{_step_oracle_file()})")
     terminalreporter.write_line(
         f"{len(_unexpected_skips)} unexpected skips (allowed: {'; '.join(ALLOWED_SKIPS)})")

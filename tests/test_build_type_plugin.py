@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import ast
 import os
+import stat
 import subprocess
 from importlib.metadata import entry_points
 from pathlib import Path
@@ -232,45 +233,17 @@ def test_the_build_type_check_finds_a_comparison(tmp_path: Path) -> None:
             any(_is_fixed(a.value) for a in assigns), sample
 
 
-MAP_PLUGIN = '''
-"""A third-party build type with an option of its own (--map-resolution) and an in-process
-step that writes what the option says, with the command that does the same by hand."""
-from dataclasses import dataclass
-from wsbuild.build_types import BuildTypeBase, Command, Step, TypeOption
-
-RESOLUTION = TypeOption("--map-resolution", "map_resolution", metavar="METRES",
-                        help="the resolution the installed maps are made for")
-
-#: what the step writes, by hand as in wsbuild
-SCRIPT = 'mkdir -p -- "$(dirname -- "$1")" && printf "%s\\\\n" "$2" > "$1"'
-
-
-def write_resolution(ctx):
-    target = ctx.stage_prefix / "share" / ctx.package.name / "resolution.txt"
-    target.parent.mkdir(parents=True, exist_ok=True)
-    target.write_text(f"{ctx.options.value(RESOLUTION) or 'unset'}\\n")
-
-
-@dataclass(frozen=True, slots=True)
-class MapBuildType(BuildTypeBase):
-    name: str = "wsb_map"
-    options: tuple = (RESOLUTION,)
-
-    def steps(self, ctx):
-        value = ctx.options.value(RESOLUTION) or "unset"
-        target = ctx.install_prefix / "share" / ctx.package.name / "resolution.txt"
-        return [Step("resolution", write_resolution,
-                     description=f"write the map resolution {value}", writes=(target,),
-                     by_hand=Command(("sh", "-c", SCRIPT, "sh", str(target), value),
-                                     ctx.source_dir))]
-
-
-BUILD_TYPE = MapBuildType()
-'''
+#: the example plugin of docs/examples/wsb_map (its module, as a distribution installs it)
+EXAMPLE = Path(__file__).resolve().parent.parent / "docs" / "examples" / "wsb_map"
+MAP_PLUGIN = (EXAMPLE / "wsb_map_type.py").read_text()
 
 
 def _map_distribution(root: Path) -> Path:
-    return _plugin_distribution(root, "wsb_map", MAP_PLUGIN)
+    """The example as a distribution installs it: its build type, and its identifier."""
+    found = _plugin_distribution(root, "wsb_map", MAP_PLUGIN)
+    with (found / "wsb_map_type-0.1.dist-info" / "entry_points.txt").open("a") as handle:
+        handle.write("[wsbuild.package_identification]\nwsb_map = wsb_map_type:identify\n")
+    return found
 
 
 def _map_workspace(ws: Path) -> None:
@@ -343,3 +316,100 @@ def test_the_built_in_types_options_are_the_ones_the_parser_reads() -> None:
     lists = {option.flag[2:] for options in declared.values() for option in options
              if option.kind == "arguments" and option.flag}
     assert set(BUILD_KEYS) == lists
+
+
+def test_a_build_type_is_opened_and_closed_once_for_each_run_that_builds_its_packages(
+        tmp_path: Path) -> None:
+    """The per-run hooks of the protocol (`open_run`, `close_run`): a type holds what a run
+    starts for it (the Python types' warm helpers) and wsbuild stops it, without reaching
+    into the type's modules."""
+    calls = tmp_path / "calls.txt"
+    env = {**os.environ, "PYTHONPATH": str(_map_distribution(tmp_path / "plugins")),
+           "WSB_MAP_RUN_LOG": str(calls)}
+    ws = tmp_path / "ws"
+    _map_workspace(ws)
+    built = run_wsbuild("build", cwd=ws, env=env)
+    assert built.returncode == 0, built.stdout + built.stderr
+    assert calls.read_text() == "open\nclose\n"
+    again = run_wsbuild("build", cwd=ws, env=env)  # nothing to build: nothing to open
+    assert again.returncode == 0 and calls.read_text() == "open\nclose\n", again.stdout
+
+
+def test_the_build_type_protocol_lists_exactly_what_wsbuild_calls() -> None:
+    """Every attribute wsbuild takes of a loaded build type (`get_build_type(...).x`, or of
+    a name bound to it) is in the `BuildType` protocol, and the protocol is what a plugin is
+    checked against when it loads (`_REQUIRED`)."""
+    import ast
+
+    from wsbuild import build_types
+
+    protocol = [name for name in build_types.BuildType.__annotations__] + [
+        name for name, value in vars(build_types.BuildType).items()
+        if callable(value) and not name.startswith("_")]
+    assert sorted(protocol) == sorted(build_types._REQUIRED)
+    used: dict[str, set[str]] = {}
+    for path in sorted(Path(build_types.__file__).parent.parent.rglob("*.py")):
+        tree = ast.parse(path.read_text(encoding="utf-8"))
+        for function in ast.walk(tree):
+            if not isinstance(function, (ast.FunctionDef, ast.Module)):
+                continue
+            bound = {target.id for node in ast.walk(function) if isinstance(node, ast.Assign)
+                     and isinstance(node.value, ast.Call)
+                     and getattr(node.value.func, "id", "") == "get_build_type"
+                     for target in node.targets if isinstance(target, ast.Name)}
+            for node in ast.walk(function):
+                if not isinstance(node, ast.Attribute):
+                    continue
+                value = node.value
+                if (isinstance(value, ast.Call) and getattr(value.func, "id", "")
+                        == "get_build_type") or (isinstance(value, ast.Name)
+                                                 and value.id in bound):
+                    used.setdefault(node.attr, set()).add(path.name)
+    assert used and set(used) <= set(protocol), {a: used[a] for a in set(used) - set(protocol)}
+
+
+def test_the_documented_example_installs_with_pip_and_builds_its_package(tmp_path: Path) -> None:
+    """docs/examples/wsb_map is a distribution as its README says: pip installs it, and the
+    build type it registers builds a package."""
+    import shutil
+    import sys
+
+    source, target = tmp_path / "wsb_map", tmp_path / "site"
+    shutil.copytree(EXAMPLE, source)  # a build writes beside the sources: not into the repo
+    installed = subprocess.run(
+        [sys.executable, "-m", "pip", "install", "--quiet", "--no-deps", "--no-build-isolation",
+         "--target", str(target), str(source)], capture_output=True, text=True, timeout=300)
+    assert installed.returncode == 0, installed.stdout + installed.stderr
+    ws = tmp_path / "ws"
+    _map_workspace(ws)
+    built = run_wsbuild("build", "--map-resolution", "0.5", cwd=ws,
+                        env={**os.environ, "PYTHONPATH": str(target)})
+    assert built.returncode == 0, built.stdout + built.stderr
+    assert (ws / "install" / "maps" / "share" / "maps" / "resolution.txt").read_text() == "0.5\n"
+
+
+def test_a_plugin_identifies_packages_that_have_no_package_xml(tmp_path: Path) -> None:
+    """A package identifier (group `wsbuild.package_identification`) recognises a directory
+    without package.xml; its package builds with its build type, and a package.xml always
+    wins over it. Edited, what it read is seen by the next plan."""
+    env = {**os.environ, "PYTHONPATH": str(_map_distribution(tmp_path / "plugins")),
+           "WSBUILD_CACHE_DIR": str(tmp_path / "cache")}
+    ws = tmp_path / "ws"
+    (ws / "src" / "floor").mkdir(parents=True)
+    (ws / "src" / "floor" / "map.yaml").write_text("name: floor_map\nresolution: 1\n")
+    _map_workspace(ws)  # `maps`, with a package.xml (and a map.yaml of another name)
+    (ws / "src" / "maps" / "map.yaml").write_text("name: not_this_one\n")
+    listed = run_wsbuild("list", cwd=ws, env=env)
+    assert listed.returncode == 0, listed.stdout + listed.stderr
+    assert [line.split()[0] for line in listed.stdout.splitlines()] == ["floor_map", "maps"]
+    built = run_wsbuild("build", "--map-resolution", "0.25", cwd=ws, env=env)
+    assert built.returncode == 0, built.stdout + built.stderr
+    assert (ws / "install" / "floor_map" / "share" / "floor_map" / "resolution.txt"
+            ).read_text() == "0.25\n"
+    # the plugins found were kept, private to the user
+    [kept] = (tmp_path / "cache" / "plugins").glob("*.json")
+    assert "wsb_map_type:identify" in kept.read_text()
+    assert stat.S_IMODE(kept.stat().st_mode) == 0o600
+    (ws / "src" / "floor" / "map.yaml").write_text("name: renamed_map\n")
+    again = run_wsbuild("list", cwd=ws, env=env)
+    assert [line.split()[0] for line in again.stdout.splitlines()] == ["maps", "renamed_map"]

@@ -24,7 +24,7 @@ install(TARGETS lib_a DESTINATION lib)
 """
 
 #: a wsbuild for which no compiler cache (and optionally no ninja) exists
-WITHOUT = ("import sys, wsbuild.builder.compiler_cache as cc, wsbuild.build_types.cmake as cm; "
+WITHOUT = ("import sys, wsbuild.builder.resources.compiler_cache as cc, wsbuild.build_types.cmake as cm; "
            "cc.find_tool = lambda name, environ: None; "
            "cm.find_ninja = (lambda environ: None) if {no_ninja} else cm.find_ninja; "
            "from wsbuild.cli import main; sys.exit(main())")

@@ -19,7 +19,7 @@ from pathlib import Path
 from distccd_server import Distccd, HangingAfterProbe, distccd, free_port  # noqa: F401
 from test_build_basic import write_cpp_workspace
 from test_build_helpers import build, clean_env, output, requires_ros, wsbuild, write_cmake
-from wsbuild.builder.distribute import (IO_TIMEOUT_SECONDS, count_compile_jobs,
+from wsbuild.builder.resources.distcc import (IO_TIMEOUT_SECONDS, count_compile_jobs,
                                         distribute_spec, parse_hosts,
                                         remote_wait_bounds)
 from wsbuild.builder.request import cpu_count

@@ -212,18 +212,28 @@ def test_json_carries_the_same_commands_and_steps(make_workspace: Callable[..., 
     for package in plan["packages"]:
         start = section.index(f"# {package['name']}")
         assert section[start + 1:start + 1 + len(package["commands"])] == package["commands"]
-    steps = {p["name"]: [(s["label"], s["in_process"]) for s in p["steps"]]
+    steps = {p["name"]: [(s["label"], s["in_process"]) for s in p["steps"] if not s["builder"]]
              for p in plan["packages"]}
     # in-process work is a labelled step too (a fresh build directory has no configure
     # record to forget; the isolated install is parked and staged around `cmake --install`)
     assert steps == {"pc": [("configure", False), ("configure record", True),
                             ("build", False), ("park install", True), ("install", False),
                             ("stage", True)],
-                     "pa": [("configure", True), ("install", True), ("index", True),
-                            ("record", True)],
-                     "pb": [("configure", True), ("install", True), ("index", True),
-                            ("record", True)]}
-    configure = plan["packages"][0]["steps"][0]
+                     "pa": [("configure", True), ("install", True), ("index", True)],
+                     "pb": [("configure", True), ("install", True), ("index", True)]}
+    # and so is the builder's own: the compiler cache's server where the compilers are
+    # launched through one, no times to advance before a first build, register and commit
+    configure = next(s for s in plan["packages"][0]["steps"] if not s["builder"])
+    launched = any(a.startswith("-DCMAKE_C_COMPILER_LAUNCHER=") for a in configure["argv"])
+    for package in plan["packages"]:
+        labels = [s["label"] for s in package["steps"]]
+        builders = [s["label"] for s in package["steps"] if s["builder"]]
+        assert builders == [*(["start compiler cache"] if launched else []), "register",
+                            "commit"]
+        assert labels[-2:] == ["register", "commit"]
+        assert all(s["in_process"] for s in package["steps"] if s["builder"])
+    assert "  # (in wsbuild) commit the stage into install/, replacing the package's install " \
+        "(no command)" in text.stdout.splitlines()
     assert configure["argv"][:2] == ["cmake", str(ws / "src" / "pc")]
     assert configure["cwd"] == str(ws / "build" / "pc")
     assert configure["env"] == {"PYTHONHASHSEED": "0"}

@@ -66,7 +66,12 @@ def imported(path: Path, module: str) -> list[tuple[int, str]]:
             if target == "wsbuild":
                 result += [(node.lineno, f"wsbuild.{alias.name}") for alias in node.names]
             elif target.startswith("wsbuild."):
-                result.append((node.lineno, target))
+                # `from wsbuild.builder.shards import run`: the module imported is shards.run
+                package = PACKAGE.parent.joinpath(*target.split("."))
+                submodules = [f"{target}.{alias.name}" for alias in node.names
+                              if (package / f"{alias.name}.py").is_file()
+                              or (package / alias.name / "__init__.py").is_file()]
+                result += [(node.lineno, t) for t in submodules or [target]]
         elif isinstance(node, ast.Import):
             result += [(node.lineno, a.name) for a in node.names if a.name.startswith("wsbuild.")]
     return result
@@ -106,6 +111,51 @@ def test_no_sideways_imports_but_the_listed(name: str, path: Path) -> None:
         and (own_room, room_of(target)) not in SIDEWAYS
     ]
     assert not sideways, "\n".join(sideways)
+
+
+#: builder/'s own rooms (issue 45) that import nothing else of builder/: a run's resources and
+#: the suite's oracle stand under the plan and the build that use them
+BUILDER_FLOOR = ("wsbuild.builder.resources", "wsbuild.builder.oracles")
+
+
+def _builder_imports() -> dict[str, set[str]]:
+    """builder/'s modules and the builder/ modules each imports (TYPE_CHECKING and
+    function-level imports included)."""
+    graph: dict[str, set[str]] = {}
+    for name, path in modules():
+        if name.startswith("wsbuild.builder."):
+            graph[name] = {target for _, target in imported(path, name)
+                           if target.startswith("wsbuild.builder.") and target != name}
+    return graph
+
+
+def test_builders_resources_and_oracles_import_nothing_else_of_builder() -> None:
+    upward = [f"{name} imports {target}" for name, targets in _builder_imports().items()
+              if name.startswith(BUILDER_FLOOR) for target in sorted(targets)
+              if not target.startswith(BUILDER_FLOOR)]
+    assert not upward, "\n".join(upward)
+
+
+def test_no_import_circle_among_builders_modules() -> None:
+    """One module of builder/ never reaches itself through the modules it imports (a type
+    named only for annotations counts): each can be read knowing only those below it."""
+    graph = _builder_imports()
+    circles: list[list[str]] = []
+
+    def visit(name: str, path: list[str], done: set[str]) -> None:
+        if name in path:
+            circles.append(path[path.index(name):] + [name])
+            return
+        if name in done:
+            return
+        done.add(name)
+        for target in sorted(graph.get(name, ())):
+            visit(target, [*path, name], done)
+
+    for start in sorted(graph):
+        visit(start, [], set())
+    shown = sorted({" -> ".join(c) for c in circles})
+    assert not shown, "\n".join(shown)
 
 
 def test_every_room_ships_in_the_wheel() -> None:

@@ -1,4 +1,4 @@
-"""A memory budget on a real build (builder/memory.py, engine/memory.py): CMake packages whose
+"""A memory budget on a real build (builder/resources/memory.py, engine/memory.py): CMake packages whose
 every compile needs a known amount of memory (a compiler launcher holds it for a while, then
 compiles for real), the jobserver at its full size; the build's process tree is sampled from
 outside while it runs. The build cache is off: every package must compile in each build."""

@@ -1,4 +1,4 @@
-"""builder/memory.py: what each package needed in memory, shared by the jobs of a CI matrix
+"""builder/resources/memory.py: what each package needed in memory, shared by the jobs of a CI matrix
 through the cache server as they share the times (a real nginx)."""
 
 from __future__ import annotations
@@ -6,7 +6,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from nginx_server import NginxServer, nginx  # noqa: F401 (fixture)
-from wsbuild.builder.memory import publish_memory, shared_memory
+from wsbuild.builder.resources.memory import publish_memory, shared_memory
 from wsbuild.cache.documents import SharedDocuments
 from wsbuild.cache.settings import CacheSettings
 from wsbuild.engine.memory_records import PackageMemoryRecord, StepMemory, record_memory

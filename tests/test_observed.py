@@ -4,7 +4,7 @@ default configuration (the local build cache on, the no-op replay on), rebuilds 
 it must, and nothing else; the install then equals a build from scratch. Each case was wrong
 before the steps were observed ("up to date", "cut off", "restored" or "cached: passed" over a
 stale result, or every package rebuilt for a variable no step read). Every build here runs its
-steps under the build-step oracle (builder/step_trace.py), which holds the observed record to
+steps under the build-step oracle (builder/oracles/step_trace.py), which holds the observed record to
 what strace saw."""
 
 from __future__ import annotations

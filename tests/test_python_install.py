@@ -21,8 +21,6 @@ from wsbuild.build_types.pybuild.install import (
     link_verbatim_copies,
     package_links,
     python_version_of,
-    read_installed_files,
-    record_installed_files,
     scripts_relpath,
 )
 from wsbuild.build_types.pybuild.setup_py import DataFiles, ModuleFile, SetupPlan
@@ -233,19 +231,3 @@ def test_verbatim_copies_become_links_after_a_wheel_install(tmp_path: Path) -> N
     assert (stage / "share/demo/launch/x.launch.py").is_symlink()
     assert not (stage / SITE / "demo/__init__.py").is_symlink()
     assert not (stage / SITE / "demo/generated.py").is_symlink()
-
-
-def test_installed_files_are_recorded_and_rewritten_only_on_change(tmp_path: Path) -> None:
-    src, plan = demo_source(tmp_path)
-    tgt = target(tmp_path, symlink=True)
-    install_plan(plan, source_dir=src, target=tgt, origin=src / "setup.py")
-    build_dir = tmp_path / "build" / "demo"
-    recorded = record_installed_files(tgt.stage_prefix, build_dir)
-    assert PurePosixPath(f"{SITE}/demo") in recorded  # a linked package, not its contents
-    assert not any(str(p).startswith(f"{SITE}/demo/") for p in recorded)
-    assert read_installed_files(build_dir) == recorded
-    record = build_dir / "installed_files.txt"
-    os.utime(record, (1, 1))
-    record_installed_files(tgt.stage_prefix, build_dir)
-    assert record.stat().st_mtime == 1
-    assert read_installed_files(tmp_path / "nowhere") == ()

@@ -9,7 +9,7 @@ leaves on it, two CMake libraries and two ament_python packages. The recorded ti
 split balances on are written into the cache first (base 2 s, each leaf 10 s), so the split
 is known: with two shards, shard 1 builds base, leaf_a and leaf_b, shard 2 leaf_c and leaf_d
 and waits for base; with three, shard 1 builds base, leaf_a and leaf_b, shards 2 and 3 one
-leaf each. Its waits (builder/shards.py) are 13 s: one job building everything is predicted
+leaf each. Its waits (builder/shards/split.py) are 13 s: one job building everything is predicted
 to take 22 s, and base with a leaf 12 s, and a restore 3 s."""
 
 from __future__ import annotations
@@ -30,7 +30,7 @@ from nginx_server import NginxServer, nginx  # noqa: F401 (fixture)
 from one_path import run_at_path, start_at_path, stop
 from test_cache_build import tree
 from test_build_helpers import REQUIRES_ROS, clean_env, output, write_ament_python, write_cmake
-from wsbuild.builder.shard_run import TIMES, note_name
+from wsbuild.builder.shards.run import TIMES, note_name
 from wsbuild.cache.action_result import parse_action_result
 from wsbuild.cache.documents import SharedDocuments, document_address
 from wsbuild.cache.settings import CacheSettings
@@ -197,6 +197,14 @@ def test_shards_restore_what_the_others_built_and_the_assembled_install_is_one_m
                           [sys.executable, "-m", "wsbuild", "plan", "--shards", "2", "--json",
                            *WORKERS], env=matrix.env("plan"))
     assert planned.returncode == 0, output(planned)
+    # the wait for another shard's package is a decision of the plan, and --dry-run says it
+    dry = run_at_path(matrix.workspace("two"), matrix.place.path,
+                      [sys.executable, "-m", "wsbuild", "build", *WORKERS, "--shard", "2/2",
+                       "--dry-run", "--json"], env=matrix.env("two"))
+    assert dry.returncode == 0, output(dry)
+    waits = {p["name"]: p["wait"] for p in json.loads(dry.stdout)["packages"]}
+    assert waits["base"] is not None and waits["base"]["shard"] == "1/2", waits
+    assert {name for name, wait in waits.items() if wait is not None} == {"base"}
     first, second = matrix.start("one", "build", *WORKERS, "--shard", "1/2"), \
         matrix.start("two", "build", *WORKERS, "--shard", "2/2")
     one, two = communicate(first), communicate(second)

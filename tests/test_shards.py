@@ -1,4 +1,4 @@
-"""builder/shards.py: the split of a build across the jobs of a CI matrix (which shard builds
+"""builder/shards/split.py: the split of a build across the jobs of a CI matrix (which shard builds
 which package, the predicted times, each shard's waits) and `wsbuild plan --shards N`; pure
 logic on graphs and weights, then the verb on a tiny real workspace."""
 
@@ -13,7 +13,7 @@ from pathlib import Path
 import pytest
 
 from conftest import run_wsbuild
-from wsbuild.builder.shards import (
+from wsbuild.builder.shards.split import (
     ShardSpec,
     calibrated_weights,
     graph_digest,

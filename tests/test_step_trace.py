@@ -1,4 +1,4 @@
-"""The build-step oracle (builder/step_trace.py): with WSBUILD_STEP_TRACE naming a file, each
+"""The build-step oracle (builder/oracles/step_trace.py): with WSBUILD_STEP_TRACE naming a file, each
 command step of a build (and the warm helper that reads a setup.py) runs under strace, and each
 file a step read that the package's record does not hold is written to that file, naming the
 package, the step and the file; nothing is exempt for where it lies. The suite runs the builds
@@ -14,7 +14,7 @@ from pathlib import Path
 from test_build_helpers import clean_env, output, write, write_ament_python, write_cmake
 from test_build_helpers import wsbuild as run
 
-from wsbuild.builder.step_trace import CHECKED_SUFFIX, step_reads
+from wsbuild.builder.oracles.step_trace import CHECKED_SUFFIX, step_reads
 
 #: a custom command whose program reads a file outside the package by raw system calls, which
 #: no C library function sees (the observer interposes the C library's): the record cannot

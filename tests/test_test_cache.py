@@ -303,17 +303,49 @@ def test_cache_selection_on_test_means_the_cached_result_applies(ws: Path) -> No
 # ------------------------------------------------------------------ the key's pure logic
 
 
-def test_a_changed_key_says_what_changed_first() -> None:
-    from wsbuild.testing.cached_result import TestKey
+def test_a_changed_key_says_what_changed_first_in_the_dirty_checks_words() -> None:
+    from wsbuild.record.dirty import Dirty, Reason
+    from wsbuild.record.tested import TestKey
 
     key = TestKey(build="b", closure={"dep": "1"}, sources="s", options="o", tools="t")
-    assert key.changed_since(key) == ""
+    assert key.changed_since(key) is None
     assert TestKey("b", {"dep": "2"}, "s", "o", "t").changed_since(key) == \
-        "rebuilt on its test environment: dep"
+        Reason(Dirty.DEPENDENCY, "rebuilt on its test environment: dep", details=("dep",))
     assert TestKey("b", {"dep": "1"}, "s", "o2", "t").changed_since(key) == \
-        "other test options"
+        Reason(Dirty.OPTIONS, "other test options")
     assert TestKey("c", {"dep": "1"}, "s2", "o", "t").changed_since(key) == \
-        "the package was rebuilt"
+        Reason(Dirty.REBUILT, "the package was rebuilt")
+    assert TestKey("b", {"dep": "1"}, "s2", "o", "t").changed_since(key) == \
+        Reason(Dirty.SOURCE, "a file of the package changed")
+    assert TestKey("b", {"dep": "1"}, "s", "o", "t", underlays="u").changed_since(key) == \
+        Reason(Dirty.EXTERNAL, "an underlay workspace's package it runs against changed")
+    assert TestKey("b", {"dep": "1"}, "s", "o", "t2").changed_since(key).kind is Dirty.EXTERNAL
+
+
+def test_a_rerun_has_a_typed_reason_for_each_way_a_result_stops_holding() -> None:
+    from wsbuild.record.dirty import Dirty
+    from wsbuild.record.tested import TestKey, TestRun, rerun_reason
+
+    from wsbuild.record.environment import variable_digests
+
+    key = TestKey(build="b", closure={}, sources="s", options="o", tools="t")
+    # its run read PYTEST_ADDOPTS, which was not set
+    run = TestRun(key, environment=variable_digests({}, ["PYTEST_ADDOPTS"]))
+    assert rerun_reason(key, run, environ={}) is None
+    kinds = {
+        "forced": rerun_reason(key, run, forced=True),
+        "no key": rerun_reason(None, run),
+        "no result": rerun_reason(key, None),
+        "key": rerun_reason(TestKey("b", {}, "s", "o2", "t"), run),
+        "unobserved": rerun_reason(key, TestRun(key, unobserved=("a static binary",))),
+        "results": rerun_reason(key, TestRun(key, results_kept=False)),
+        "variable": rerun_reason(key, run, environ={"PYTEST_ADDOPTS": "-q"}),
+    }
+    assert {name: reason.kind if reason else None for name, reason in kinds.items()} == {
+        "forced": Dirty.FORCED, "no key": Dirty.NEW, "no result": Dirty.NEW,
+        "key": Dirty.OPTIONS, "unobserved": Dirty.UNOBSERVED, "results": Dirty.RESULTS,
+        "variable": Dirty.ENVIRONMENT}
+    assert kinds["variable"] is not None and kinds["variable"].details == ("PYTEST_ADDOPTS",)
 
 
 def test_with_a_symlink_install_an_edited_dependency_reruns_its_users_unbuilt(
@@ -397,3 +429,34 @@ def test_an_underlay_package_rebuilt_under_a_passing_test_reruns_it(tmp_path: Pa
     assert again.returncode != 0 and "cached" not in again.stdout, again.stdout
     log = sorted((ws / "log").glob("test_*"))[-1] / "over" / "command.log"
     assert "an underlay workspace's package it runs against changed" in log.read_text()
+
+
+def test_the_dry_run_says_which_tests_would_run_and_why_in_the_dirty_checks_words(
+        ws: Path) -> None:
+    """`wsbuild test --dry-run` decides as the run decides, and words a rerun as
+    `build --dry-run` words a build (`test: <why>`, record/tested.py's `Reason`); it runs
+    nothing."""
+    def decisions(result: subprocess.CompletedProcess[str]) -> dict[str, str]:
+        assert result.returncode == 0, result.stdout + result.stderr
+        return dict(re.findall(r"^\s+\d+\. (\w+)\s+(.*)$", result.stdout, re.MULTILINE))
+
+    before = runs(ws)
+    fresh = decisions(_test(ws, "--dry-run"))
+    assert fresh == {name: "test: no passing result recorded"
+                     for name in ("root", "other", "mid", "leaf", "cm")}
+    assert runs(ws) == before  # nothing ran
+    assert _test(ws).returncode == 0
+    reuse = "reuse the last passing result: nothing its tests read changed"
+    assert set(decisions(_test(ws, "--dry-run")).values()) == {reuse}
+    with (ws / "src" / "other" / "test" / "test_counts.py").open("a") as handle:
+        handle.write("\n# edited\n")
+    planned = decisions(_test(ws, "--dry-run"))
+    assert planned.pop("other") == "test: a file of the package changed"
+    assert set(planned.values()) == {reuse}
+    assert set(decisions(_test(ws, "--dry-run", "--no-test-cache")).values()) == \
+        {"test: --no-test-cache"}
+    before = runs(ws)
+    done = _test(ws)
+    assert done.returncode == 0 and ran_since(ws, before) == ["other"]
+    log = (ws / "log" / "latest_test" / "other" / "command.log").read_text()
+    assert "test result not reused: a file of the package changed" in log

@@ -9,7 +9,7 @@ rebuilds what it must (never restoring an entry built from the old input), its i
 a build from scratch. Secrets in the environment never reach a file; a symlink loop, a
 read-only workspace and a lock deleted under a waiting build are handled as the full run
 handles them. Every build here runs its steps under the build-step oracle
-(builder/step_trace.py): what they read must be in the package's record."""
+(builder/oracles/step_trace.py): what they read must be in the package's record."""
 
 from __future__ import annotations
 

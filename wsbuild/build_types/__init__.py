@@ -22,19 +22,16 @@ the protocol, the data it is handed and hands back, its defaults and its registr
 
 from __future__ import annotations
 
-import os
-
 from collections.abc import Callable, Collection, Iterator, Mapping, Sequence
 from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
 from typing import TYPE_CHECKING, Protocol
 
 if TYPE_CHECKING:
-    from importlib.metadata import EntryPoint
-
+    from wsbuild.build_types.plugins import Entry
+    from wsbuild.build_types.pybuild.recipe import PythonBuildPlan
     from wsbuild.build_types.test_runner import TestRunner
 
-from wsbuild import inputs
 from wsbuild.build_types.step_observer import StepObserver
 from wsbuild.errors import ManifestError, WsbuildError
 from wsbuild.prefix.hooks import EnvironmentHooks
@@ -42,7 +39,7 @@ from wsbuild.workspace.model import Package
 
 __all__ = ["StepObserver"]  # re-exported: the context's `observe` is one
 
-ENTRY_POINT_GROUP = "wsbuild.build_types"
+ENTRY_POINT_GROUP = "wsbuild.build_types"  # build_types/plugins.py: BUILD_TYPES
 
 #: The built-in build types, as pyproject.toml registers them in the entry-point group (a test
 #: holds the two equal). Discovery knows these names, and they load as entry points, without
@@ -173,6 +170,8 @@ class BuildOutputs:
     installed_in_place: tuple[str, ...] = ()
     #: what the build read outside the package; None: the build cannot tell
     read_outside: ReadOutside | None = None
+    #: the Python types' configure step: how their install step installs (python.py)
+    python_plan: PythonBuildPlan | None = None
 
 
 @dataclass(slots=True)
@@ -323,6 +322,36 @@ class BuildType(Protocol):
         context is made, handed in as `state` (BuildTypeBase: nothing)."""
         ...
 
+    #: the tool its build reads package.xml with when that tool refuses what wsbuild only
+    #: warns about (workspace/model.py's `Package.refused`); "": none does
+    manifest_reader: str
+
+    def work_left(self, ctx: PackageContext) -> str:
+        """What its build system would still do right after the steps ran (a custom target
+        that always runs): the package is then built every time; "" when nothing, or when the
+        type cannot tell (BuildTypeBase: "")."""
+        ...
+
+    def keeps_earlier_work(self, ctx: PackageContext) -> bool:
+        """Whether this build reuses what the last one left in the build directory (an
+        incremental build): asked before the steps run (BuildTypeBase: False)."""
+        ...
+
+    def steps_run_afresh(self, ctx: PackageContext) -> frozenset[str]:
+        """The labels of the steps that start from scratch in this build: what they read
+        replaces what the last build's did (BuildTypeBase: none)."""
+        ...
+
+    def open_run(self, environ: Mapping[str, str]) -> None:
+        """Once per run that builds one of its packages, before the first (BuildTypeBase:
+        nothing to open)."""
+        ...
+
+    def close_run(self) -> None:
+        """Once after the run's last package: stop what the run started for the type (the
+        Python types' warm setup.py helpers). Safe to call when nothing was started."""
+        ...
+
 
 #: the options every build type reads that change how a build runs, never what it installs
 _RUN_ONLY_OPTIONS = ("jobs", "compiler_launcher", "type_values")
@@ -389,6 +418,21 @@ class BuildTypeBase:
         the Python builds' setup.py, by an audit hook), else None."""
         return ctx.outputs.read_outside
 
+    def work_left(self, ctx: PackageContext) -> str:
+        return ""
+
+    def keeps_earlier_work(self, ctx: PackageContext) -> bool:
+        return False
+
+    def steps_run_afresh(self, ctx: PackageContext) -> frozenset[str]:
+        return frozenset()
+
+    def open_run(self, environ: Mapping[str, str]) -> None:
+        return None
+
+    def close_run(self) -> None:
+        return None
+
 
 _loaded: dict[str, BuildType] = {}
 
@@ -419,7 +463,7 @@ def get_build_type(name: str) -> BuildType:
                 hint="known build types: " + ", ".join(known_build_types()),
             )
         value = matches[0].value
-        loaded = matches[0].load()
+        loaded = _load_entry_point(value)
     build_type = _checked(loaded, name, value)
     _loaded[name] = build_type
     return build_type
@@ -445,7 +489,7 @@ def declared_options(*, plugins: bool) -> list[tuple[str, tuple[TypeOption, ...]
                 for name, value in BUILTIN_OPTIONS.items()]
     if plugins:
         for entry in sorted(_entry_points(), key=lambda ep: ep.name):
-            own = tuple(getattr(get_build_type(entry.name), "options", ()))
+            own = tuple(get_build_type(entry.name).options)
             if own:
                 declared.append((entry.name, own))
     seen: dict[str, tuple[str, TypeOption]] = {}
@@ -465,8 +509,10 @@ def declared_options(*, plugins: bool) -> list[tuple[str, tuple[TypeOption, ...]
 
 
 #: every member of the `BuildType` protocol (BuildTypeBase has them all)
-_REQUIRED = ("name", "steps", "test_runner", "hooks", "estimate_base", "options", "key_options",
-             "external_inputs", "run_facts", "read_state")
+#: everything wsbuild calls of a build type (the `BuildType` protocol, in its order)
+_REQUIRED = ("name", "test_runner", "hooks", "estimate_base", "steps", "options", "key_options",
+             "external_inputs", "run_facts", "read_state", "manifest_reader", "work_left",
+             "keeps_earlier_work", "steps_run_afresh", "open_run", "close_run")
 
 
 def _checked(loaded: object, name: str, value: str) -> BuildType:
@@ -485,21 +531,11 @@ def _checked(loaded: object, name: str, value: str) -> BuildType:
     return loaded  # type: ignore[return-value]
 
 
-def _entry_points() -> Sequence[EntryPoint]:
-    import sys
-    from importlib.metadata import distributions, entry_points
+def _entry_points() -> Sequence[Entry]:
+    """The third-party build types' entry points (build_types/plugins.py)."""
+    from wsbuild.build_types.plugins import BUILD_TYPES, entries
 
-    found = [ep for ep in entry_points(group=ENTRY_POINT_GROUP) if ep.name not in BUILTIN]
-    # which types there are, and where from, is an input of the plan: the distributions on
-    # the path (a new one is a new entry of its directory) and each one's entry points
-    for entry in sys.path:
-        if entry and os.path.isdir(entry):
-            inputs.declare_directory(entry)
-    for dist in distributions():
-        where = getattr(dist, "_path", None)
-        if where is not None:
-            inputs.declare_file(Path(where) / "entry_points.txt")
-    return found
+    return [entry for entry in entries(BUILD_TYPES) if entry.name not in BUILTIN]
 
 
 class KnownBuildTypes(Collection[str]):

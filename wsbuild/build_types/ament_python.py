@@ -11,7 +11,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from wsbuild.build_types import PackageContext, BuildTypeBase, RunnerNamed, Step
-from wsbuild.build_types.python import python_steps
+from wsbuild.build_types.python import close_python_run, python_steps
 from wsbuild.prefix.hooks import EnvironmentHooks
 
 
@@ -24,6 +24,9 @@ class AmentPythonBuildType(BuildTypeBase):
 
     def steps(self, ctx: PackageContext) -> list[Step]:
         return python_steps(ctx, extra={"index": register})
+
+    def close_run(self) -> None:
+        close_python_run()
 
 
 BUILD_TYPE = AmentPythonBuildType()

@@ -9,14 +9,13 @@ Both share the run's CPU budget: make through the jobserver's file descriptors, 
 through its named FIFO; an older Ninja gets a fixed `-j` of the budget.
 The compiler cache chosen for the run (`compiler_launcher`) becomes
 `CMAKE_<LANG>_COMPILER_LAUNCHER` for C and C++, unless `--cmake-args` set one. With
-distributed compiles (builder/distribute.py) the launcher is ccache calling distcc, or distcc;
+distributed compiles (builder/resources/distcc.py) the launcher is ccache calling distcc, or distcc;
 links and code generators then go through the local gate, whose CMake file the environment
 names (`WSBUILD_LOCAL_GATE_CMAKE`, given to CMake as `CMAKE_PROJECT_INCLUDE`).
 """
 
 from __future__ import annotations
 
-import functools
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -42,8 +41,8 @@ from wsbuild.build_types.cmake_facts import (
     user_generator,
 )
 from wsbuild.build_types.cmake_actions import (
-    empty, forget_cache, forget_configure_record, park_install, remove_cache, remove_tree, stage_direct_install,
-    take_destdir, write_configure_record)
+    empty, forget_cache, forget_configure_record, remove_cache, write_configure_record)
+from wsbuild.build_types.staging import staged_install_steps
 from wsbuild.build_types.cmake_options import CMAKE_OPTIONS, CMakeOptions
 from wsbuild.prefix.hooks import EnvironmentHooks
 
@@ -52,7 +51,7 @@ NINJA = "Ninja"
 #: CMake's default generator on this platform, when nobody chooses one
 DEFAULT_GENERATOR = "Unix Makefiles"
 LAUNCHED_LANGUAGES = ("C", "CXX")
-#: the local gate's CMake file of a distributed build (builder/distribute.py)
+#: the local gate's CMake file of a distributed build (builder/resources/distcc.py)
 LOCAL_GATE_VAR = "WSBUILD_LOCAL_GATE_CMAKE"
 #: what CMake's Ninja generator runs every time, the same from the same (see
 #: `CMakeBuildType.deterministic_targets`)
@@ -106,6 +105,14 @@ class CMakeBuildType:
 
     #: --cmake-args, --cmake-target, … (cmake_options.py)
     options: tuple[TypeOption, ...] = CMAKE_OPTIONS
+    #: plain CMake reads package.xml with nothing stricter than wsbuild
+    manifest_reader: str = ""
+
+    def open_run(self, environ: Mapping[str, str]) -> None:
+        """Nothing to open: Ninja is found once per run by `run_facts`."""
+
+    def close_run(self) -> None:
+        """Nothing to stop: every step is a process of its own."""
 
     def key_options(self, options: BuildOptions) -> dict[str, object]:
         return key_options(options, self.options)
@@ -273,9 +280,9 @@ class CMakeBuildType:
         build_dir = ctx.build_dir
         why = self._from_scratch(ctx, state)
         if state.cache and why:
-            description, warning = why
+            description, _ = why
             steps.append(Step(
-                "clean cache", functools.partial(remove_cache, warning=warning),
+                "clean cache", self.clean_cache,
                 description=f"remove the cache {description}",
                 by_hand=Command(("rm", "-rf", "--", "CMakeCache.txt", "CMakeFiles"), build_dir),
                 writes=(build_dir / "CMakeCache.txt", build_dir / "CMakeFiles")))
@@ -290,7 +297,7 @@ class CMakeBuildType:
         switched = self.install_mode_switched(ctx)
         if switched:
             steps.append(Step(
-                "empty build directory", functools.partial(empty, why=switched),
+                "empty build directory", self.empty_for_install_mode,
                 description=f"empty the build directory (but wsbuild's records): it was built "
                             f"{switched}", writes=(build_dir,)))
         record = build_dir / CONFIGURE_RECORD
@@ -333,10 +340,25 @@ class CMakeBuildType:
     def configure_record_step(self, ctx: PackageContext) -> Step:
         """After a configure: the record of what it used, which decides the next one."""
         record = ctx.build_dir / CONFIGURE_RECORD
-        return Step("configure record",
-                    functools.partial(write_configure_record, record=self._record(ctx)),
+        return Step("configure record", self.record_configure,
                     description="write what this configure used (its arguments, digests of "
                                 "the environment)", writes=(record,))
+
+    # the steps that run in wsbuild: each decides what it does from the context it runs with
+    # (the build's), not from values the plan bound
+
+    def clean_cache(self, ctx: PackageContext) -> None:
+        """Remove a cache CMake cannot configure again, warning why (when it was not asked)."""
+        why = self._from_scratch(ctx, self.state(ctx))
+        remove_cache(ctx, warning=why[1] if why is not None else "")
+
+    def empty_for_install_mode(self, ctx: PackageContext) -> None:
+        """Empty a build directory built for the other install mode."""
+        empty(ctx, why=self.install_mode_switched(ctx))
+
+    def record_configure(self, ctx: PackageContext) -> None:
+        """What the configure that just ran used: its arguments, its compilers' digests."""
+        write_configure_record(ctx, record=self._record(ctx))
 
     def install_mode_switched(self, ctx: PackageContext) -> str:
         """How the build directory was built, when it was for another install mode, whose
@@ -416,47 +438,14 @@ class CMakeBuildType:
         return False
 
     def install_steps(self, ctx: PackageContext) -> list[Step]:
-        """`cmake --install`: into the prefix CMake was configured with. Isolated, the previous
-        install is parked first and the new one moved into the stage after it (a failure puts
-        the previous one back); merged, it stages through DESTDIR (this run's only: pasted by
-        hand, it installs in place), or (a symlink install, which ignores DESTDIR) keeps the
-        manifests' list of what it wrote."""
-        command = ("cmake", "--install", str(ctx.build_dir))
-        prefix = ctx.install_prefix
-        install = Step("install", command=Command(command, ctx.build_dir),
-                       reads=(ctx.build_dir,), writes=(prefix,))
-        if ctx.options.merge_install and not self.installs_in_place(ctx):
-            # the shared prefix cannot be swapped: stage through DESTDIR instead
-            destdir = ctx.build_dir / ".wsbuild" / "destdir"
-            return [
-                Step("clear destdir", functools.partial(remove_tree, path=destdir),
-                     description="remove what an earlier install left in DESTDIR",
-                     writes=(destdir,)),
-                Step("install", command=Command(command, ctx.build_dir,
-                                                run_env={"DESTDIR": str(destdir)}),
-                     reads=(ctx.build_dir,), writes=(destdir,)),
-                Step("stage", functools.partial(take_destdir, destdir=destdir),
-                     description="move what the install put into DESTDIR into the stage",
-                     reads=(destdir,))]
-        if ctx.options.merge_install:
-            # symlink install into a merged prefix writes in place, as with colcon; the
-            # manifests say what it wrote, so the merged record keeps (and later prunes) it
-            return [install, Step("keep manifest", _keep_installed_in_place,
-                                  description="keep the install manifests' list of files",
-                                  reads=(ctx.build_dir,))]
-        return [
-            Step("park install", park_install,
-                 description="park the previous install aside (a failure puts it back)",
-                 writes=(prefix,)),
-            install,
-            Step("stage", stage_direct_install,
-                 description="move the new install into the stage, put the previous one back",
-                 reads=(prefix,), writes=(prefix,))]
-
-
-def _keep_installed_in_place(ctx: PackageContext) -> None:
-    ctx.outputs.installed_in_place = tuple(_manifest_files(ctx))
-
+        """`cmake --install` into the prefix CMake was configured with, staged
+        (build_types/staging.py): isolated, the previous install parked around it; merged,
+        through DESTDIR (this run's only: pasted by hand, it installs in place), or (a
+        symlink install, which ignores DESTDIR) with the manifests' list of what it wrote."""
+        install = Command(("cmake", "--install", str(ctx.build_dir)), ctx.build_dir)
+        return staged_install_steps(ctx, install, reads=(ctx.build_dir,),
+                                    in_place=_manifest_files if self.installs_in_place(ctx)
+                                    else None)
 
 def configure_problems(lines: list[str]) -> list[str]:
     """The warning and error blocks of a CMake configure's stderr. Plain `message()` output

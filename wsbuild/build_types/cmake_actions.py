@@ -1,7 +1,7 @@
 """What the CMake build types' steps that run in wsbuild do (each a `Step(label, action)` of
 cmake.py's recipe, shown by `--dry-run`): drop a cache (with or without CMake's files) or
-empty a build directory, forget and write the last configure's record, take a DESTDIR stage,
-park the previous install around an install into the final prefix."""
+empty a build directory, forget and write the last configure's record. (Staging the install:
+build_types/staging.py.)"""
 
 from __future__ import annotations
 
@@ -56,31 +56,3 @@ def write_configure_record(ctx: PackageContext, *, record: Mapping[str, object])
     path = ctx.build_dir / CONFIGURE_RECORD
     private_directory(path.parent)
     atomic_write(path, json.dumps(record, indent=1) + "\n", mode=0o600)
-
-
-def remove_tree(ctx: PackageContext, *, path: Path) -> None:
-    if path.exists():
-        shutil.rmtree(path)
-
-
-def take_destdir(ctx: PackageContext, *, destdir: Path) -> None:
-    staged = destdir / str(ctx.install_prefix).lstrip(os.sep)
-    if staged.exists():
-        shutil.rmtree(ctx.stage_prefix)
-        os.rename(staged, ctx.stage_prefix)
-    shutil.rmtree(destdir, ignore_errors=True)
-
-
-def park_install(ctx: PackageContext) -> None:
-    """Before an install that writes straight into the final prefix: the previous install
-    aside, a fresh prefix (prefix/stage.py)."""
-    from wsbuild.prefix.stage import park_previous_install
-
-    park_previous_install(ctx.install_prefix, ctx.stage_prefix)
-
-
-def stage_direct_install(ctx: PackageContext) -> None:
-    """After it: the new install into the stage, the previous one back."""
-    from wsbuild.prefix.stage import stage_direct_install as stage
-
-    stage(ctx.install_prefix, ctx.stage_prefix)

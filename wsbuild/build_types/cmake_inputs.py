@@ -16,20 +16,15 @@ from __future__ import annotations
 
 import os
 import re
-import subprocess
 from collections.abc import Iterable, Iterator
 from pathlib import Path
 
-from wsbuild.build_types import ReadOutside
+from wsbuild.build_types import ReadOutside, ninja_deps
+from wsbuild.build_types.cmake_facts import CONFIGURE_RECORD
+from wsbuild.build_types.ninja_deps import make_prerequisites
 
-#: a Ninja build statement: outputs, rule, inputs (explicit | implicit || order-only)
-_NINJA_BUILD = re.compile(r"^build (?P<outputs>.*?)(?<!\$): (?P<rule>\S+)(?P<inputs>.*)$")
-#: a Ninja path separator is an unescaped space
-_NINJA_SPACE = re.compile(r"(?<!\$) ")
 #: CMake's regeneration list in Makefile projects
 _MAKEFILE_DEPENDS = re.compile(r"set\(CMAKE_MAKEFILE_DEPENDS\s+(.*?)\)", re.DOTALL)
-#: seconds `ninja -t deps` may take (it reads one binary log)
-_NINJA_TIMEOUT = 60
 
 
 #: the programs of CMakeCache.txt a build runs
@@ -53,10 +48,10 @@ def external_inputs(build_dir: Path, source_dir: Path, ninja: Path | None) -> Re
     leaves out what lies in the package, its build directory and its stage."""
     files: set[str] = set()
     if (build_dir / "build.ninja").is_file():
-        files.update(_ninja_build_inputs(build_dir / "build.ninja"))
-        files.update(_ninja_depfile_inputs(build_dir))
+        files.update(ninja_deps.build_inputs(build_dir / "build.ninja"))
+        files.update(ninja_deps.depfile_inputs(build_dir))
         if ninja is not None:
-            files.update(_ninja_deps(build_dir, ninja))
+            files.update(ninja_deps.deps_log(build_dir, ninja))
     else:
         files.update(_makefile_inputs(build_dir))
     files.update(_tools(build_dir))
@@ -86,7 +81,7 @@ def _initial_caches(build_dir: Path) -> Iterator[str]:
     import json
 
     try:
-        args = json.loads((build_dir / ".wsbuild" / "cmake_configure.json").read_text())["args"]
+        args = json.loads((build_dir / CONFIGURE_RECORD).read_text())["args"]
     except (OSError, ValueError, KeyError, TypeError):
         return
     for index, arg in enumerate(args):
@@ -96,17 +91,6 @@ def _initial_caches(build_dir: Path) -> Iterator[str]:
             yield args[index + 1]
         elif arg.startswith("-C") and len(arg) > 2:
             yield arg[2:]
-
-
-def _ninja_depfile_inputs(build_dir: Path) -> Iterator[str]:
-    """The prerequisites the depfiles of build.ninja's statements name (custom commands'
-    DEPFILE: Ninja reads them each time and keeps nothing of them in its deps log)."""
-    for line in _ninja_statements(build_dir / "build.ninja"):
-        stripped = line.strip()
-        if stripped.startswith("depfile = "):
-            path = stripped[len("depfile = "):].replace("$ ", " ").replace("$$", "$")
-            depfile = Path(path) if os.path.isabs(path) else build_dir / path
-            yield from _make_prerequisites(depfile, relative_to=build_dir)
 
 
 def _verified_globs(build_dir: Path) -> Iterator[str]:
@@ -184,56 +168,6 @@ def _install_scripts(build_dir: Path) -> Iterator[Path]:
             yield Path(directory, "cmake_install.cmake")
 
 
-def _ninja_statements(path: Path) -> Iterator[str]:
-    """build.ninja's lines with `$`-continuations joined."""
-    pending = ""
-    with open(path, encoding="utf-8", errors="replace") as handle:
-        for line in handle:
-            line = line.rstrip("\n")
-            if line.endswith("$") and not line.endswith("$$"):
-                pending += line[:-1]
-                continue
-            yield pending + line
-            pending = ""
-    if pending:
-        yield pending
-
-
-def _ninja_paths(text: str) -> Iterator[str]:
-    for token in _NINJA_SPACE.split(text.strip()):
-        if token and token not in ("|", "||", "|@"):
-            yield token.replace("$ ", " ").replace("$:", ":").replace("$$", "$")
-
-
-def _ninja_build_inputs(path: Path) -> Iterator[str]:
-    """Every absolute input of every build statement: the regeneration list (the RERUN_CMAKE
-    statement's inputs), libraries linked from outside, files code generators read."""
-    for line in _ninja_statements(path):
-        if not line.startswith("build "):
-            continue
-        match = _NINJA_BUILD.match(line)
-        if match is None:
-            continue
-        inputs = match.group("inputs").split(" || ")[0]
-        for token in _ninja_paths(inputs):
-            if token.startswith("/"):
-                yield token
-
-
-def _ninja_deps(build_dir: Path, ninja: Path) -> Iterator[str]:
-    """The headers the compiler read, from Ninja's deps log."""
-    try:
-        done = subprocess.run([str(ninja), "-C", str(build_dir), "-t", "deps"],
-                              capture_output=True, text=True, timeout=_NINJA_TIMEOUT,
-                              check=False)
-    except (OSError, subprocess.TimeoutExpired):
-        return
-    for line in done.stdout.splitlines():
-        if line.startswith("    "):
-            entry = line.strip()
-            yield entry if entry.startswith("/") else os.path.normpath(build_dir / entry)
-
-
 def _makefile_inputs(build_dir: Path) -> Iterator[str]:
     """Makefile projects: CMake's regeneration list, and every prerequisite named in the
     targets' rules and compiler depfiles (`compiler_depend.make`, `*.d`, `depend.make`)."""
@@ -248,32 +182,10 @@ def _makefile_inputs(build_dir: Path) -> Iterator[str]:
     for path in _walk_files(build_dir / "CMakeFiles"):
         name = path.name
         if name in ("build.make", "compiler_depend.make", "depend.make") or name.endswith(".d"):
-            yield from _make_prerequisites(path)
+            yield from make_prerequisites(path)
 
 
 def _walk_files(root: Path) -> Iterable[Path]:
     for directory, _, names in os.walk(root):
         for name in names:
             yield Path(directory, name)
-
-
-def _make_prerequisites(path: Path, relative_to: Path | None = None) -> Iterator[str]:
-    """The absolute prerequisites of the rules in a makefile or depfile (commands skipped);
-    with `relative_to`, the relative ones too, made absolute (a depfile Ninja reads in the
-    build directory)."""
-    try:
-        text = path.read_text(errors="replace")
-    except OSError:
-        return
-    for line in text.replace("\\\n", " ").splitlines():
-        if not line or line.startswith(("\t", "#")):
-            continue
-        _, colon, rest = line.partition(": ")
-        if not colon:
-            continue
-        for token in rest.split():
-            token = token.replace("\\ ", " ")
-            if token.startswith("/"):
-                yield token
-            elif token and relative_to is not None:
-                yield os.path.normpath(relative_to / token)

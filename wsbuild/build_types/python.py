@@ -8,12 +8,8 @@ from __future__ import annotations
 
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
 
 from wsbuild.build_types import PackageContext, BuildTypeBase, RunnerNamed, Step
-
-if TYPE_CHECKING:
-    from wsbuild.build_types.pybuild.recipe import PythonBuildPlan
 
 
 @dataclass(frozen=True, slots=True)
@@ -25,25 +21,36 @@ class PythonBuildType(BuildTypeBase):
     def steps(self, ctx: PackageContext) -> list[Step]:
         return python_steps(ctx)
 
+    def close_run(self) -> None:
+        close_python_run()
+
 
 BUILD_TYPE = PythonBuildType()
 
 
-@dataclass(slots=True)
-class PythonBuild:
-    """One package's build: `configure` decides the plan `install` follows."""
+def close_python_run() -> None:
+    """The run's warm setup.py helpers stopped (they run only once a Python package was
+    built: nothing is imported to stop none)."""
+    import sys
 
-    plan: PythonBuildPlan | None = None
+    helpers = sys.modules.get("wsbuild.build_types.pybuild.setup_py")
+    if helpers is not None:
+        helpers.shutdown_helpers()
 
-    def configure(self, ctx: PackageContext) -> None:
-        from wsbuild.build_types.pybuild.recipe import configure
 
-        self.plan = configure(ctx)
+def configure(ctx: PackageContext) -> None:
+    """Decide how `install` installs (what setup() installs; the fast path or a PEP 517
+    wheel): the typed output the install step reads (`ctx.outputs.python_plan`)."""
+    from wsbuild.build_types.pybuild.recipe import configure as decide
 
-    def install(self, ctx: PackageContext) -> None:
-        from wsbuild.build_types.pybuild.recipe import install
+    ctx.outputs.python_plan = decide(ctx)
 
-        install(ctx, self.plan)
+
+def install(ctx: PackageContext) -> None:
+    """Install into the stage as the configure step decided."""
+    from wsbuild.build_types.pybuild.recipe import install as place
+
+    place(ctx, ctx.outputs.python_plan)
 
 
 #: what each in-process step does (printed by `--dry-run` next to its by-hand command)
@@ -52,7 +59,6 @@ DESCRIPTIONS = {
                  "choose between placing the files and a PEP 517 wheel",
     "install": "place the files into the stage, or build the wheel and install it there",
     "index": "install the ament index marker and package.xml if setup.py did not",
-    "record": "keep the list of installed files in the build directory",
 }
 
 
@@ -64,23 +70,14 @@ def python_steps(ctx: PackageContext, *,
     from wsbuild.build_types.pybuild.by_hand import STEPS as BY_HAND_STEPS
     from wsbuild.build_types.pybuild.by_hand import by_hand_command
 
-    build = PythonBuild()
     actions: dict[str, Callable[[PackageContext], None]] = {
-        "configure": build.configure, "install": build.install, **(extra or {})}
-    actions["record"] = record
+        "configure": configure, "install": install, **(extra or {})}
     source = ctx.source_dir.absolute()
-    reads = {"configure": (source,), "install": (source, ctx.build_dir), "index": (source,),
-             "record": (ctx.stage_prefix,)}
+    reads = {"configure": (source,), "install": (source, ctx.build_dir), "index": (source,)}
     writes = {"configure": (ctx.build_dir,), "install": (ctx.install_prefix,),
-              "index": (ctx.install_prefix,), "record": (ctx.build_dir,)}
+              "index": (ctx.install_prefix,)}
     return [Step(label, action, description=DESCRIPTIONS.get(label, label),
                  by_hand=by_hand_command(label, ctx) if label in BY_HAND_STEPS else None,
                  reads=reads.get(label, ()), writes=writes.get(label, ()))
             for label, action in actions.items()]
 
-
-def record(ctx: PackageContext) -> None:
-    """Keep the list of installed files in the build directory."""
-    from wsbuild.build_types.pybuild.recipe import record as record_files
-
-    record_files(ctx)

@@ -16,6 +16,7 @@ from wsbuild.build_types import (
     PackageContext,
     Problems,
     Runner,
+    Step,
     StepFailed,
     StepObserver,
     get_build_type,
@@ -59,6 +60,27 @@ def make_context(selection: Selection, session: Session, name: str, *, prefix: P
         dependency_prefixes=[prefix for prefix, _ in dependencies],
         jobserver_fifo=jobserver_fifo if jobserver_fifo is not None else RUN_JOBSERVER,
         facts=session.facts(package.build_type), redo=redo, observe=observe)
+
+
+def planned_steps(selection: Selection, session: Session, name: str, *, prefix: Path,
+                  options: BuildOptions, redo: tuple[str, ...] = (), distributing: bool = False
+                  ) -> tuple[tuple[Step, ...], Mapping[str, str]]:
+    """Package `name`'s steps as the plan decides them, and the environment they start from:
+    from a context made as the build makes its own, less what only a running build has. Of
+    the run's resources, the plan knows only the local gate's CMake file of a distributed run
+    (a stable path); where the run turns out otherwise (no distcc host answers), the build
+    decides again (builder/package.py: `steps`)."""
+    from wsbuild.prefix.stage import stage_path
+
+    run_environ = {}
+    if distributing:
+        from wsbuild.builder.resources.distcc import planned_environ
+
+        run_environ = planned_environ(selection.workspace.build_base)
+    ctx = make_context(selection, session, name, prefix=prefix, options=options,
+                       stage_prefix=stage_path(selection.workspace.install_base, name),
+                       redo=redo, run_environ=run_environ)
+    return tuple(get_build_type(ctx.package.build_type).steps(ctx)), ctx.environ
 
 
 def _not_run(command: object, *, cwd: Path, env: Mapping[str, str] | None = None,

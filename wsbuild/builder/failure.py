@@ -3,6 +3,7 @@ tail of its log, and which stderr lines are worth showing."""
 
 from __future__ import annotations
 
+import os
 import re
 import signal
 from collections.abc import Sequence
@@ -85,7 +86,6 @@ def with_unresolved(result: JobResult, unresolved: Sequence[str], selection: Sel
     it has none, a did-you-mean among the known names: underlay/wheels.py)."""
     if result.outcome is not Outcome.FAILED or not unresolved:
         return result
-    from wsbuild.builder.pipeline import known_names
     from wsbuild.underlay.wheels import install_hint
 
     known = known_names(selection, session)
@@ -116,3 +116,13 @@ def failed_result(name: str, failure: StepFailed, build_dir: Path, log_dir: Path
     # the log tail in the message already shows stderr: no separate warnings block
     return JobResult(name, Outcome.FAILED, seconds, message=message, log_dir=log_dir,
                      reproduce=reproduce, reproduce_script=script)
+
+
+def known_names(selection: Selection, session: Session) -> set[str]:
+    """The names a misspelt dependency may have meant: the workspace's packages and those of
+    the underlays' ament index."""
+    from wsbuild.workspace.resolve import ament_index
+
+    prefixes = [Path(p) for p in session.environ.get("AMENT_PREFIX_PATH", "").split(os.pathsep)
+                if p] + session.underlay_prefixes
+    return {*selection.packages, *ament_index(prefixes)}

@@ -1,6 +1,6 @@
 """What a package build observes (observe/steps.py): its steps, each into a directory of its
 own; what wsbuild sets for this run only and a compiler cache's own state are no input of its
-record; under the suite's build-step oracle (builder/step_trace.py) its warm helpers run
+record; under the suite's build-step oracle (builder/oracles/step_trace.py) its warm helpers run
 traced too, and the oracle leaves out the observer's files and the compiler cache's
 storage."""
 
@@ -14,42 +14,40 @@ from typing import TYPE_CHECKING
 from wsbuild.observe.steps import OBSERVE_DIR, StepObservations
 
 if TYPE_CHECKING:
-    from wsbuild.builder.package import PackageBuild, RunResources
+    from wsbuild.builder.job import RunResources
+    from wsbuild.builder.oracles.step_trace import StepTraces
 
 
-def _tracer(build: PackageBuild) -> functools.partial[tuple[Sequence[str], Mapping[str, str]]]:
-    """A warm helper of an in-process step, run under the build-step oracle."""
-    return functools.partial(_trace, build)
-
-
-def observations_of(build: PackageBuild, run_environ: Mapping[str, str]) -> StepObservations:
-    """A fresh record of what this build's steps read (observe/steps.py): what wsbuild
-    sets for this run only and a compiler cache's own state are no input."""
-    compilers = build.run.compilers
+def observations_of(run: RunResources, build_dir: Path, traces: StepTraces,
+                    run_environ: Mapping[str, str]) -> StepObservations:
+    """A fresh record of what the steps of a package's build (in `build_dir`) read
+    (observe/steps.py): what wsbuild sets for this run only and a compiler cache's own state
+    are no input; under the oracle (`traces` on) its warm helpers run traced."""
+    compilers = run.compilers
     observations = StepObservations(
-        build.build_dir / OBSERVE_DIR, build.run.session.observer,
+        build_dir / OBSERVE_DIR, run.session.observer,
         run_only=set(run_environ),
         tool_state=compilers.state_dirs() if compilers is not None else (),
         tool_variables=compilers.own_variables if compilers is not None else {},
-        tracer=_tracer(build) if build.traces.on else None)
+        tracer=functools.partial(_trace, traces, build_dir) if traces.on else None)
     observations.start()
     return observations
 
 
-def not_inputs(build: PackageBuild) -> tuple[Path, ...]:
+def not_inputs(run: RunResources) -> tuple[Path, ...]:
     """What the build-step oracle does not hold to the record: the observer's files and a
     compiler cache's storage."""
-    observer = build.run.session.observer
+    observer = run.session.observer
     found = [observer.library.parent] if not isinstance(observer, str) else []
-    if build.run.compilers is not None:
-        found += build.run.compilers.state_dirs()
+    if run.compilers is not None:
+        found += run.compilers.state_dirs()
     return tuple(found)
 
 
-def _trace(build: PackageBuild, argv: Sequence[str], label: str, env: Mapping[str, str]
-           ) -> tuple[Sequence[str], Mapping[str, str]]:
+def _trace(traces: StepTraces, build_dir: Path, argv: Sequence[str], label: str,
+           env: Mapping[str, str]) -> tuple[Sequence[str], Mapping[str, str]]:
     """A program of an in-process step (a warm helper) under the build-step oracle."""
-    return build.traces.command(argv, label, build.build_dir, env)
+    return traces.command(argv, label, build_dir, env)
 
 
 def reproducible(run: RunResources, delta: Mapping[str, str]) -> dict[str, str]:

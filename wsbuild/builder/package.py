@@ -1,82 +1,48 @@
-"""One package's build as the plan decided it, one method per phase: restore from the build
-cache or cut off (builder/reuse.py), or stage → run the build type's steps, observed
+"""One package built, one method per phase: stage → run the plan's steps, observed
 (builder/observing.py), with the times make and Ninja need (builder/times.py) → register →
-commit into install/ → write its record → store into the build cache. Each package build runs
-in its own worker thread and shares only read-only run resources with the others."""
+commit into install/ → write its record → store into the build cache. (Restored or cut off
+instead: builder/reuse.py; which one, builder/execute.py.) Each package build runs in its own
+worker thread and shares only read-only run resources with the others (builder/job.py)."""
 
 from __future__ import annotations
 
 import contextlib
 import os
 import shlex
-import time
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 from wsbuild.build_types import (
     PackageContext,
-    BuildOptions,
     Problems,
     Step,
     StepFailed,
     get_build_type,
 )
-from wsbuild.builder.compiler_cache import CompilerCache
 from wsbuild.builder.context import RUN_JOBSERVER
 from wsbuild.observe.steps import StepObservations
 from wsbuild.builder.observing import reproducible
-from wsbuild.builder.step_trace import StepTraces
-from wsbuild.builder.distribute import Distribution
-from wsbuild.builder.plan import BUILDING_MARKER, FAILED_MARK, Decision, PackagePlan
+from wsbuild.builder.oracles.step_trace import StepTraces
+from wsbuild.builder.bookkeeping import (
+    ADVANCE_TIMES, COMMIT, REGISTER, START_COMPILER_CACHE, BuilderStep)
+from wsbuild.builder.job import PackageJob
+from wsbuild.builder.plan import BUILDING_MARKER, FAILED_MARK
 from wsbuild.builder.failure import exit_text, interesting
 from wsbuild.engine.jobs import JobResult, Outcome, StepStarted
-from wsbuild.engine.jobserver import Jobserver
 from wsbuild.engine.process import env_delta, format_command, run_command
 from wsbuild.errors import WsbuildError
-from wsbuild.events import Emit
 from wsbuild.record.installed import Installed
 from wsbuild.record.model import PackageRecord
 from wsbuild.record.undeclared import undeclared_lines
-from wsbuild.engine.logs import append_command_log
-from wsbuild.session import Session
 from wsbuild.workspace.model import DepCategory
-from wsbuild.workspace.selection import Selection
-
-
-
-@dataclass(frozen=True, slots=True)
-class RunResources:
-    """What every package build of one run shares, read-only."""
-
-    selection: Selection
-    session: Session
-    #: the plan's options with the run's compiler launcher
-    options: BuildOptions
-    run_log: Path
-    jobserver: Jobserver
-    compilers: CompilerCache | None
-    emit: Emit
-    #: package -> its unresolved build dependencies, named when it fails
-    unresolved: Mapping[str, tuple[str, ...]]
-    #: topological order of the whole workspace: dependencies' prefixes are applied in it
-    order: tuple[str, ...]
-    #: distcc for the run's compiles (--distribute); None: compile here only
-    distribution: Distribution | None = None
-    #: a package whose steps read another's install without declaring it fails
-    #: (--strict-dependencies), instead of being warned about
-    strict_dependencies: bool = False
-    #: returns when a command step may start (the memory governor, engine/memory.py)
-    memory_gate: Callable[[str, str, Emit], None] | None = None
-
 
 @dataclass(slots=True)
-class PackageBuild:
-    planned: PackagePlan
-    run: RunResources
-    started: float = field(default_factory=time.monotonic)
-    #: the wall clock at the start: an outside file changed since may have changed unseen
-    started_ns: int = field(default_factory=time.time_ns)
+class PackageBuild(PackageJob):
+    """The package built: a fresh stage, the plan's steps run into it (observed), the
+    package's own files registered, the stage committed into install/, its record written
+    and the install stored into the build cache."""
+
     stage_prefix: Path | None = None
     context: PackageContext | None = None
     warnings: list[str] = field(default_factory=list)
@@ -92,65 +58,22 @@ class PackageBuild:
     #: files outside the package whose time this build set forward, with their content's
     #: digest then (not changed since: what the steps read, however new their times)
     touched: dict[str, str] = field(default_factory=dict)
+    #: what the commit installed
+    installed: list[Installed] = field(default_factory=list)
 
-    @property
-    def name(self) -> str:
-        return self.planned.name
-
-    @property
-    def build_dir(self) -> Path:
-        return self.run.selection.workspace.build_base / self.name
-
-    @property
-    def log_dir(self) -> Path:
-        return self.run.run_log / self.name
-
-    @property
-    def prefix(self) -> Path:
-        return self.planned.prefix
-
-    @property
-    def merged_record(self) -> Path | None:
-        from wsbuild.prefix.stage import MERGED_RECORD
-
-        return self.build_dir / MERGED_RECORD if self.run.session.merged else None
-
-    def execute(self) -> JobResult:
-        """The planned decision, carried out; a failure of the machine (full disk, read-only
-        install base, a missing program) is this package's failure in one line, not a bug."""
-        from wsbuild.errors import environment_failure
-
-        try:
-            result = self._execute()
-        except OSError as exc:
-            program = exc.filename if isinstance(exc, FileNotFoundError) \
-                and isinstance(exc.filename, str) and "/" not in exc.filename else None
-            message = environment_failure(exc, doing=f"building {self.name}", program=program)
-            if message is None:
-                raise
-            result = JobResult(self.name, Outcome.FAILED, self._seconds(), message=message)
-        return self._with_unresolved(result)
-
-    def _execute(self) -> JobResult:
-        if self.planned.decision is Decision.UP_TO_DATE:
-            return JobResult(self.name, Outcome.UP_TO_DATE, self._seconds())
-        cut_off = self._cut_off()
-        if cut_off is not None:
-            return cut_off
-        self.log_dir.mkdir(parents=True, exist_ok=True)
-        reason = self.planned.reason.text if self.planned.reason else ""
-        self._log(f"Rebuilding: {reason}")
-        if self.planned.decision is Decision.RESTORE:
-            self._mark_unfinished()
-            restored = self.restore()
-            if restored is not None:
-                return restored
+    def build(self) -> JobResult:
+        """Stage; the plan's steps: the builder's before the build type's (the compiler
+        cache's server, the times), the build type's, the builder's after them (register,
+        commit); then write the record and store."""
         self.stage()
         try:
+            for work in self.planned.before:
+                self.bookkeep(work)
             self.run_steps()
             self.volatile = self._work_left()
-            self.register()
-            installed = self.commit()
+            for work in self.planned.after:
+                self.bookkeep(work)
+            installed = self.installed
         except StepFailed as failure:
             self.discard()
             self._mark_failed()
@@ -169,24 +92,11 @@ class PackageBuild:
                              message="\n".join(undeclared) + "\n  (--strict-dependencies)")
         self.warnings.extend(undeclared)
         self.store(record)
+        reason = self.planned.reason.text if self.planned.reason else ""
         return JobResult(self.name, Outcome.FINISHED, self._seconds(), log_dir=self.log_dir,
                          message=reason, warnings=tuple(interesting(self.warnings)))
 
     # ------------------------------------------------------------------------------ phases
-
-    def restore(self) -> JobResult | None:
-        """Install the build cache's entry the plan found, once this machine proves it again
-        (builder/reuse.py); None when it is refused (the package is then built)."""
-        from wsbuild.builder.reuse import restore
-
-        return restore(self)
-
-    def _cut_off(self) -> JobResult | None:
-        """Up to date after all when nothing it read of its dependencies (built before it in
-        this run) changed (builder/reuse.py); None when something did."""
-        from wsbuild.builder.reuse import cut_off
-
-        return cut_off(self)
 
     def stage(self) -> None:
         """Mark the build unfinished, make a fresh stage and the package's context (the one
@@ -195,7 +105,7 @@ class PackageBuild:
         from wsbuild.builder.times import redo_for_backdated
         from wsbuild.prefix import stage as staging
 
-        self._mark_unfinished()
+        self.mark_unfinished()
         self.stage_prefix = staging.new_stage(self.run.selection.workspace.install_base,
                                               self.name)
         run_environ = {"MAKEFLAGS": self.run.jobserver.makeflags}
@@ -206,62 +116,83 @@ class PackageBuild:
             run_environ.update(self.run.distribution.environ)
         self.observations = self._observations(run_environ)
         reason = self.planned.reason
-        keeps = getattr(get_build_type(self.planned.build_type), "keeps_earlier_work", None)
+        build_type = get_build_type(self.planned.build_type)
         self.context = make_context(
             self.run.selection, self.run.session, self.name, prefix=self.prefix,
             options=self.planned.options.applied_to(self.run.options),
             stage_prefix=self.stage_prefix, run_environ=run_environ, run=self._run_command,
-            warn=self.warnings.append, jobserver_fifo=self.run.jobserver.fifo,
+            warn=self.warnings.append,
             redo=(*(reason.redo if reason is not None else ()), *redo_for_backdated(
                 self.planned, self.build_dir, self.run.selection.workspace.root,
                 self.run.session.digests, self._log)),
             observe=self.observations)
         self.context.note = self._note
         # decided before the steps run (they change what the build directory holds)
-        self._kept_earlier_work = keeps is not None and keeps(self.context)
+        self._kept_earlier_work = build_type.keeps_earlier_work(self.context)
 
     def _observations(self, run_environ: Mapping[str, str]) -> StepObservations:
         """A fresh record of what this build's steps read (builder/observing.py)."""
         from wsbuild.builder.observing import observations_of
 
-        return observations_of(self, run_environ)
+        return observations_of(self.run, self.build_dir, self.traces, run_environ)
 
     def _not_inputs(self) -> tuple[Path, ...]:
         """What the build-step oracle does not hold to the record (builder/observing.py)."""
         from wsbuild.builder.observing import not_inputs
 
-        return not_inputs(self)
+        return not_inputs(self.run)
 
     def _work_left(self) -> str:
         """What the build system would still do right after the steps (its build type's
         `work_left`; "" when nothing, or when the type cannot tell)."""
-        work_left = getattr(get_build_type(self.planned.build_type), "work_left", None)
-        return work_left(self._ctx()) if work_left is not None else ""
+        return get_build_type(self.planned.build_type).work_left(self._ctx())
 
     def steps(self) -> Sequence[Step]:
-        """The steps the plan decided; the build type is asked again with the build's context,
-        and when it decides otherwise (a dependency built in this run changed what the
-        package's environment holds, another compiler launcher), its answer is run and said
-        in the package's log."""
+        """The steps the plan decided, when the build type decides the same with the build's
+        context: every field of every step (label, command with its arguments, directory and
+        environment, in-process action, what it reads and writes). Where the run is not what
+        the plan took it to be (a dependency built in this run changed what the package's
+        environment holds, no distcc host answered, the compiler cache could not start), the
+        build type's answer now is run, and the package's log says what differs."""
         ctx = self._ctx()
-        now = get_build_type(ctx.package.build_type).steps(ctx)
-        if [_shape(step) for step in now] == [_shape(step) for step in self.planned.steps]:
-            return self.planned.steps
+        now = tuple(get_build_type(ctx.package.build_type).steps(ctx))
+        planned = tuple(self.planned.steps)
+        if now == planned:
+            return planned
         self._log("The steps differ from the plan's (what the package's build sees changed "
-                  "since): running " + ", ".join(step.label for step in now))
+                  "since): " + "; ".join(step_differences(planned, now))
+                  + ". Running " + ", ".join(step.label for step in now))
         return now
 
-    def run_steps(self) -> None:
-        """The package's labelled steps, into the stage: commands run as processes, the rest
-        in wsbuild's own process."""
-        ctx = self._ctx()
+    def bookkeep(self, work: BuilderStep) -> None:
+        """One of the builder's own steps (builder/bookkeeping.py), announced as a build
+        type's step is."""
+        self.run.emit(StepStarted(self.name, work.label))
+        if work == START_COMPILER_CACHE:
+            self._start_compiler_cache()
+        elif work == ADVANCE_TIMES:
+            self._advance_changed_files()
+        elif work == REGISTER:
+            self.register()
+        elif work == COMMIT:
+            self.installed = self.commit()
+        else:
+            raise AssertionError(f"no builder step {work.label!r}")
+
+    def _start_compiler_cache(self) -> None:
+        """The run's compiler cache's server (none when the run could not open the cache)."""
         if self.run.compilers is not None:
             try:
                 self.run.compilers.start()
             except WsbuildError as exc:
                 raise StepFailed(f"{exc}") from None
-        self._advance_changed_files()
-        fifo = str(ctx.jobserver_fifo or "")
+
+    def run_steps(self) -> None:
+        """The build type's labelled steps, into the stage: commands run as processes, the
+        rest in wsbuild's own process."""
+        ctx = self._ctx()
+        # the steps name the run's jobserver FIFO by a placeholder, as the plan decided them
+        fifo = str(self.run.jobserver.fifo)
         for step in self.steps():
             self.step = step.label
             if step.command is not None and self.run.memory_gate is not None:
@@ -308,7 +239,6 @@ class PackageBuild:
         from wsbuild.prefix import register_package_files, write_package_environment
 
         ctx = self._ctx()
-        self.run.emit(StepStarted(self.name, "register"))
         assert self.stage_prefix is not None
         register_package_files(self.stage_prefix, self.name, ctx.package.manifest)
         run_deps = sorted(self.run.selection.graph.edges[self.name][DepCategory.RUN])
@@ -335,7 +265,7 @@ class PackageBuild:
     def write_record(self, installed: list[Installed]) -> PackageRecord:
         """What this build's steps were observed to read, for the next run's plan
         (builder/records.py); the build is finished."""
-        from wsbuild.builder.compiler_cache import COMPILER_VARIABLES
+        from wsbuild.builder.resources.compiler_cache import COMPILER_VARIABLES
         from wsbuild.builder.records import built_record
         from wsbuild.record.model import write_record
         from wsbuild.record.observed import Where
@@ -354,14 +284,12 @@ class PackageBuild:
         build_type = get_build_type(self.planned.build_type)
         runner = build_type.test_runner
         assert self.observations is not None
-        keeps = getattr(build_type, "keeps_earlier_work", None)
         record = built_record(
             self.planned, observations=self.observations,
-            earlier=self.planned.previous if keeps is not None and self._kept_earlier_work
+            earlier=self.planned.previous if self._kept_earlier_work
             else None,
-            afresh=build_type.steps_run_afresh(ctx)
-            if hasattr(build_type, "steps_run_afresh") else (),
-            declared=build_type.external_inputs(ctx), dependencies=self._dependency_keys(),
+            afresh=build_type.steps_run_afresh(ctx),
+            declared=build_type.external_inputs(ctx), dependencies=self.dependency_keys(),
             installed=installed, where=where, touched=self.touched,
             install_base=self.run.selection.workspace.install_base,
             environment=session.environment,
@@ -383,11 +311,6 @@ class PackageBuild:
         return installs_read(record, selection.workspace.install_base, selection.packages,
                              merged=self.run.session.merged, but=self.name)
 
-    def _dependency_keys(self) -> dict[str, str]:
-        from wsbuild.builder.records import dependency_keys
-
-        return dependency_keys(self.planned, self.run.selection.workspace.build_base)
-
     def store(self, record: PackageRecord) -> None:
         """Into the build cache (when on) with its record, for the next machine or branch that
         needs it."""
@@ -407,15 +330,6 @@ class PackageBuild:
             staging.discard_stage(self.stage_prefix)
 
     # ----------------------------------------------------------------------------- helpers
-
-    def _mark_unfinished(self) -> None:
-        """Until the package's new record is written, its last build counts as unfinished."""
-        from wsbuild.files import private_directory
-
-        marker = self.build_dir / BUILDING_MARKER
-        private_directory(marker.parent)
-        marker.touch(mode=0o600)
-        marker.write_text("")  # not (yet) failed: cut short, if this run ends here
 
     def _note(self, text: str) -> None:
         """Information a step gives (not a warning): in command.log, and one plain line."""
@@ -473,21 +387,19 @@ class PackageBuild:
 
         return failed_result(self.name, failure, self.build_dir, self.log_dir, self._seconds())
 
-    def _with_unresolved(self, result: JobResult) -> JobResult:
-        """A failed package's report ends with the build dependencies it declared that were
-        not found (builder/failure.py)."""
-        from wsbuild.builder.failure import with_unresolved
 
-        return with_unresolved(result, self.run.unresolved.get(self.name, ()),
-                               self.run.selection, self.run.session)
-
-    def _log(self, line: str) -> None:
-        append_command_log(self.log_dir, line)
-
-    def _seconds(self) -> float:
-        return time.monotonic() - self.started
-
-
-def _shape(step: Step) -> tuple[object, ...]:
-    """What makes two decisions of a step the same: its label and the command it runs."""
-    return (step.label, step.command.argv if step.command is not None else None)
+def step_differences(planned: Sequence[Step], now: Sequence[Step]) -> list[str]:
+    """What differs between two decisions of a package's steps, in a few words each."""
+    if [step.label for step in planned] != [step.label for step in now]:
+        return [f"the plan's steps were {', '.join(step.label for step in planned) or 'none'}"]
+    differences = []
+    for old, new in zip(planned, now):
+        fields = [name for name in ("action", "command", "description", "by_hand", "reads",
+                                    "writes") if getattr(old, name) != getattr(new, name)]
+        if old.command is not None and new.command is not None and "command" in fields:
+            fields[fields.index("command")] = "command's " + ", ".join(
+                name for name in ("argv", "cwd", "env", "run_env", "problems")
+                if getattr(old.command, name) != getattr(new.command, name))
+        if fields:
+            differences.append(f"{old.label}: {', '.join(fields)}")
+    return differences

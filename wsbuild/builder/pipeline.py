@@ -5,7 +5,7 @@
                           workspace lock (engine/lock.py), the ROS underlay detected, repaired and
                           its environment computed (underlay/), the run's log (engine/logs.py), the
                           build cache (cache/run.py) and the jobserver (engine/jobserver.py),
-                          with distcc's hosts probed and counted in it (builder/distribute.py)
+                          with distcc's hosts probed and counted in it (builder/resources/distcc.py)
 3. builder/plan.py        the plan: per package up to date / restore / build, the reason, the keys;
                           unresolved build dependencies (workspace/resolve.py), overrides
                           (builder/overrides.py), the start order and critical path. `--dry-run`
@@ -22,14 +22,13 @@
 
 from __future__ import annotations
 
-import os
 import time
 from collections.abc import Callable, Collection, Mapping, Sequence
 from dataclasses import dataclass, replace
-from pathlib import Path
 
 from typing import TYPE_CHECKING
 
+from wsbuild.build_types import get_build_type
 from wsbuild.builder.plan import BuildPlan, Decision, make_plan
 from wsbuild.builder.request import BuildRequest
 from wsbuild.engine.jobs import JobFinished, JobResult, JobStarted, Outcome
@@ -44,10 +43,11 @@ from wsbuild.words import plural
 from wsbuild.runreport.package_run import PackageRun
 
 if TYPE_CHECKING:  # what only packages to build need: a no-op imports none of it
-    from wsbuild.builder.compiler_cache import CacheCounts, CompilerCache
-    from wsbuild.builder.distribute import Distribution
+    from wsbuild.build_types import BuildType
+    from wsbuild.builder.resources.compiler_cache import CacheCounts, CompilerCache
+    from wsbuild.builder.resources.distcc import Distribution
     from wsbuild.builder.plan_text import PlannedCommands
-    from wsbuild.builder.shard_run import ShardPlan
+    from wsbuild.builder.shards.run import ShardPlan
 
 
 def session_options(request: BuildRequest, *, dry_run: bool = False) -> SessionOptions:
@@ -61,14 +61,14 @@ def session_options(request: BuildRequest, *, dry_run: bool = False) -> SessionO
 def _shard_and_plan(selection: Selection, request: BuildRequest, session: Session
                     ) -> tuple[Selection, ShardPlan | None, BuildPlan]:
     """The plan; with `--shard K/N` first the shard's packages and those of other shards they
-    need, ranked by their work in the whole split (builder/shard_run.py)."""
+    need, ranked by their work in the whole split (builder/shards/run.py)."""
     if request.shard is None:
         return selection, None, make_plan(selection, request, session)
-    from wsbuild.builder.shard_run import shard_selection
+    from wsbuild.builder.shards.run import shard_selection, with_waits
 
     selection, shard = shard_selection(selection, request.shard, request.run.workers, session)
-    return selection, shard, make_plan(selection, request, session,
-                                       priorities=shard.priorities)
+    return selection, shard, with_waits(make_plan(selection, request, session,
+                                                  priorities=shard.priorities), shard)
 
 
 def plan_build(selection: Selection, request: BuildRequest, emit: Emit) -> BuildPlan:
@@ -96,7 +96,7 @@ def run_build(selection: Selection, request: BuildRequest, emit: Emit) -> list[J
     cpu_before = cpu_times()
     with open_session(selection.workspace, session_options(request), emit) as session:
         if request.compiler_cache not in ("auto", "none"):  # a tool named must be there,
-            from wsbuild.builder.compiler_cache import choose_tool  # also when nothing builds
+            from wsbuild.builder.resources.compiler_cache import choose_tool  # also when nothing builds
 
             choose_tool(request.compiler_cache, session.environ,
                         distributing=request.distribute is not None)
@@ -110,14 +110,15 @@ def run_build(selection: Selection, request: BuildRequest, emit: Emit) -> list[J
             raise plan.refusal.error
         _warn(plan, emit, selection, session)
         if request.assemble is not None:  # every package built and tested by a shard
-            from wsbuild.builder.shard_cover import check_assembly
+            from wsbuild.builder.shards.cover import check_assembly
 
-            for line in check_assembly(plan, selection, request.assemble,
+            building = [p.name for p in plan.packages if p.decision is Decision.BUILD]
+            for line in check_assembly(building, selection, request.assemble,
                                        session.cache.settings):
                 emit(Notice(line))
         assert session.run_log is not None
-        if shard is not None:  # its note for the other shards (builder/shard_run.py)
-            from wsbuild.builder import shard_run
+        if shard is not None:  # its note for the other shards (builder/shards/run.py)
+            from wsbuild.builder.shards import run as shard_run
 
             shard_run.start(plan, shard, session, emit)
         run = PackageRun(selection, session.run_log, plan.jobs, report=request.report,
@@ -168,9 +169,14 @@ def execute(plan: BuildPlan, selection: Selection, request: BuildRequest, sessio
     compilers: CompilerCache | None = None
     distribution: Distribution | None = None
     counts = CompileCounts()
+    # each build type of a package the run may build (a refused restore builds), opened for
+    # the run and closed after it
+    build_types = [get_build_type(name) for name in sorted({p.build_type for p in plan.to_do()})]
     try:
+        for build_type in build_types:
+            build_type.open_run(session.environ)
         if any(p.decision is Decision.BUILD for p in plan.packages):
-            from wsbuild.builder.compiler_cache import open_compiler_cache
+            from wsbuild.builder.resources.compiler_cache import open_compiler_cache
 
             compilers = open_compiler_cache(request.compiler_cache, session.environ,
                                             session.run_log / "sccache.log",
@@ -190,7 +196,7 @@ def execute(plan: BuildPlan, selection: Selection, request: BuildRequest, sessio
         raise Interrupted("build interrupted") from None
     finally:
         run.sampler.stop()
-        _after_packages(session, compilers, distribution)
+        _after_packages(session, compilers, distribution, build_types)
     results = _in_selection_order(selection, {**settled, **_by_name(built)})
     write_setup_scripts(ws, session.merged, session.underlay,
                         installed_changed=any(r.outcome is Outcome.FINISHED for r in results))
@@ -243,7 +249,8 @@ def _run_packages(plan: BuildPlan, selection: Selection, request: BuildRequest,
     jobs = plan.jobs_to_do()
     if not jobs.order:
         return []
-    from wsbuild.builder.package import PackageBuild, RunResources
+    from wsbuild.builder.execute import execute
+    from wsbuild.builder.job import RunResources
 
     assert session.run_log is not None
     options = plan.options
@@ -251,15 +258,16 @@ def _run_packages(plan: BuildPlan, selection: Selection, request: BuildRequest,
         options = replace(options, compiler_launcher=compilers.launcher)
     elif distribution is not None:
         options = replace(options, compiler_launcher=distribution.launcher)
-    if distribution is not None:  # the budget knows the hosts (builder/distribute.py)
+    if distribution is not None:  # the budget knows the hosts (builder/resources/distcc.py)
         options = replace(options, jobs=distribution.budget)
     jobserver = session.jobserver(options.jobs)
     if distribution is not None:
         distribution.watch(jobserver)
-    from wsbuild.builder.memory import open_governor
+    from wsbuild.builder.resources.memory import open_governor
 
-    run.memory = open_governor(request.memory, plan, selection.workspace.build_base, jobserver,
-                               warn=lambda text: emit(Notice(text, warning=True)),
+    restoring = [p.name for p in plan.to_do() if p.decision is Decision.RESTORE]
+    run.memory = open_governor(request.memory, restoring, selection.workspace.build_base,
+                               jobserver, warn=lambda text: emit(Notice(text, warning=True)),
                                shared=shard.memory if shard is not None else None,
                                workers=request.run.workers)
     resources = RunResources(
@@ -271,13 +279,13 @@ def _run_packages(plan: BuildPlan, selection: Selection, request: BuildRequest,
     policy = FailurePolicy.SKIP_DEPENDENTS if request.run.continue_on_error \
         else FailurePolicy.STOP
     planned = {p.name: p for p in plan.to_do()}
-    job: Callable[[str], JobResult] = lambda name: PackageBuild(planned[name], resources).execute()
+    job: Callable[[str], JobResult] = lambda name: execute(planned[name], resources)
     waiting: frozenset[str] = frozenset()
-    if shard is not None:  # other shards' packages are waited for (builder/shard_run.py)
-        from wsbuild.builder.shard_run import shard_jobs
+    if shard is not None:  # other shards' packages are waited for (builder/shards/run.py)
+        from wsbuild.builder.shards.run import shard_jobs
 
         job, waiting = shard_jobs(shard, planned,
-                                  lambda p: PackageBuild(p, resources).execute(), session,
+                                  lambda p: execute(p, resources), session,
                                   resources.emit, run.started)
     return run.run(jobs, job, workers=request.run.workers, policy=policy, emit=emit,
                    weights=plan.weights, waiting=waiting)
@@ -288,7 +296,7 @@ def _open_distribution(request: BuildRequest, session: Session,
     """distcc for the run when --distribute asks for it and a host answers (else one warning)."""
     if request.distribute is None:
         return None
-    from wsbuild.builder.distribute import open_distribution
+    from wsbuild.builder.resources.distcc import open_distribution
 
     assert session.run_log is not None
     return open_distribution(request.distribute, session.environ, cores=request.build.jobs,
@@ -297,14 +305,12 @@ def _open_distribution(request: BuildRequest, session: Session,
 
 
 def _after_packages(session: Session, compilers: CompilerCache | None,
-                    distribution: Distribution | None) -> None:
-    import sys
-
+                    distribution: Distribution | None, build_types: Sequence[BuildType]
+                    ) -> None:
     from wsbuild.prefix.stage import recover_all
 
-    helpers = sys.modules.get("wsbuild.build_types.pybuild.setup_py")
-    if helpers is not None:  # setup.py readers run only if a Python package was built
-        helpers.shutdown_helpers()
+    for build_type in build_types:  # the Python types' warm setup.py helpers
+        build_type.close_run()
     if compilers is not None:
         compilers.close()
     if distribution is not None:
@@ -315,6 +321,7 @@ def _after_packages(session: Session, compilers: CompilerCache | None,
 
 def _warn(plan: BuildPlan, emit: Emit, selection: Selection, session: Session) -> None:
     """The plan's warnings, once for the run: unresolved build dependencies, overrides."""
+    from wsbuild.builder.failure import known_names
     from wsbuild.builder.overrides import override_warning
 
     if plan.unresolved:
@@ -339,16 +346,6 @@ def unresolved_warning(missing: Mapping[str, Sequence[str]], known: Collection[s
         lines += [f"    {dep}: {install_hint(dep, known=known, pip_underlay=pip_underlay)}"
                   for dep in deps]
     return "\n".join(lines)
-
-
-def known_names(selection: Selection, session: Session) -> set[str]:
-    """The names a misspelt dependency may have meant: the workspace's packages and those of
-    the underlays' ament index."""
-    from wsbuild.workspace.resolve import ament_index
-
-    prefixes = [Path(p) for p in session.environ.get("AMENT_PREFIX_PATH", "").split(os.pathsep)
-                if p] + session.underlay_prefixes
-    return {*selection.packages, *ament_index(prefixes)}
 
 
 def _by_name(results: Sequence[JobResult]) -> dict[str, JobResult]:
@@ -402,7 +399,7 @@ def _finish(run: PackageRun, request: BuildRequest, session: Session,
     durations and memory recorded for the next run; the summary's lines: packages cut off,
     the compiler cache's counts, the memory budget and peaks, with --timings the table and
     the report's path."""
-    from wsbuild.builder.memory import finish_memory
+    from wsbuild.builder.resources.memory import finish_memory
     from wsbuild.runreport.report_json import RunFacts
 
     lines = _cut_off_line(results)
@@ -418,7 +415,8 @@ def _finish(run: PackageRun, request: BuildRequest, session: Session,
                      compiler=compiler,
                      cache=request.cache, symlink_install=request.build.symlink_install,
                      report=request.report, timings=request.timings)
-    memory = finish_memory(run.memory, session.workspace.build_base, results, plan)
+    memory = finish_memory(run.memory, session.workspace.build_base, results,
+                           [p.name for p in plan.to_do() if p.decision is Decision.BUILD])
     if memory is not None:
         lines += memory.summary()
     end = run.finish(results, facts, compile_jobs=counts.jobs, job_budget=counts.budget,

@@ -17,6 +17,8 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from wsbuild.build_types import BuildOptions, Step, get_build_type
+from wsbuild.builder import bookkeeping
+from wsbuild.builder.bookkeeping import BuilderStep
 from wsbuild.builder.overrides import Override
 from wsbuild.builder.request import BuildRequest, PackageOptions
 from wsbuild.engine.ready_queue import JobGraph, start_order
@@ -44,6 +46,14 @@ class Decision(Enum):
     UP_TO_DATE = "up to date"
     RESTORE = "restore"
     BUILD = "build"
+
+
+@dataclass(frozen=True, slots=True)
+class ShardWait:
+    """Another shard builds it: waited for until `seconds` after the start, then restored."""
+
+    owner: str
+    seconds: float
 
 
 @dataclass(frozen=True, slots=True)
@@ -89,6 +99,10 @@ class PackagePlan:
     #: build runs these, `--dry-run` prints them
     steps: tuple[Step, ...] = ()
     step_environ: Mapping[str, str] = field(default_factory=dict)
+    #: the builder's own steps before and after them (builder/bookkeeping.py)
+    before: tuple[BuilderStep, ...] = ()
+    after: tuple[BuilderStep, ...] = ()
+    wait: ShardWait | None = None  # another shard builds it (builder/shards/run.py)
 
     @property
     def own(self) -> OwnFiles:
@@ -199,7 +213,7 @@ def make_plan(selection: Selection, request: BuildRequest, session: Session, *,
               priorities: Mapping[str, float] | None = None) -> BuildPlan:
     """What `wsbuild build` will do with `selection`, package by package, and why.
     `priorities`: the weights the scheduler ranks packages by, when not their own recorded
-    times (a shard's: each package's work in the whole split, builder/shard_run.py)."""
+    times (a shard's: each package's work in the whole split, builder/shards/run.py)."""
     from wsbuild.builder.overrides import overrides_to_warn
     from wsbuild.builder.weights import package_weights
 
@@ -304,6 +318,9 @@ def plan_package(planning: _Planning, name: str) -> PackagePlan:
                                      waiting=bool(closure & planning.pending))
     common["steps"], common["step_environ"] = _steps(planning, name, prefix, own_options,
                                                      redo=reason.redo)
+    common["before"] = bookkeeping.before(compiler_cache=bool(planning.launcher),
+                                          built_before=old is not None)
+    common["after"] = bookkeeping.AFTER
     if found is not None:
         known = all(not key.startswith(PENDING) for key in now.dependencies.values())
         key = found.record.key if known else PENDING + before
@@ -329,45 +346,28 @@ def _unfinished_reason(reason: Reason, build_dir: Path, other: Reason | None) ->
 def _steps(planning: _Planning, name: str, prefix: Path, own_options: PackageOptions, *,
            redo: tuple[str, ...] = ()) -> tuple[tuple[Step, ...], Mapping[str, str]]:
     """The steps of a package to build (or to restore: a refused entry builds it), decided as
-    the build decides them, from the context the builder makes (builder/context.py) with the
-    compiler launcher the build will use; and the environment they start from."""
-    from wsbuild.builder.context import make_context
+    the build decides them (builder/context.py), with the compiler launcher the build will
+    use; and the environment they start from."""
+    from wsbuild.builder.context import planned_steps
 
     if planning.launcher is None:
-        planning.launcher = planned_launcher(planning.request, planning.session)
+        from wsbuild.builder.resources.compiler_cache import planned_launcher
+
+        planning.launcher = planned_launcher(planning.request.compiler_cache,
+                                             planning.session.environ,
+                                             distributing=planning.request.distribute is not None)
     options = replace(own_options.applied_to(planning.options),
                       compiler_launcher=planning.launcher)
-    ctx = make_context(planning.selection, planning.session, name, prefix=prefix,
-                       options=options, stage_prefix=_stage(planning.selection, name),
-                       redo=redo)
-    return tuple(get_build_type(ctx.package.build_type).steps(ctx)), ctx.environ
+    return planned_steps(planning.selection, planning.session, name, prefix=prefix,
+                         options=options, redo=redo,
+                         distributing=planning.request.distribute is not None)
 
 
 def _forced_by_option(build_type: str, options: BuildOptions) -> bool:
     """Whether an option of its build type given on the command line builds every package of
     it (--cmake-force-configure, --cmake-clean-cache, …)."""
-    declared = getattr(get_build_type(build_type), "options", ())
+    declared = get_build_type(build_type).options
     return any(option.forces_build and options.value(option) for option in declared)
-
-
-def _stage(selection: Selection, name: str) -> Path:
-    from wsbuild.prefix.stage import stage_path
-
-    return stage_path(selection.workspace.install_base, name)
-
-
-def planned_launcher(request: BuildRequest, session: Session) -> str:
-    """The compiler cache the build will use as the compilers' launcher (--compiler-cache); ""
-    when none (the build says why when it cannot have the one asked for)."""
-    from wsbuild.builder.compiler_cache import choose_tool
-    from wsbuild.errors import WsbuildError
-
-    try:
-        chosen = choose_tool(request.compiler_cache, session.environ,
-                             distributing=request.distribute is not None)
-    except WsbuildError:
-        return ""
-    return str(chosen[1]) if chosen is not None else ""
 
 
 def _read_dependencies(planning: _Planning, closure: set[str]) -> None:

@@ -11,6 +11,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from wsbuild.build_types import Step
+from wsbuild.builder.bookkeeping import BuilderStep
 from wsbuild.builder.overrides import override_warning
 from wsbuild.builder.plan import BuildPlan, Decision, PackagePlan
 from wsbuild.engine.process import env_delta, format_command
@@ -27,6 +28,9 @@ class PlannedSteps:
     build_dir: Path
     steps: tuple[Step, ...]
     environ: Mapping[str, str]
+    #: the builder's own steps before and after the build type's (builder/bookkeeping.py)
+    before: tuple[BuilderStep, ...] = ()
+    after: tuple[BuilderStep, ...] = ()
 
 
 @dataclass(frozen=True, slots=True)
@@ -58,6 +62,7 @@ class PlannedCommands:
         a step with neither, a comment."""
         planned = self.packages[name]
         lines = [f"mkdir -p -- {shlex.quote(str(planned.build_dir))}"]
+        lines += [f"# (in wsbuild) {work.description} (no command)" for work in planned.before]
         for step in planned.steps:
             command = step.shown
             if step.command is None:
@@ -69,8 +74,7 @@ class PlannedCommands:
             if command is not None:
                 lines.append(format_command(command.argv, command.cwd,
                                             self.step_env(planned, command.env)))
-        lines.append("# register: wsbuild then writes package.xml, the index marker and the "
-                     "environment hooks, and commits the stage into install/ (no command)")
+        lines += [f"# (in wsbuild) {work.description} (no command)" for work in planned.after]
         return lines
 
     def step_env(self, planned: PlannedSteps, env: Mapping[str, str]) -> dict[str, str]:
@@ -86,7 +90,8 @@ def planned_commands(build_plan: BuildPlan, selection: Selection, session: Sessi
     commands. Distributed compiles (`--distribute`) are not foreseen: the build probes its
     hosts first."""
     found = {planned.name: PlannedSteps(selection.workspace.build_base / planned.name,
-                                        planned.steps, planned.step_environ)
+                                        planned.steps, planned.step_environ,
+                                        planned.before, planned.after)
              for planned in build_plan.to_do() if planned.decision is Decision.BUILD}
     return PlannedCommands(env_delta(session.environ, os.environ), dict(session.environ), found)
 
@@ -121,7 +126,7 @@ def _missing_scripts(commands: PlannedCommands) -> list[str]:
 def plan_lines(build_plan: BuildPlan, commands: PlannedCommands | None = None,
                memory: str = "") -> list[str]:
     """The plan as a person reads it; `memory`: the line naming the memory budget
-    (builder/memory.py), after the critical path."""
+    (builder/resources/memory.py), after the critical path."""
     packages = build_plan.packages
     building = build_plan.to_do()
     lines = [f"dry run: {plural(len(packages), 'package')}, "
@@ -169,6 +174,8 @@ def plan_json(build_plan: BuildPlan,
                 "up_to_date": p.decision is Decision.UP_TO_DATE,
                 "decision": p.decision.value,
                 "note": p.note or None,
+                "wait": None if p.wait is None else {"shard": p.wait.owner,
+                                                     "seconds": p.wait.seconds},
                 "reason": None if p.reason is None else {
                     "kind": p.reason.kind.value, "text": p.reason.text,
                     "details": list(p.reason.details),
@@ -176,9 +183,11 @@ def plan_json(build_plan: BuildPlan,
                     "cutoff": p.reason.cutoff,
                 },
                 **({} if commands is None or p.name not in steps else {
-                    "steps": [_step_json(step, commands.step_env(steps[p.name], step.shown.env)
-                                         if step.shown is not None else None)
-                              for step in steps[p.name].steps],
+                    "steps": [*map(_builder_step_json, steps[p.name].before),
+                              *(_step_json(step, commands.step_env(steps[p.name], step.shown.env)
+                                           if step.shown is not None else None)
+                                for step in steps[p.name].steps),
+                              *map(_builder_step_json, steps[p.name].after)],
                     "commands": commands.package_lines(p.name)}),
             }
             for p in build_plan.packages
@@ -200,6 +209,9 @@ def _what(package: PackagePlan) -> str:
         return f"up to date: {package.note}" if package.note else "up to date"
     if package.decision is Decision.RESTORE:
         return f"restore from cache: {package.reason.text}"
+    if package.wait is not None:
+        return (f"wait for shard {package.wait.owner} (up to {package.wait.seconds:.0f} s), "
+                f"then restore from cache, else build: {package.reason.text}")
     return f"build: {package.reason.text}"
 
 
@@ -214,4 +226,11 @@ def _step_json(step: Step, env: Mapping[str, str] | None) -> dict[str, object]:
         "env": None if env is None else dict(env),
         "reads": [os.fspath(path) for path in step.reads],
         "writes": [os.fspath(path) for path in step.writes],
+        "builder": False,
     }
+
+
+def _builder_step_json(work: BuilderStep) -> dict[str, object]:
+    """One of the builder's own steps, in the form of a build type's in-process step."""
+    return {"label": work.label, "in_process": True, "description": work.description,
+            "argv": None, "cwd": None, "env": None, "reads": [], "writes": [], "builder": True}

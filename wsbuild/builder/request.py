@@ -15,8 +15,8 @@ from wsbuild.engine.memory_budget import MemoryLimit
 from wsbuild.engine.timings import cpu_count
 
 if TYPE_CHECKING:
-    from wsbuild.builder.shard_cover import Assembly
-    from wsbuild.builder.shards import ShardSpec
+    from wsbuild.builder.shards.split import Assembly
+    from wsbuild.builder.shards.split import ShardSpec
 
 #: cpu_count is the engine's (the test run counts the cores too); the verbs find it here
 __all__ = ["BuildRequest", "RunOptions", "cpu_count", "options_of_record"]
@@ -60,7 +60,7 @@ class BuildRequest:
     strict_dependencies: bool = False
     force: bool = False
     repair_underlay: bool = True
-    #: --compiler-cache: auto, sccache, ccache or none (builder/compiler_cache.py)
+    #: --compiler-cache: auto, sccache, ccache or none (builder/resources/compiler_cache.py)
     compiler_cache: str = "auto"
     #: --timings: print per-package phase times and CPU time against the limit
     timings: bool = False
@@ -71,15 +71,15 @@ class BuildRequest:
     #: log/<run>/report.json and report.html (--no-report: off)
     report: bool = True
     #: --distribute: distcc hosts in DISTCC_HOSTS syntax; None: compile here only
-    #: (builder/distribute.py)
+    #: (builder/resources/distcc.py)
     distribute: str | None = None
     #: --env-ignore: variables that reach no build, beside record/environment.py's own list
     env_ignore: tuple[str, ...] = ()
-    #: --shard K/N: this job's share of a build split across a CI matrix (builder/shards.py)
+    #: --shard K/N: this job's share of a build split across a CI matrix (builder/shards/split.py)
     shard: ShardSpec | None = None
-    #: --assemble N: the job after a matrix of N shards (builder/shard_cover.py)
+    #: --assemble N: the job after a matrix of N shards (builder/shards/cover.py)
     assemble: Assembly | None = None
-    #: --memory-limit / --no-memory-limit: the memory budget (builder/memory.py)
+    #: --memory-limit / --no-memory-limit: the memory budget (builder/resources/memory.py)
     memory: MemoryLimit = MemoryLimit()
 
 

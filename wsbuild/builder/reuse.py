@@ -12,11 +12,11 @@ from wsbuild.engine.jobs import JobResult, Outcome
 from wsbuild.events import CacheRestored
 
 if TYPE_CHECKING:
-    from wsbuild.builder.package import PackageBuild
+    from wsbuild.builder.job import PackageJob
     from wsbuild.record.dirty import Environment
 
 
-def restore(build: PackageBuild) -> JobResult | None:
+def restore(build: PackageJob) -> JobResult | None:
     """Install the build cache's entry the plan found, once this machine proves it again
     with its dependencies as this run left them; None when it is refused (the package is
     then built). The package's record becomes the entry's (builder/records.py)."""
@@ -29,7 +29,7 @@ def restore(build: PackageBuild) -> JobResult | None:
     key = planned.cache_entry.key or planned.cache_key
     restored = session.cache.restore(
         key, planned.cache_entry.found, build.prefix, build.merged_record,
-        inputs_key=planned.inputs_key, dependencies=build._dependency_keys(),
+        inputs_key=planned.inputs_key, dependencies=build.dependency_keys(),
         digests=session.digests)
     if isinstance(restored, str):
         build._log(f"Not restored from the build cache: {restored}")
@@ -45,7 +45,7 @@ def restore(build: PackageBuild) -> JobResult | None:
                      message="restored from cache", restored=True)
 
 
-def cut_off(build: PackageBuild) -> JobResult | None:
+def cut_off(build: PackageJob) -> JobResult | None:
     """A package planned to build only if what it read of its dependencies (built before
     it in this run) changed: up to date when nothing did, its record refreshed."""
     from wsbuild.builder.records import cut_off_record
@@ -55,7 +55,7 @@ def cut_off(build: PackageBuild) -> JobResult | None:
     planned = build.planned
     if planned.reason is None or not planned.reason.cutoff or planned.previous is None:
         return None
-    dependencies = build._dependency_keys()
+    dependencies = build.dependency_keys()
     record = cut_off_record(planned, dependencies,
                             install_base=build.run.selection.workspace.install_base,
                             digests=build.run.session.digests,
@@ -67,7 +67,7 @@ def cut_off(build: PackageBuild) -> JobResult | None:
                      message=cutoff_note(planned.previous, dependencies))
 
 
-def environment_now(build: PackageBuild) -> Environment:
+def environment_now(build: PackageJob) -> Environment:
     """What the package's steps would see now, its dependencies (built before it in this
     run) applied: a dependency's hook may set what a step reads."""
     from wsbuild.builder.context import make_context

@@ -1,6 +1,6 @@
 """Small JSON documents the jobs of a CI matrix share through the cache server, beside the
 build cache's entries: the packages' recorded build times the split is balanced on, and what
-each shard of a run planned (builder/shard_run.py).
+each shard of a run planned (builder/shards/run.py).
 
 A document is a blob in the CAS and an action record naming it (`wsbuild/<kind>.json`), at
 the address sha256("wsbuild document <name>"): the layout bazel-remote and nginx (WebDAV)

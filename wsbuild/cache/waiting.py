@@ -1,6 +1,6 @@
 """Waiting for a package another job of a CI matrix builds: its entry is looked up again and
 again (`RunCache.probe`) until it is there and proved, until a deadline, or until the caller
-gives up (builder/shard_run.py: the other job planned another workspace). Every wait is
+gives up (builder/shards/run.py: the other job planned another workspace). Every wait is
 bounded; the looks grow from a fifth of a second to two seconds apart."""
 
 from __future__ import annotations

@@ -3,7 +3,7 @@
 peak (all its processes at once) and, per labelled step, the peak of one job under its make or
 Ninja and of the step's processes, with how many jobs were measured, in the order the steps ran. The memory governor
 (engine/memory.py) predicts from it; a CI matrix shares it through the cache server as it
-shares the times (builder/shard_run.py).
+shares the times (builder/shards/run.py).
 
 A build that measured fewer than half the jobs of a step the record measured (an incremental
 build compiling one file) only raises that step's figures; one that measured as many replaces

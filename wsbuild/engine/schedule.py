@@ -59,7 +59,7 @@ def run_jobs(
 ) -> list[JobResult]:
     """Run `job` for every job of `jobs` once its dependencies finished, in the order of a
     `ReadyQueue` under `weights` (the most remaining work first). The jobs named in `waiting`
-    mostly wait for another machine (a shard's packages of other shards, builder/shard_run.py):
+    mostly wait for another machine (a shard's packages of other shards, builder/shards/run.py):
     they start as soon as they are ready and take no worker. With `admit`, the next job in
     that order starts only when `admit` says it may (memory): none overtakes it meanwhile.
 

@@ -53,7 +53,7 @@ class StepObservations:
     #: variables a tool (by executable name) reads only to find its configuration and state
     tool_state: tuple[Path, ...] = ()
     tool_variables: Mapping[str, frozenset[str]] = field(default_factory=dict)
-    #: runs a program under the suite's build-step oracle (builder/step_trace.py), or None
+    #: runs a program under the suite's build-step oracle (builder/oracles/step_trace.py), or None
     tracer: Tracer | None = None
     _open: dict[str, tuple[str, Path, Mapping[str, str]]] = field(default_factory=dict)
     _count: int = 0

@@ -1,6 +1,6 @@
 """The one dirty check: whether a package's record still holds for the package as it is now,
 and if not, why (cargo's `DirtyReason`). The plan, early cutoff, the build cache and
-`--dry-run` all ask it; a cached test result's key derives from the same record."""
+`--dry-run` all ask it; a cached test result is asked in the same words (record/tested.py)."""
 
 from __future__ import annotations
 
@@ -45,6 +45,10 @@ class Dirty(str, Enum):
     UNOBSERVED = "unobserved"
     #: its build system had work left right after its last build: it runs every time
     VOLATILE = "volatile"
+    #: (a test result) its package was rebuilt since its tests passed
+    REBUILT = "rebuilt"
+    #: (a test result) the result files its run wrote changed or are gone
+    RESULTS = "results"
 
     def __str__(self) -> str:
         return self.value

@@ -20,7 +20,7 @@ from wsbuild.words import plural
 #: lines of a failed package's log shown in the report
 TAIL_LINES = 15
 CCACHE_STATS = "ccache_stats.log"
-#: the line before a package's compiles in CCACHE_STATS (as builder/compiler_cache.py writes it)
+#: the line before a package's compiles in CCACHE_STATS (as builder/resources/compiler_cache.py writes it)
 _CCACHE_PACKAGE = "## package "
 _CCACHE_HITS = {"direct_cache_hit", "preprocessed_cache_hit"}
 FAILED_OUTCOMES = ("failed", "interrupted")

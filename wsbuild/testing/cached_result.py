@@ -1,5 +1,5 @@
-"""A package's last passing test result, reused while nothing its tests read changed: what
-enters the key (`TestKey`), what its test run was observed to read (`CachedResult.reads`,
+"""A package's last passing test result, reused while nothing its tests read changed (asked
+of record/tested.py, in the dirty check's words): what enters the key (`TestKey`), what its test run was observed to read (`CachedResult.reads`,
 `.environment`: observe/, as a build's record holds its steps'), and the record kept of it in
 build/<pkg>/.wsbuild/test_result.json (digests only, never an environment value; the
 directory is private to the user). A run not fully observed is never reused.
@@ -31,7 +31,6 @@ The key's parts derive from the packages' records (record/model.py), each compar
 
 from __future__ import annotations
 
-import hashlib
 import json
 from collections.abc import Iterable
 from dataclasses import dataclass, field
@@ -40,17 +39,13 @@ from pathlib import Path
 from wsbuild import inputs
 from wsbuild.files import atomic_write, private_directory
 from wsbuild.build_types.junit import Counts
-from wsbuild.record.model import decode_outside, encode_outside
+from wsbuild.record.model import decode_outside, digest_of, encode_outside
 from wsbuild.record.outside import OutsideReads
+from wsbuild.record.tested import TestKey, TestRun
 
 #: the record of the package's last passing test result
 TEST_RECORD = Path(".wsbuild") / "test_result.json"
 RECORD_FORMAT = 3
-
-
-def _digest(value: object) -> str:
-    return hashlib.blake2b(json.dumps(value, sort_keys=True).encode(),
-                           digest_size=16).hexdigest()
 
 
 #: type and mode, inode, size, modification and change times of a path (through links)
@@ -60,45 +55,8 @@ stat_signature = inputs.signature
 def interpreter_tools(python_executable: str) -> str:
     """What every package's test tools share: the interpreter (what the tests read of its
     library and distributions is observed)."""
-    return _digest([python_executable, stat_signature(python_executable),
+    return digest_of([python_executable, stat_signature(python_executable),
                     stat_signature(inputs.realpath(python_executable))])
-
-
-@dataclass(frozen=True, slots=True)
-class TestKey:
-    """Everything a package's tests can observe, as digests (see the module's docstring)."""
-
-    __test__ = False  # not a pytest test class
-
-    build: str
-    closure: dict[str, str]
-    sources: str
-    options: str
-    tools: str
-    underlays: str = ""
-
-    @property
-    def digest(self) -> str:
-        return _digest([self.build, sorted(self.closure.items()), self.underlays, self.sources,
-                        self.options, self.tools])
-
-    def changed_since(self, old: TestKey) -> str:
-        """What changed from `old`, in words (the first of the parts, in the key's order)."""
-        if self.build != old.build:
-            return "the package was rebuilt"
-        if self.closure != old.closure:
-            names = sorted(n for n in set(self.closure) | set(old.closure)
-                           if self.closure.get(n) != old.closure.get(n))
-            return f"rebuilt on its test environment: {' '.join(names)}"
-        if self.underlays != old.underlays:
-            return "an underlay workspace's package it runs against changed"
-        if self.sources != old.sources:
-            return "a file of the package changed"
-        if self.options != old.options:
-            return "other test options"
-        if self.tools != old.tools:
-            return "the test tools or the installed distributions changed"
-        return ""
 
 
 @dataclass(frozen=True, slots=True)
@@ -118,6 +76,11 @@ class CachedResult:
     environment: dict[str, str] = field(default_factory=dict)
     #: why the run was not fully observed (such a result is never reused)
     unobserved: tuple[str, ...] = ()
+
+    def run(self) -> TestRun:
+        """What record/tested.py compares: the key, the reads, the result files kept."""
+        return TestRun(self.key, self.reads, self.environment, self.unobserved,
+                       results_kept=self.files_unchanged())
 
     def files_unchanged(self) -> bool:
         """The JUnit files are still those the run wrote (what `test-result` reads)."""

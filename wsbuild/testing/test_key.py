@@ -12,7 +12,8 @@ from wsbuild import __version__
 from wsbuild.build_types.test_runner import TestContext, TestRunner
 from wsbuild.record.model import PackageRecord, read_record
 from wsbuild.record.own_files import stat_digest
-from wsbuild.testing.cached_result import TestKey, interpreter_tools
+from wsbuild.record.tested import TestKey
+from wsbuild.testing.cached_result import interpreter_tools
 from wsbuild.testing.closure import closure_under_test
 from wsbuild.testing.underlays import UnderlayPackages
 

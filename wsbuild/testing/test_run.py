@@ -45,8 +45,11 @@ from wsbuild.testing.results import (
 from wsbuild.engine.ready_queue import JobGraph
 from wsbuild.testing.request import TestRequest
 from wsbuild.testing.tester import PackageTester
+from wsbuild.words import plural
+from wsbuild.testing.cached_result import read_cached_result
 
 if TYPE_CHECKING:
+    from wsbuild.record.dirty import Reason
     from wsbuild.workspace.selection import Selection
 
 
@@ -150,6 +153,13 @@ def _failing(report: PackageTests, run_log: Path) -> list[dict[str, str | None]]
 def reusable_results(selection: Selection, request: TestRequest) -> set[str]:
     """The selected packages whose last passing result `run_tests` would reuse now (what
     colcon-cache's selection options call a valid test cache). Takes no lock, writes nothing."""
+    return {name for name, reason in test_plan(selection, request) if reason is None}
+
+
+def test_plan(selection: Selection, request: TestRequest) -> list[tuple[str, Reason | None]]:
+    """Each selected package with tests, and why its tests would run (record/tested.py's
+    `Reason`; None: its last passing result is reused), as `run_tests` decides it now
+    (`wsbuild test --dry-run`). Takes no lock, writes nothing."""
     from wsbuild.prefix.layout import resolve_layout
     from wsbuild.observe.step_environment import step_base
     from wsbuild.session import LINT_SHIM
@@ -159,12 +169,12 @@ def reusable_results(selection: Selection, request: TestRequest) -> set[str]:
     try:
         merged = resolve_layout(ws.install_base, request.merge_install, verb="test")
     except WorkspaceError:
-        return set()
+        return []
     underlay = prepare_underlay(os.environ, executable=sys.executable, repair=False,
                                 shim_dir=ws.build_base / LINT_SHIM, notice=lambda _text: None,
                                 dry_run=True)
     tester = PackageTester(selection, request, merged, step_base(underlay.environ), ws.log_base)
-    valid = set()
+    plan: list[tuple[str, Reason | None]] = []
     for name in selection.selected:
         runner = tester.runner(name)
         if runner is None:
@@ -176,9 +186,27 @@ def reusable_results(selection: Selection, request: TestRequest) -> set[str]:
             for path in inputs.walk_files(share):
                 inputs.declare_file(path)
         ctx = tester.context(name, runner, None)
-        if tester.reusable(name, tester.key(runner, ctx), None, ctx.environ) is not None:
-            valid.add(name)
-    return valid
+        key = tester.key(runner, ctx)
+        cached = read_cached_result(ws.build_base / name) \
+            if key is not None and request.reuse_results else None
+        plan.append((name, tester.rerun_reason(key, cached, ctx.environ)))
+    return plan
+
+
+def test_plan_lines(plan: list[tuple[str, Reason | None]]) -> list[str]:
+    """`wsbuild test --dry-run`: each package's decision, as `build --dry-run` words a
+    build's (`test: <why>`, from the same `Reason`)."""
+    running = [name for name, reason in plan if reason is not None]
+    lines = [f"dry run: {plural(len(plan), 'package')} with tests, {len(running)} would run "
+             f"their tests, {len(plan) - len(running)} reuse their last passing result "
+             "(nothing was touched)"]
+    width = max((len(name) for name, _ in plan), default=0)
+    digits = len(str(len(plan)))
+    for number, (name, reason) in enumerate(plan, start=1):
+        what = f"test: {reason.text}" if reason is not None else \
+            "reuse the last passing result: nothing its tests read changed"
+        lines.append(f"  {number:>{digits}}. {name.ljust(width)}  {what}")
+    return lines
 
 
 def _shown(report: PackageTests) -> JobResult:

@@ -22,7 +22,6 @@ from wsbuild.events import Emit, StepStarted
 from wsbuild.prefix.layout import package_prefix
 from wsbuild.testing.cached_result import (
     CachedResult,
-    TestKey,
     file_stamps,
     forget_cached_result,
     read_cached_result,
@@ -36,8 +35,11 @@ from wsbuild.testing.tooling import tooling_failures
 from wsbuild.underlay.lint_programs import missing_program
 from wsbuild.engine.logs import append_command_log
 
+from wsbuild.record.tested import TestKey
+
 if TYPE_CHECKING:
     from wsbuild.observe.library import Observer
+    from wsbuild.record.dirty import Reason
     from wsbuild.record.outside import OutsideReads
     from wsbuild.testing.request import TestRequest
     from wsbuild.workspace.selection import Selection
@@ -99,44 +101,26 @@ class PackageTester:
 
     def reusable(self, name: str, key: TestKey | None, log_dir: Path | None,
                  environ: Mapping[str, str] | None = None) -> CachedResult | None:
-        """The package's last passing result, when it applies to `key` and nothing its run
-        read changed (`environ`: the environment its tests would run in now); why not, in its
-        log."""
-        if key is None:
-            why = "not built by wsbuild (no build key), nor all of its test closure"
-        else:
-            cached = read_cached_result(self.selection.workspace.build_base / name)
-            if cached is None:
-                why = "no passing result recorded"
-            elif cached.key != key:
-                why = key.changed_since(cached.key) or "its key changed"
-            elif cached.unobserved:
-                why = f"its last run was not fully observed ({cached.unobserved[0]})"
-            elif not cached.files_unchanged():
-                why = "its result files changed or are gone"
-            elif (changed := self._read_changed(cached, environ)) is not None:
-                why = changed
-            else:
-                return cached
+        """The package's last passing result, when it still holds (`environ`: the
+        environment its tests would run in now); why not, in its log."""
+        cached = read_cached_result(self.selection.workspace.build_base / name) \
+            if key is not None and self.request.reuse_results else None
+        reason = self.rerun_reason(key, cached, environ)
+        if reason is None:
+            return cached
         if log_dir is not None:
-            _log(log_dir, f"test result not reused: {why}")
+            _log(log_dir, f"test result not reused: {reason.text}")
         return None
 
-    def _read_changed(self, cached: CachedResult, environ: Mapping[str, str] | None
-                      ) -> str | None:
-        """What the cached run read that differs now: a variable, a file, a listing."""
-        from wsbuild.record.environment import changed_names, variable_digests
-        from wsbuild.record.outside import Digests, first_change
+    def rerun_reason(self, key: TestKey | None, cached: CachedResult | None,
+                     environ: Mapping[str, str] | None) -> Reason | None:
+        """Why the tests run again rather than reuse `cached` (record/tested.py)."""
+        from wsbuild.record.tested import rerun_reason
 
-        install = str(self.selection.workspace.install_base)
-        if environ is not None:
-            now = variable_digests(environ, cached.environment, own_install=install,
-                                   ignored=self.request.env_ignore)
-            names = changed_names(cached.environment, now)
-            if names:
-                return f"environment variables changed: {' '.join(names)}"
-        changed = first_change(cached.reads, Digests())
-        return f"changed since: {changed}" if changed is not None else None
+        return rerun_reason(key, cached.run() if cached is not None else None,
+                            environ=environ, own_install=str(self.selection.workspace.install_base),
+                            ignored=self.request.env_ignore,
+                            forced=not self.request.reuse_results)
 
     def environment(self, name: str) -> dict[str, str]:
         """The package's install last, after its test closure in dependency order."""
@@ -164,16 +148,15 @@ class PackageTester:
         stopped: list[str] = []
         ctx = self.context(name, runner, log_dir, observations, stopped)
         key = self.key(runner, ctx)
-        if self.request.reuse_results:
-            cached = self.reusable(name, key, log_dir, ctx.environ)
-            if cached is not None:
-                _log(log_dir, f"test result reused from {cached.log_dir}: nothing its tests "
-                              "observe changed")
-                files = tuple(Path(p) for p in cached.result_files)
-                return PackageTests(name, PackageStatus.PASSED, cached.counts,
-                                    result_files=files, log_dir=cached.log_dir, cached=True,
-                                    seconds=time.monotonic() - started,
-                                    missing_linters=_missing_linters_in(files))
+        cached = self.reusable(name, key, log_dir, ctx.environ)
+        if cached is not None:
+            _log(log_dir, f"test result reused from {cached.log_dir}: nothing its tests "
+                          "observe changed")
+            files = tuple(Path(p) for p in cached.result_files)
+            return PackageTests(name, PackageStatus.PASSED, cached.counts,
+                                result_files=files, log_dir=cached.log_dir, cached=True,
+                                seconds=time.monotonic() - started,
+                                missing_linters=_missing_linters_in(files))
         forget_cached_result(ctx.build_dir)
         ctx.results_dir.mkdir(parents=True, exist_ok=True)
         observations.start()

@@ -22,8 +22,8 @@ from wsbuild.verbs.arguments import (
 if TYPE_CHECKING:  # the modules of the work are imported when the verb runs, not to parse
     from wsbuild.build_types import TypeOption
     from wsbuild.builder.request import BuildRequest
-    from wsbuild.builder.shard_cover import Assembly
-    from wsbuild.builder.shards import ShardSpec
+    from wsbuild.builder.shards.split import Assembly
+    from wsbuild.builder.shards.split import ShardSpec
     from wsbuild.cache.settings import CacheSettings
     from wsbuild.reporter import Console
     from wsbuild.verbs.load import LoadRequest
@@ -177,7 +177,7 @@ def type_values_from_args(args: argparse.Namespace) -> dict[str, object]:
 def request_from_args(args: argparse.Namespace) -> BuildRequest:
     """The BuildRequest the options of `args` ask for (checked)."""
     from wsbuild.build_types import BuildOptions
-    from wsbuild.builder.distribute import distribute_spec
+    from wsbuild.builder.resources.distcc import distribute_spec
     from wsbuild.builder.request import BuildRequest, RunOptions, cpu_count
     from wsbuild.engine.memory_budget import parse_memory_limit
 
@@ -218,7 +218,7 @@ def _shard_from_args(args: argparse.Namespace) -> ShardSpec | None:
     cache on a server the jobs share."""
     if args.shard is None:
         return None
-    from wsbuild.builder.shards import parse_shard, shard_run_id
+    from wsbuild.builder.shards.split import parse_shard, shard_run_id
 
     spec = parse_shard(args.shard, run=shard_run_id(os.environ))
     settings = _cache_settings_from_args(args)
@@ -235,8 +235,8 @@ def _assembly_from_args(args: argparse.Namespace) -> Assembly | None:
     server the shards shared."""
     if getattr(args, "assemble", None) is None:
         return None
-    from wsbuild.builder.shard_cover import Assembly
-    from wsbuild.builder.shards import parse_shard_count, shard_run_id
+    from wsbuild.builder.shards.split import Assembly
+    from wsbuild.builder.shards.split import parse_shard_count, shard_run_id
 
     count = parse_shard_count(args.assemble, option="--assemble")
     if args.shard is not None:
@@ -340,7 +340,7 @@ def _dry_run(selection: Selection, request: BuildRequest, *, json_output: bool,
     """Print what the build would do; exit 2 when it would refuse to start."""
     import json
 
-    from wsbuild.builder.memory import budget_json, budget_line
+    from wsbuild.builder.resources.memory import budget_json, budget_line
     from wsbuild.builder.pipeline import dry_run
     from wsbuild.builder.plan_text import plan_json, plan_lines
     from wsbuild.words import plural

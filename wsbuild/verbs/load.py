@@ -14,6 +14,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from wsbuild.build_types import KnownBuildTypes
+from wsbuild.build_types.plugins import package_identifiers
 from wsbuild.errors import ManifestError, WsbuildError
 from wsbuild.verbs.arguments import Bases, bases_from_args, selection_from_args
 from wsbuild.workspace.discover import discover_packages, expand_paths
@@ -126,6 +127,7 @@ def load(request: LoadRequest, *, select: bool = True,
         known_build_types=KnownBuildTypes(),
         memo_file=workspace.build_base / MANIFEST_MEMO,
         remember=remember,
+        identifiers=package_identifiers(),  # type: ignore[arg-type]
     )
     packages = discovery.packages
     if need_packages and not packages:
@@ -173,7 +175,7 @@ def refuse_manifests(packages: Mapping[str, Package], selected: Sequence[str]) -
         package = packages[name]
         if not package.refused:
             continue
-        reader = getattr(get_build_type(package.build_type), "manifest_reader", "")
+        reader = get_build_type(package.build_type).manifest_reader
         if reader:
             line, problem, fix = package.refused[0]
             raise ManifestError(f"{problem}: {reader} refuses it", path=package.manifest,

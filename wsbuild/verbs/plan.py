@@ -1,5 +1,5 @@
 """`wsbuild plan --shards N`: how a build of the selected packages splits across the N jobs of
-a CI matrix (builder/shards.py), as text or as the matrix JSON a CI system takes."""
+a CI matrix (builder/shards/split.py), as text or as the matrix JSON a CI system takes."""
 
 from __future__ import annotations
 
@@ -13,7 +13,7 @@ from wsbuild.errors import WsbuildError
 from wsbuild.reporter import print_warnings
 
 if TYPE_CHECKING:  # imported when the verb runs, not to parse
-    from wsbuild.builder.shards import Split
+    from wsbuild.builder.shards.split import Split
     from wsbuild.cache.settings import CacheSettings
     from wsbuild.verbs.load import LoadRequest
 
@@ -59,7 +59,7 @@ class PlanVerbRequest:
 
 def plan_verb_request_from_args(args: argparse.Namespace) -> PlanVerbRequest:
     from wsbuild.builder.request import cpu_count
-    from wsbuild.builder.shards import parse_shard_count
+    from wsbuild.builder.shards.split import parse_shard_count
     from wsbuild.cache.settings import settings_from_environment
     from wsbuild.verbs.load import load_request_from_args
 
@@ -74,9 +74,9 @@ def plan_verb_request_from_args(args: argparse.Namespace) -> PlanVerbRequest:
 
 def run_plan_verb(args: argparse.Namespace) -> int:
     """Print how the build splits across the jobs of a CI matrix."""
-    from wsbuild.builder.shard_cover import run_of
-    from wsbuild.builder.shard_run import split_of
-    from wsbuild.builder.shards import shard_run_id
+    from wsbuild.builder.shards.cover import run_of
+    from wsbuild.builder.shards.run import split_of
+    from wsbuild.builder.shards.split import shard_run_id
     from wsbuild.cache.documents import SharedDocuments
     from wsbuild.reporter import print_notes
     from wsbuild.verbs.load import load

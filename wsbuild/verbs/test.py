@@ -23,7 +23,7 @@ from wsbuild.verbs.arguments import (
 from wsbuild.workspace.root import BUILD_BASE
 
 if TYPE_CHECKING:  # the modules of the work are imported when the verb runs, not to parse
-    from wsbuild.builder.shards import ShardSpec
+    from wsbuild.builder.shards.split import ShardSpec
     from wsbuild.reporter import Console, Reporter
     from wsbuild.workspace.selection import Selection
     from wsbuild.testing.request import TestRequest
@@ -83,6 +83,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                           "they were built (default: say so, and test what was built)")
     how.add_argument("--no-test-cache", action="store_true",
                      help="run every test, even where the last passing result still applies")
+    how.add_argument("--dry-run", action="store_true",
+                     help="say which packages' tests would run and why, and which would reuse "
+                          "their last passing result; run and write nothing")
     how.add_argument("--shard", metavar="K/N",
                      help="test what `build --shard K/N` built here (docs/ci.md)")
     add_env_ignore_argument(how)
@@ -170,10 +173,12 @@ class TestVerbRequest:
     test: TestRequest
     metadata: MetadataRequest
     console: Console
-    #: --shard K/N: this job's share of the split (builder/shard_run.py)
+    #: --shard K/N: this job's share of the split (builder/shards/run.py)
     shard: ShardSpec | None = None
     #: --build: build what changed since it was built first
     build_first: bool = False
+    #: --dry-run: say what would run and why (testing/test_run.py: `test_plan`)
+    dry_run: bool = False
 
 
 def test_verb_request_from_args(args: argparse.Namespace) -> TestVerbRequest:
@@ -185,13 +190,13 @@ def test_verb_request_from_args(args: argparse.Namespace) -> TestVerbRequest:
     test = request_from_args(args, workspace_root(args.workspace_dir))
     shard = None
     if args.shard is not None:
-        from wsbuild.builder.shards import parse_shard, shard_run_id
+        from wsbuild.builder.shards.split import parse_shard, shard_run_id
 
         shard = parse_shard(args.shard, run=shard_run_id(os.environ))
     return TestVerbRequest(
         load=load_request_from_args(args, cache=cache_selection_from_args(args, test=test)),
         test=test, metadata=metadata_from_args(args), console=console_from_args(args),
-        shard=shard, build_first=args.build_first)
+        shard=shard, build_first=args.build_first, dry_run=args.dry_run)
 
 
 def run_test_verb(args: argparse.Namespace) -> int:
@@ -215,14 +220,19 @@ def run_test_verb(args: argparse.Namespace) -> int:
     selection = Selection(loaded.workspace, loaded.packages, loaded.graph, loaded.selected)
     shard_run = ""
     if verb.shard is not None:  # the packages `build --shard` built here
-        from wsbuild.builder.shard_cover import run_of
-        from wsbuild.builder.shard_run import test_selection
+        from wsbuild.builder.shards.cover import run_of
+        from wsbuild.builder.shards.run import test_selection
         from wsbuild.cache.settings import settings_from_environment
 
         shard_run = run_of(selection, verb.shard.run)
         selection, line = test_selection(selection, verb.shard, request.workers,
                                          settings_from_environment(os.environ))
         print_notes([line])
+    if verb.dry_run:
+        from wsbuild.testing.test_run import test_plan, test_plan_lines
+
+        print("\n".join(test_plan_lines(test_plan(selection, request))))
+        return 0
     console = verb.console
     reporter = Reporter(verb="test", console=console, log_base=loaded.workspace.log_base,
                         progress=progress_of(selection, request.workers, durations=False))
@@ -249,7 +259,7 @@ def run_test_verb(args: argparse.Namespace) -> int:
 
 
 def _note_tested(shard: ShardSpec, run: str, selection: Selection) -> None:
-    from wsbuild.builder.shard_cover import note_tested
+    from wsbuild.builder.shards.cover import note_tested
     from wsbuild.cache.settings import settings_from_environment
 
     settings = settings_from_environment(os.environ)

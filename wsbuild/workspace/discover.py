@@ -6,7 +6,7 @@ import configparser
 import glob
 import os
 import re
-from collections.abc import Collection, Iterable, Mapping, Sequence
+from collections.abc import Callable, Collection, Iterable, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -23,22 +23,56 @@ _SETUP_NAME_RE = re.compile(r"""\bname\s*=\s*['"]([^'"]+)['"]""")
 #: names of packages without package.xml (plain CMake/Python): no path or shell syntax
 _PLAIN_NAME_RE = re.compile(r"^[A-Za-z0-9][A-Za-z0-9._-]*$")
 
+#: a third-party way to recognise a package directory that has no package.xml (an entry point
+#: of group `wsbuild.package_identification`, build_types/plugins.py): called with the
+#: directory and the names of its entries, the package it is, or None. What it reads it reads
+#: through wsbuild/inputs.py (declared, as every read of a run that plans).
+Identifier = Callable[[Path, frozenset[str]], "Package | None"]
 
-def find_package_dirs(base_paths: Iterable[Path], skip: Collection[Path] = ()) -> list[Path]:
+
+def find_package_dirs(base_paths: Iterable[Path], skip: Collection[Path] = (),
+                      identifiers: Sequence[Identifier] = (),
+                      claimed: dict[str, Package] | None = None) -> list[Path]:
     """Crawl each base path; a directory that is a package is not descended into.
 
     Skips ignore-marked, hidden, virtualenv and conda directories, and `skip` (the workspace's
-    own build/install/log). Symlinks are followed, each real directory visited once.
+    own build/install/log). Symlinks are followed, each real directory visited once. A
+    directory none of the built-in rules takes is offered to the `identifiers`; what one says
+    it is goes into `claimed` (by path).
     """
     skip_real = {inputs.realpath(p) for p in skip}
     seen: set[str] = set()
     found: list[Path] = []
+    claims = _Claims(identifiers, claimed if claimed is not None else {})
     for base in base_paths:
-        _crawl(str(base), inputs.realpath(base), skip_real, seen, found)
+        _crawl(str(base), inputs.realpath(base), skip_real, seen, found, claims)
     return found
 
 
-def _crawl(path: str, real: str, skip: set[str], seen: set[str], found: list[Path]) -> None:
+@dataclass(frozen=True, slots=True)
+class _Claims:
+    identifiers: Sequence[Identifier]
+    claimed: dict[str, Package]
+
+    def claim(self, path: Path, names: frozenset[str]) -> Package | None:
+        """What the first identifier that knows the directory says it is (checked)."""
+        for identifier in self.identifiers:
+            package = identifier(path, names)
+            if package is not None:
+                if not isinstance(package, Package) or package.path != path:
+                    raise WorkspaceError(
+                        f"the package identifier {identifier!r} answered {package!r} for {path}",
+                        hint="an identifier returns a wsbuild.workspace.model.Package of the "
+                             "directory it was given, or None; update or uninstall its "
+                             "distribution")
+                _checked_plain_name(package.name, path)
+                self.claimed[str(path)] = package
+                return package
+        return None
+
+
+def _crawl(path: str, real: str, skip: set[str], seen: set[str], found: list[Path],
+           claims: _Claims) -> None:
     # `real` is tracked alongside `path` so that only symlinks cost a realpath() call
     if real in seen or real in skip:
         return
@@ -50,7 +84,8 @@ def _crawl(path: str, real: str, skip: set[str], seen: set[str], found: list[Pat
     names = {e.name for e in entries}
     if any(m in names for m in IGNORE_MARKERS) or "pyvenv.cfg" in names or "conda-meta" in names:
         return
-    if _looks_like_package(path, names):
+    if _looks_like_package(path, names) or (
+            claims.identifiers and claims.claim(Path(path), frozenset(names)) is not None):
         found.append(Path(path))
         return
     for entry in sorted(entries, key=lambda e: e.name):
@@ -63,7 +98,7 @@ def _crawl(path: str, real: str, skip: set[str], seen: set[str], found: list[Pat
             continue
         if is_dir:
             child_real = inputs.realpath(entry.path) if is_link else f"{real}/{entry.name}"
-            _crawl(entry.path, child_real, skip, seen, found)
+            _crawl(entry.path, child_real, skip, seen, found, claims)
 
 
 def _looks_like_package(path: str, names: set[str]) -> bool:
@@ -97,8 +132,11 @@ def identify_package(
     known_build_types: Collection[str],
     warnings: list[str],
     memo: ManifestMemo | None = None,
+    identifiers: Sequence[Identifier] = (),
+    claimed: Mapping[str, Package] | None = None,
 ) -> Package | None:
-    """Read one package directory: package.xml first, else CMake, else Python metadata."""
+    """Read one package directory: package.xml first, else what a third-party identifier
+    says (`claimed` by the crawl already, or asked now), else CMake, else Python metadata."""
     manifest = path / "package.xml"
     if inputs.exists(manifest):
         key = memo.key(manifest, environ) if memo is not None else None
@@ -116,6 +154,13 @@ def identify_package(
         if memo is not None and key is not None and package is not None:
             memo.put(manifest, key, package, own)
         return package
+    if claimed is not None and str(path) in claimed:
+        return claimed[str(path)]
+    if identifiers:
+        found = _Claims(identifiers, {}).claim(
+            path, frozenset(e.name for e in inputs.scandir(path)))
+        if found is not None:
+            return found
     if (path / "CMakeLists.txt").exists():
         return _identify_cmake(path)
     if any((path / f).exists() for f in _PYTHON_FILES):
@@ -235,21 +280,25 @@ def discover_packages(
     known_build_types: Collection[str],
     memo_file: Path | None = None,
     remember: bool = True,
+    identifiers: Sequence[Identifier] = (),
 ) -> Discovery:
     """Find and identify every package; `paths` (explicit package dirs) win over crawling.
 
     `known_build_types` answers which `<build_type>` names exist (the build_types room's
     `KnownBuildTypes()`; the workspace room does not import the build types itself).
     `memo_file` remembers what each package.xml read gave (workspace/memo.py); without
-    `remember` it is only read (a dry run writes nothing)."""
-    dirs = list(paths) if paths else find_package_dirs(base_paths, skip=workspace_dirs)
+    `remember` it is only read (a dry run writes nothing). `identifiers`: the third-party
+    ways to recognise a package without package.xml (`Identifier`)."""
+    claimed: dict[str, Package] = {}
+    dirs = list(paths) if paths else find_package_dirs(base_paths, skip=workspace_dirs,
+                                                       identifiers=identifiers, claimed=claimed)
     warnings: list[str] = []
     found = []
     memo = ManifestMemo.load(memo_file)
     for directory in dirs:
         package = identify_package(
             directory, environ=environ, known_build_types=known_build_types, warnings=warnings,
-            memo=memo,
+            memo=memo, identifiers=identifiers, claimed=claimed,
         )
         if package is not None:
             found.append(package)

@@ -20,7 +20,7 @@ from wsbuild.build_types import PackageContext, BuildOptions, Command, Problems,
 from wsbuild.workspace.names import is_valid_dependency_name
 
 MODULE = "wsbuild.build_types.pybuild.by_hand"
-STEPS = ("configure", "install", "index", "record")
+STEPS = ("configure", "install", "index")
 
 
 def by_hand_command(step: str, ctx: PackageContext) -> Command:
@@ -111,10 +111,8 @@ def run_step(step: str, ctx: PackageContext) -> None:
         recipe.configure(ctx)
     elif step == "install":
         recipe.install(ctx, recipe.configure(ctx))
-    elif step == "index":
-        register(ctx)
     else:
-        recipe.record(ctx)
+        register(ctx)
 
 
 def main(argv: Sequence[str]) -> int:

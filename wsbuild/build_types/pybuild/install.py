@@ -14,9 +14,6 @@ from pathlib import Path, PurePosixPath
 from wsbuild.build_types import StepFailed
 from wsbuild.build_types.pybuild.setup_py import ModuleFile, SetupPlan
 
-#: what was installed, relative to the prefix, one path a line (in the build directory)
-INSTALLED_FILES = "installed_files.txt"
-
 # distutils' build_scripts rewrites a shebang naming python to the building interpreter
 _PYTHON_SHEBANG = re.compile(rb"^#!.*python[0-9.]*([ \t].*)?$")
 _CONFIG_VAR = re.compile(r"\$(?:\{(\w+)\}|(\w+))")
@@ -313,34 +310,6 @@ def link_verbatim_copies(plan: SetupPlan, *, source_dir: Path, target: InstallTa
             writer.symlink(source, relpath)
             linked += 1
     return linked
-
-
-def record_installed_files(stage_prefix: Path, build_dir: Path) -> tuple[PurePosixPath, ...]:
-    """List every file and symlink below `stage_prefix` (relative, sorted) and keep the list
-    in `build_dir/installed_files.txt` (rewritten only when it changes)."""
-    found: list[PurePosixPath] = []
-    for root, dirs, files in os.walk(stage_prefix):
-        rel = PurePosixPath(Path(root).relative_to(stage_prefix).as_posix())
-        for name in dirs:
-            if (Path(root) / name).is_symlink():  # os.walk does not descend into it
-                found.append(rel / name)
-        found.extend(rel / name for name in files)
-    result = tuple(sorted(found))
-    text = "".join(f"{path}\n" for path in result)
-    record = build_dir / INSTALLED_FILES
-    if not record.is_file() or record.read_text(encoding="utf-8") != text:
-        build_dir.mkdir(parents=True, exist_ok=True)
-        record.write_text(text, encoding="utf-8")
-    return result
-
-
-def read_installed_files(build_dir: Path) -> tuple[PurePosixPath, ...]:
-    """The list `record_installed_files` kept; empty when the package was never installed."""
-    record = build_dir / INSTALLED_FILES
-    if not record.is_file():
-        return ()
-    return tuple(PurePosixPath(line) for line in record.read_text(encoding="utf-8").splitlines()
-                 if line)
 
 
 def _umask() -> int:

@@ -24,7 +24,6 @@ from wsbuild.build_types.pybuild.install import (
     install_wheel,
     link_verbatim_copies,
     python_version_of,
-    record_installed_files,
     scripts_relpath,
 )
 from wsbuild.build_types.pybuild.paths import site_packages_relpath
@@ -148,11 +147,6 @@ def _read_outside(ctx: PackageContext, setup: SetupPlan) -> ReadOutside:
     read = {str(ctx.source_dir / f.source) for f in setup.files}
     read.update(str(ctx.source_dir / name) for entry in setup.data_files for name in entry.sources)
     return ReadOutside(files=outside(read))
-
-
-def record(ctx: PackageContext) -> None:
-    """Keep the list of installed files in the build directory."""
-    record_installed_files(ctx.stage_prefix, ctx.build_dir)
 
 
 def install_target(ctx: PackageContext, plan: PythonBuildPlan) -> InstallTarget:

@@ -375,6 +375,17 @@ def count_compile_jobs(log: Path, remote_names: Sequence[str]) -> CompileJobs:
                        hosts=tuple(remote_names))
 
 
+def gate_cmake_path(build_base: Path) -> Path:
+    """The CMake file that installs the gate (a stable path: the plan names it in the
+    configure's arguments before the run opens distcc)."""
+    return build_base / GATE_DIR / "local_gate.cmake"
+
+
+def planned_environ(build_base: Path) -> dict[str, str]:
+    """What a distributed run sets that the steps' decision reads, as the plan takes it."""
+    return {GATE_CMAKE_VAR: str(gate_cmake_path(build_base))}
+
+
 def _write_gate(build_base: Path) -> Path:
     """The gate script and the CMake file that installs it, under build/.wsbuild/distribute
     (written only when their content changes, so CMake sees the same file every run)."""
@@ -383,7 +394,7 @@ def _write_gate(build_base: Path) -> Path:
     gate = folder / "local_gate.sh"
     _write_if_changed(gate, _GATE_SCRIPT)
     gate.chmod(0o755)
-    cmake = folder / "local_gate.cmake"
+    cmake = gate_cmake_path(build_base)
     _write_if_changed(cmake, _GATE_CMAKE.format(gate=gate))
     return cmake
 

@@ -2,7 +2,7 @@
 K/N`, `plan --shards N`): which shard builds which package, when each package is predicted to
 be done, and for shard K how long it waits for each package of another shard that it needs.
 
-Pure logic: the weights (recorded times) come in, the split comes out; builder/shard_run.py
+Pure logic: the weights (recorded times) come in, the split comes out; builder/shards/run.py
 reads the times, meets the other shards in the build cache and runs the waits.
 
 How the split is chosen: a list schedule of the selected packages on N machines of W workers
@@ -37,6 +37,15 @@ TRANSFER_SECONDS = 3.0
 WAIT_SHARE = 0.25
 #: ... plus the longer of this and half the package's own time
 WAIT_GRACE_SECONDS = 10.0
+
+
+@dataclass(frozen=True, slots=True)
+class Assembly:
+    """What `--assemble N` asks: the job after a matrix of `count` shards of the CI run
+    `run` ("": none known, the commit's workspace is the run)."""
+
+    count: int
+    run: str = ""
 
 
 @dataclass(frozen=True, slots=True)
@@ -231,7 +240,7 @@ def split_packages(jobs: JobGraph, weights: Mapping[str, float], count: int, wor
                    assignment: Mapping[str, int] | None = None) -> Split:
     """The split of `jobs` into `count` shards of `workers` workers (see the module's
     docstring); with `assignment`, that split's schedule instead (a split taken from another
-    shard: builder/shard_run.py)."""
+    shard: builder/shards/run.py)."""
     workers = max(1, workers)
     path = jobs.critical_path(weights)
     if assignment is not None or count == 1:

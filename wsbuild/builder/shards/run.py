@@ -1,10 +1,10 @@
 """One shard of a build split across the jobs of a CI matrix (`build --shard K/N`), around the
-split of builder/shards.py. The build cache's server is where the shards meet:
+split of builder/shards/split.py. The build cache's server is where the shards meet:
 
 1. the times: each package's recorded build time, from the server's shared document (what
    earlier shards built), else this workspace's last run (build/.wsbuild/durations.json);
-   an unknown package weighs its estimate, scaled to the recorded ones (shards.py);
-2. the split, on the times fixed for the run (builder/shard_cover.py: the run is
+   an unknown package weighs its estimate, scaled to the recorded ones (split.py);
+2. the split, on the times fixed for the run (builder/shards/cover.py: the run is
    `WSBUILD_SHARD_RUN`, GitHub's run id, GitLab's pipeline id, else the commit's workspace),
    and what each shard of the same run planned (its note). A note of the same workspace with
    another split (the workers differ) is taken over, so all shards build by one split; a
@@ -21,7 +21,7 @@ costs time, never a wrong install.
 
 Over 500 lines because a shard's run is one sequence, read top to bottom: its times, its
 split, its peers' notes, its waits and the times it publishes (the split itself, pure logic,
-is shards.py).
+is split.py).
 """
 
 from __future__ import annotations
@@ -34,8 +34,8 @@ from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from wsbuild.builder.shard_cover import TIMES, run_of, run_times, shared_times
-from wsbuild.builder.shards import (
+from wsbuild.builder.shards.cover import TIMES, run_of, run_times, shared_times
+from wsbuild.builder.shards.split import (
     ShardSpec,
     Split,
     calibrated_weights,
@@ -98,7 +98,7 @@ class ShardPlan:
     #: lines said once the plan is made (taken split, another workspace)
     notices: tuple[tuple[str, bool], ...] = ()
     log: ShardLog = field(default_factory=ShardLog, compare=False)
-    #: what each package needed in memory, as the matrix's jobs shared it (builder/memory.py)
+    #: what each package needed in memory, as the matrix's jobs shared it (builder/resources/memory.py)
     memory: Mapping[str, PackageMemoryRecord] = field(default_factory=dict, compare=False)
 
     def owner(self, name: str) -> int:
@@ -110,7 +110,7 @@ class ShardPlan:
 def recorded_times(documents: SharedDocuments | None, build_base: Path, run: str = "",
                    *, fix: bool = False) -> dict[str, float]:
     """The packages' recorded build times: on the server, those fixed for `run`, else its
-    shared document (copied for the run when `fix`: builder/shard_cover.py); without a
+    shared document (copied for the run when `fix`: builder/shards/cover.py); without a
     server, this workspace's last run."""
     if documents is not None:
         times = run_times(documents, run, fix=fix, scratch=build_base / ".wsbuild") if run \
@@ -153,7 +153,7 @@ def shard_selection(selection: Selection, spec: ShardSpec, workers: int,
     from wsbuild.cache.documents import SharedDocuments
     from wsbuild.workspace.selection import Selection as Selected
 
-    from wsbuild.builder.memory import shared_memory
+    from wsbuild.builder.resources.memory import shared_memory
 
     spec = replace(spec, run=run_of(selection, spec.run))
     documents = SharedDocuments.open(session.cache.settings)
@@ -290,7 +290,7 @@ def finish(plan: BuildPlan, shard: ShardPlan, results: Sequence[JobResult], sess
            emit: Emit) -> tuple[str, ...]:
     """After the packages: the times of what the shard built into the shared document, and
     the summary's line on what it waited for."""
-    from wsbuild.builder.memory import publish_memory
+    from wsbuild.builder.resources.memory import publish_memory
 
     times = built_times(shard, {p.name: p for p in plan.packages}, results)
     for problem in publish_times(session.cache.settings, times,
@@ -350,6 +350,19 @@ class _Peers:
         return note
 
 
+def with_waits(plan: BuildPlan, shard: ShardPlan) -> BuildPlan:
+    """The plan of a shard: each package it would build that another shard builds (and whose
+    entry the plan did not find) is waited for first (`PackagePlan.wait`), as `--dry-run`
+    says."""
+    from wsbuild.builder.plan import Decision, ShardWait
+
+    count = shard.spec.count
+    return replace(plan, packages=tuple(
+        replace(p, wait=ShardWait(f"{shard.owner(p.name)}/{count}", shard.waits[p.name]))
+        if p.name in shard.waits and p.decision is Decision.BUILD and p.cache_key is not None
+        else p for p in plan.packages))
+
+
 def shard_jobs(shard: ShardPlan, planned: Mapping[str, PackagePlan],
                build: Callable[[PackagePlan], JobResult], session: Session, emit: Emit,
                started: float) -> tuple[Callable[[str], JobResult], frozenset[str]]:
@@ -357,18 +370,16 @@ def shard_jobs(shard: ShardPlan, planned: Mapping[str, PackagePlan],
     (those waiting for other shards): a package of another shard that the plan did not find
     in the cache is waited for until its deadline, then restored if it came, else built here
     (`build`: one package's build as the plan says, builder/package.py)."""
-    from wsbuild.builder.plan import Decision
 
     peers = _Peers(shard, session.cache.settings)
-    waiting = frozenset(name for name, p in planned.items()
-                        if name in shard.waits and p.decision is Decision.BUILD
-                        and p.cache_key is not None)
+    waiting = frozenset(name for name, p in planned.items() if p.wait is not None)
 
     def job(name: str) -> JobResult:
-        if name not in waiting:
+        wait = planned[name].wait
+        if wait is None:
             return build(planned[name])
         return _wait_then_build(shard, planned[name], build, session, emit,
-                                started + shard.waits[name], peers)
+                                started + wait.seconds, peers)
 
     return job, waiting
 

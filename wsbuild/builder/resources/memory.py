@@ -13,7 +13,6 @@ from wsbuild.engine.jobs import JobResult, Outcome
 from wsbuild.engine.memory_budget import MemoryBudget, MemoryLimit, find_budget
 
 if TYPE_CHECKING:
-    from wsbuild.builder.plan import BuildPlan
     from wsbuild.cache.documents import SharedDocuments
     from wsbuild.cache.settings import CacheSettings
     from wsbuild.engine.jobserver import Jobserver
@@ -42,35 +41,34 @@ def budget_json(limit: MemoryLimit) -> dict[str, object] | None:
     return budget.as_json() if budget is not None else None
 
 
-def open_governor(limit: MemoryLimit, plan: BuildPlan, build_base: Path, jobserver: Jobserver,
-                  warn: Callable[[str], None],
+def open_governor(limit: MemoryLimit, restoring: Sequence[str], build_base: Path,
+                  jobserver: Jobserver, warn: Callable[[str], None],
                   shared: Mapping[str, PackageMemoryRecord] | None = None,
                   workers: int | None = None) -> MemoryGovernor | None:
-    """The run's memory governor, started (None: no budget). `shared`: what a CI matrix's
-    other jobs recorded (builder/shard_run.py), under this workspace's own records."""
+    """The run's memory governor, started (None: no budget). `restoring`: the packages the
+    plan restores from the build cache (light: they run no step); `shared`: what a CI
+    matrix's other jobs recorded (builder/shards/run.py), under this workspace's own records."""
     budget = budget_of(limit)
     if budget is None:
         return None
-    from wsbuild.builder.plan import Decision
     from wsbuild.engine.memory import MemoryGovernor
     from wsbuild.engine.memory_records import read_memory
 
     predictions = {**(shared or {}), **read_memory(build_base)}
-    light = [p.name for p in plan.to_do() if p.decision is Decision.RESTORE]
-    return MemoryGovernor(budget, jobserver, predictions, warn=warn, light=light,
+    return MemoryGovernor(budget, jobserver, predictions, warn=warn, light=list(restoring),
                           workers=workers).start()
 
 
 def finish_memory(governor: MemoryGovernor | None, build_base: Path,
-                  results: Sequence[JobResult], plan: BuildPlan) -> MemoryUse | None:
-    """Stop measuring; record what each package built (not restored) in the run needed."""
+                  results: Sequence[JobResult], building: Collection[str]) -> MemoryUse | None:
+    """Stop measuring; record what each package the plan built (`building`; not restored)
+    needed in the run."""
     if governor is None:
         return None
-    from wsbuild.builder.plan import Decision
     from wsbuild.engine.memory_records import record_memory
 
     use = governor.stop()
-    built = {p.name for p in plan.to_do() if p.decision is Decision.BUILD}
+    built = set(building)
     finished = {r.package for r in results if r.outcome is Outcome.FINISHED
                 and not r.restored}
     record_memory(build_base, {name: record for name, record in use.packages.items()
@@ -80,7 +78,7 @@ def finish_memory(governor: MemoryGovernor | None, build_base: Path,
 
 # ----------------------------------------------------------------------------- a CI matrix
 
-#: the shared document of what each package needed (beside builder/shard_run.py's times)
+#: the shared document of what each package needed (beside builder/shards/run.py's times)
 MEMORY_DOCUMENT = "package memory"
 
 

@@ -1,7 +1,7 @@
 """What keeps the jobs of a CI matrix on one split, and the assembling job's check that they
 covered the workspace (`build --shard K/N`, `test --shard K/N`, `build --assemble N`).
 
-- The run: the CI's run id when wsbuild knows one (builder/shards.py's `shard_run_id`), else
+- The run: the CI's run id when wsbuild knows one (builder/shards/split.py's `shard_run_id`), else
   the commit's workspace itself: a digest of the selected packages, their dependencies and
   the content of their files, the same in every job that checked out the same commit.
 - The times a run's split is balanced on are fixed for the run: the first job of the run
@@ -16,31 +16,21 @@ covered the workspace (`build --shard K/N`, `test --shard K/N`, `build --assembl
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from wsbuild.builder.shards import digest
+from wsbuild.builder.shards.split import digest
 from wsbuild.errors import BuildFailed
 from wsbuild.words import plural
 
 if TYPE_CHECKING:
-    from wsbuild.builder.plan import BuildPlan
+    from wsbuild.builder.shards.split import Assembly
     from wsbuild.cache.documents import SharedDocuments
     from wsbuild.cache.settings import CacheSettings
     from wsbuild.workspace.selection import Selection
 
-#: the shared document of recorded build times every run starts from (builder/shard_run.py)
+#: the shared document of recorded build times every run starts from (builder/shards/run.py)
 TIMES = "package times"
-
-
-@dataclass(frozen=True, slots=True)
-class Assembly:
-    """What `--assemble N` asks: the job after a matrix of `count` shards of the CI run
-    `run` ("": none known, the commit's workspace is the run)."""
-
-    count: int
-    run: str = ""
 
 
 def times_name(run: str) -> str:
@@ -121,16 +111,16 @@ def note_tested(settings: CacheSettings | None, run: str, count: int, index: int
         documents.close()
 
 
-def check_assembly(plan: BuildPlan, selection: Selection, assembly: Assembly,
+def check_assembly(building: Sequence[str], selection: Selection, assembly: Assembly,
                    settings: CacheSettings | None) -> list[str]:
     """`build --assemble N`: raise BuildFailed naming the selected packages no shard built
-    (the plan would build them: no entry this job can restore, nor an install here) or tested
-    (no shard's note names them). Returns the lines to say when all is covered."""
-    from wsbuild.builder.plan import Decision
+    (`building`: the plan would build them, with no entry this job can restore, nor an
+    install here) or tested (no shard's note names them). Returns the lines to say when all
+    is covered."""
     from wsbuild.cache.documents import SharedDocuments
 
     count, run = assembly.count, run_of(selection, assembly.run)
-    unbuilt = sorted(p.name for p in plan.packages if p.decision is Decision.BUILD)
+    unbuilt = sorted(building)
     tested: set[str] = set()
     noted: list[int] = []
     documents = SharedDocuments.open(settings)

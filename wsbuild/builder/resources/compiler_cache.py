@@ -19,7 +19,7 @@ package's under a `## package NAME` line. wsbuild turns on its
 depend mode (`CCACHE_DEPEND=1`, unless `CCACHE_DEPEND` or `CCACHE_NODEPEND` is set), which
 makes a cache miss about as cheap as a plain compile.
 
-With `--distribute` (builder/distribute.py) ccache calls distcc on a miss; sccache cannot, so
+With `--distribute` (builder/resources/distcc.py) ccache calls distcc on a miss; sccache cannot, so
 it is refused there and `auto` looks for ccache only.
 
 What the observer (observe/) makes of a compiler cache: its storage is its own state (a cache
@@ -115,7 +115,7 @@ def choose_tool(choice: str, environ: Mapping[str, str], *, distributing: bool =
                 ) -> tuple[str, Path] | None:
     """(tool, executable) for `--compiler-cache CHOICE`; None for `none` or nothing found by
     `auto`. A tool named explicitly but missing is an error saying how to install it.
-    Distributed compiles (builder/distribute.py) chain only ccache: `auto` looks for ccache
+    Distributed compiles (builder/resources/distcc.py) chain only ccache: `auto` looks for ccache
     alone and `sccache` is an error saying so."""
     if choice not in CHOICES:
         raise WsbuildError(f"unknown compiler cache '{choice}'",
@@ -361,3 +361,14 @@ def _ccache_counts(stats_logs: list[tuple[str | None, Path]]) -> CacheCounts | N
         elif word == "cache_miss":
             misses += 1
     return CacheCounts("ccache", hits, misses)
+
+
+def planned_launcher(choice: str, environ: Mapping[str, str], *, distributing: bool) -> str:
+    """The compiler cache a build will use as the compilers' launcher (`--compiler-cache
+    choice`), as the plan decides its steps with it; "" when none (the build says why when it
+    cannot have the one asked for)."""
+    try:
+        chosen = choose_tool(choice, environ, distributing=distributing)
+    except WsbuildError:
+        return ""
+    return str(chosen[1]) if chosen is not None else ""
