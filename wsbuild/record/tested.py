@@ -12,7 +12,6 @@ from dataclasses import dataclass, field
 
 from wsbuild.record.dirty import Dirty, Reason
 from wsbuild.record.environment import changed_names, variable_digests
-from wsbuild.record.model import digest_of
 from wsbuild.record.outside import Digests, OutsideReads, first_change
 
 
@@ -29,11 +28,6 @@ class TestKey:
     options: str
     tools: str
     underlays: str = ""
-
-    @property
-    def digest(self) -> str:
-        return digest_of([self.build, sorted(self.closure.items()), self.underlays,
-                          self.sources, self.options, self.tools])
 
     def changed_since(self, old: TestKey) -> Reason | None:
         """What changed from `old` (the first of the parts, in the key's order)."""

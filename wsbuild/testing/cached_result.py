@@ -128,7 +128,6 @@ def write_cached_result(build_dir: Path, result: CachedResult) -> None:
     key = result.key
     data = {
         "format": RECORD_FORMAT,
-        "digest": key.digest,
         "key": {"build": key.build, "closure": dict(sorted(key.closure.items())),
                 "sources": key.sources, "options": key.options, "tools": key.tools,
                 "underlays": key.underlays},
