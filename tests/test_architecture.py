@@ -238,3 +238,54 @@ def test_the_print_check_finds_a_print_and_a_stream(tmp_path: Path) -> None:
     module = tmp_path / "m.py"
     module.write_text("import sys\ndef f():\n    print('x')\n    sys.stderr.write('y')\n")
     assert prints(module) == [3, 4]
+
+
+def _kept_patterns() -> list[re.Pattern[str]]:
+    """The first column of the table of the files wsbuild keeps, as regular expressions."""
+    section = DOC.read_text().split("## Every file wsbuild keeps for itself", 1)[1]
+    section = section.split("\n## ", 1)[0]
+    patterns = []
+    for line in section.splitlines():
+        if not line.startswith("| `"):
+            continue
+        for shown in re.findall(r"`([^`]+)`", line.split(" | ")[0]):
+            if "/" not in shown and not shown.startswith("observe-test"):
+                continue
+            shown = shown if not shown.startswith("observe-test") else \
+                "build/<pkg>/.wsbuild/" + shown
+            text = re.escape(shown).replace(r"\*\*", ".*").replace(r"\*", "[^/]*")
+            text = text.replace("<pkg>", "[^/]+").replace("<run>", "[^/]+")
+            patterns.append(re.compile(text + "$"))
+    return patterns
+
+
+def test_every_file_wsbuild_keeps_is_in_the_table(built: Path) -> None:
+    """A built, tested and listed workspace (a CMake and two Python packages), and wsbuild's
+    cache: each file wsbuild wrote for itself matches a row of the table."""
+    import os
+
+    from conftest import run_wsbuild
+    from wsbuild.files import wsbuild_cache_dir
+
+    assert run_wsbuild("test", cwd=built).returncode == 0
+    assert run_wsbuild("list", cwd=built).returncode == 0
+    found = ["build/.built_by", "build/.wsbuild.build.lock"]
+    for root, _dirs, files in os.walk(built):
+        rel = Path(root).relative_to(built)
+        parts = rel.parts
+        own = parts[:1] == ("log",) or (len(parts) >= 2 and parts[0] == "build" and (
+            parts[1] == ".wsbuild" or (len(parts) >= 3 and parts[2] == ".wsbuild")))
+        if own:
+            found += [str(rel / name) for name in files]
+    found += [str(Path("log") / entry.name) for entry in os.scandir(built / "log")
+              if not entry.is_dir(follow_symlinks=False)]
+    found += [f"{base}/COLCON_IGNORE" for base in ("build", "install")
+              if (built / base / "COLCON_IGNORE").exists()]
+    cache = wsbuild_cache_dir(os.environ)
+    for root, _dirs, files in os.walk(cache):
+        found += ["<cache>/" + str(Path(root, name).relative_to(cache)) for name in files]
+    patterns = _kept_patterns()
+    assert len(patterns) > 20
+    missing = sorted({path for path in found if not any(p.match(path) for p in patterns)})
+    assert not missing, "files wsbuild keeps that the table of docs/architecture.md lacks: " \
+        + ", ".join(missing[:20])
