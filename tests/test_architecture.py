@@ -157,6 +157,9 @@ RETIRED: dict[str, str] = {
     r"\bEnvironmentFailure\b": "nothing (dead code)",
     r"\bTestTool\b": "BuildType.test_runner",
     r"\breplay_recorder\b": "the recorder handed down: cli.main(recorder=), Terminal.recorder",
+    r"\bexternal_inputs\b": "BuildType.outside_reads (a record's outside reads are no inputs)",
+    r"\bcmake_inputs\b": "build_types/cmake_reads.py (what a CMake build read)",
+    r"(?<![\w.])Runner\b": "CommandRunner (runs a step's command); a runner is a TestRunner",
 }
 
 

@@ -75,7 +75,7 @@ class Runs:
 
 def _why_not(ws: Path) -> str:
     """What the recorder says of why the last run left no record (engine/recording.py)."""
-    why = ws / replay.RECORDS / WHY_NOT
+    why = ws / replay.RECORDINGS / WHY_NOT
     return why.read_text() if why.is_file() else "(it says nothing)"
 
 
@@ -100,7 +100,7 @@ def recorded(built: Path, monkeypatch: pytest.MonkeyPatch,
     """`built`, after a no-op (the real command) that left a record."""
     no_op = run_wsbuild("build", cwd=built)
     assert no_op.returncode == 0 and "2 packages up to date" in no_op.stdout, no_op.stderr
-    assert (built / replay.record_path("build")).is_file(), \
+    assert (built / replay.recording_path("build")).is_file(), \
         f"a no-op of settled inputs leaves a record: {_why_not(built)}"
     return built, Runs(built, monkeypatch, capsys)
 
@@ -274,7 +274,7 @@ def test_inputs_changed_just_before_a_no_op_leave_no_record(
     assert runs.build()[0] == 0  # builds pa
     code, out, replayed = runs.build()  # a no-op, right after pa's build wrote its state
     assert code == 0 and not replayed and "1 package up to date" in out
-    assert not (ws / replay.record_path("build")).exists()
+    assert not (ws / replay.recording_path("build")).exists()
 
 
 def test_an_underlay_change_after_a_recorded_no_op_is_noticed(
@@ -325,7 +325,7 @@ def test_list_is_replayed_while_the_workspace_is_unchanged(
     """`list`, `graph` and `info` only read: an unchanged workspace's listing is printed from
     the record of the last one; a package added is listed by the full run that follows."""
     first = run_wsbuild("list", cwd=built)
-    assert first.returncode == 0 and (built / replay.record_path("list")).is_file()
+    assert first.returncode == 0 and (built / replay.recording_path("list")).is_file()
     monkeypatch.chdir(built)
     os.environ.pop(PYTEST_VARIABLE, None)
     assert replay.replay(["list"], launch._drawing) == 0
@@ -339,13 +339,13 @@ def test_list_is_replayed_while_the_workspace_is_unchanged(
     assert again.returncode == 0 and "pn" in again.stdout
     failing = run_wsbuild("list", "--packages-select", "nothing_here", cwd=built)
     assert failing.returncode == 2
-    assert not (built / replay.record_path("list")).read_text().count("nothing_here"), \
+    assert not (built / replay.recording_path("list")).read_text().count("nothing_here"), \
         "a failed run leaves no record"
 
 
 def test_a_damaged_record_means_a_full_run(recorded: tuple[Path, Runs]) -> None:
     ws, runs = recorded
-    path = ws / replay.record_path("build")
+    path = ws / replay.recording_path("build")
     record = json.loads(path.read_text())
     record["paths"] = [["/", "not a list of names", 3]]
     path.write_text(json.dumps(record))
@@ -363,7 +363,7 @@ def test_a_reader_that_stops_early_gets_no_error_and_leaves_no_short_record(
     names = [f"pkg_{index:03d}" for index in range(300)]
     ws = make_workspace({name: ("cmake", []) for name in names})
     environ = {k: v for k, v in os.environ.items() if k != PYTEST_VARIABLE}
-    record = ws / replay.record_path("list")
+    record = ws / replay.recording_path("list")
 
     def shell(pipe: str) -> subprocess.CompletedProcess[str]:
         """`wsbuild list` run as a user's shell runs it (bash sets PWD, part of the key)."""
@@ -396,7 +396,7 @@ def test_a_replayed_no_op_is_drawn_by_the_reporter_as_the_full_run_showed_it(
     assert full.stdout.startswith("Topological order\n- pa (ament_python)\n"), full.stdout
     time.sleep(SETTLE)
     recording = run_wsbuild(*args, cwd=built)
-    record = json.loads((built / replay.record_path("build")).read_text())
+    record = json.loads((built / replay.recording_path("build")).read_text())
     replayed = run_wsbuild(*args, cwd=built)
 
     assert [kind for kind, _ in record["shown"]][:2] == ["reporter", "package_list"]
@@ -417,7 +417,7 @@ def test_a_recorder_that_fails_is_a_warning_and_the_next_run_is_full(
     from wsbuild.engine import recording
 
     ws, runs = recorded
-    record = ws / replay.record_path("build")
+    record = ws / replay.recording_path("build")
     record.unlink()
     streams = (sys.stdout, sys.stderr)
 

@@ -145,7 +145,7 @@ class StepFailed(Exception):
 Problems = Callable[[list[str]], list[str]]
 
 
-class Runner(Protocol):
+class CommandRunner(Protocol):
     def __call__(self, command: Sequence[str], *, cwd: Path,
                  env: Mapping[str, str] | None = None, problems: Problems | None = None) -> None: ...
 
@@ -188,7 +188,7 @@ class PackageContext:
     #: full environment for subprocesses (dependencies' prefixes already applied)
     environ: dict[str, str]
     #: runs a command, logs it and its output; raises StepFailed on non-zero exit
-    run: Runner
+    run: CommandRunner
     #: records a warning shown in the package's report
     warn: Callable[[str], None]
     #: install prefixes of the package's build dependencies inside the workspace
@@ -222,7 +222,7 @@ class PackageContext:
 
 def package_context(build_type: BuildType, *, package: Package, build_dir: Path,
                     install_prefix: Path, stage_prefix: Path, options: BuildOptions,
-                    environ: Mapping[str, str], run: Runner, warn: Callable[[str], None],
+                    environ: Mapping[str, str], run: CommandRunner, warn: Callable[[str], None],
                     dependency_prefixes: Sequence[Path] = (), jobserver_fifo: Path | None = None,
                     facts: object = None, redo: Sequence[str] = (),
                     observe: StepObserver | None = None) -> PackageContext:
@@ -304,7 +304,7 @@ class BuildType(Protocol):
         """The options that shape what this build type installs (they enter the build key)."""
         ...
 
-    def external_inputs(self, ctx: PackageContext) -> ReadOutside | list[str] | None:
+    def outside_reads(self, ctx: PackageContext) -> ReadOutside | list[str] | None:
         """After a build: what its build system read outside the package (from the build
         system's own dependency lists), recorded in the package's record so that a change to
         one rebuilds it; None when the build cannot tell (a dependency's rebuild then always
@@ -413,7 +413,7 @@ class BuildTypeBase:
         """The shared options that shape the output, and its own that do."""
         return key_options(options, self.options)
 
-    def external_inputs(self, ctx: PackageContext) -> ReadOutside | list[str] | None:
+    def outside_reads(self, ctx: PackageContext) -> ReadOutside | list[str] | None:
         """What the steps reported reading outside the package (`ctx.outputs.read_outside`:
         the Python builds' setup.py, by an audit hook), else None."""
         return ctx.outputs.read_outside
@@ -511,7 +511,7 @@ def declared_options(*, plugins: bool) -> list[tuple[str, tuple[TypeOption, ...]
 #: every member of the `BuildType` protocol (BuildTypeBase has them all)
 #: everything wsbuild calls of a build type (the `BuildType` protocol, in its order)
 _REQUIRED = ("name", "test_runner", "hooks", "estimate_base", "steps", "options", "key_options",
-             "external_inputs", "run_facts", "read_state", "manifest_reader", "work_left",
+             "outside_reads", "run_facts", "read_state", "manifest_reader", "work_left",
              "keeps_earlier_work", "steps_run_afresh", "open_run", "close_run")
 
 

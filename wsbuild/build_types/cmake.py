@@ -240,14 +240,14 @@ class CMakeBuildType:
             return []
         return ["--parallel", str(max(1, ctx.options.jobs))]
 
-    def external_inputs(self, ctx: PackageContext) -> ReadOutside:
+    def outside_reads(self, ctx: PackageContext) -> ReadOutside:
         """What CMake's regeneration list, the build rules, the depfiles, the compiler's
         dependency lists, the verified globs and the install script name outside the package,
-        and the programs the build ran (build_types/cmake_inputs.py)."""
-        from wsbuild.build_types.cmake_inputs import external_inputs
+        and the programs the build ran (build_types/cmake_reads.py)."""
+        from wsbuild.build_types.cmake_reads import outside_reads
 
         ninja = self.ninja(ctx)
-        return external_inputs(ctx.build_dir, ctx.source_dir, ninja.path if ninja else None)
+        return outside_reads(ctx.build_dir, ctx.source_dir, ninja.path if ninja else None)
 
     def needs_configure(self, ctx: PackageContext) -> bool:
         """Configure when asked, when there is no cache, when the source, the arguments or the

@@ -2,7 +2,7 @@
 Ninja generator, meson): the inputs of its build statements, the prerequisites of the
 depfiles Ninja reads each time (custom commands' DEPFILE), and the headers the compilers read
 from Ninja's deps log (`ninja -t deps`); and the prerequisites of a makefile or depfile. A
-build type's `external_inputs` reports them (build_types/cmake_inputs.py does for CMake).
+build type's `outside_reads` reports them (build_types/cmake_reads.py does for CMake).
 Public: a plugin's build type uses it as the built-in ones do."""
 
 from __future__ import annotations

@@ -15,7 +15,7 @@ from wsbuild.build_types import (
     BuildOptions,
     PackageContext,
     Problems,
-    Runner,
+    CommandRunner,
     Step,
     StepFailed,
     StepObserver,
@@ -33,7 +33,7 @@ RUN_JOBSERVER = Path("<the run's jobserver FIFO>")
 
 def make_context(selection: Selection, session: Session, name: str, *, prefix: Path,
                  options: BuildOptions, stage_prefix: Path | None = None,
-                 run_environ: Mapping[str, str] | None = None, run: Runner | None = None,
+                 run_environ: Mapping[str, str] | None = None, run: CommandRunner | None = None,
                  warn: Callable[[str], None] | None = None,
                  jobserver_fifo: Path | None = None, redo: tuple[str, ...] = (),
                  observe: StepObserver | None = None) -> PackageContext:

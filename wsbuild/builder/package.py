@@ -289,7 +289,7 @@ class PackageBuild(PackageJob):
             earlier=self.planned.previous if self._kept_earlier_work
             else None,
             afresh=build_type.steps_run_afresh(ctx),
-            declared=build_type.external_inputs(ctx), dependencies=self.dependency_keys(),
+            declared=build_type.outside_reads(ctx), dependencies=self.dependency_keys(),
             installed=installed, where=where, touched=self.touched,
             install_base=self.run.selection.workspace.install_base,
             environment=session.environment,

@@ -1,4 +1,4 @@
-"""The record of a run that lets the next run of the same command be replayed
+"""The recording of a run that lets the next run of the same command be replayed
 (engine/replay.py).
 
 `recording(argv)` holds a whole run of a replayed verb: it hears every input the run declares
@@ -10,18 +10,18 @@ what the run was (the pipeline's `PlanMade` and `NoOpFinished` events: `drop` as
 plan has work, `no_op` at the end), a verb that only reads calls `read_only` when it is done.
 Nothing is swapped in `sys.stdout`: a verb that is recorded writes through `stdout`/`stderr`
 here. A recorder that fails says so in one warning, and the next run is a full one. At the
-end of such a run, exiting 0, the record is written: the declared paths and each declared
+end of such a run, exiting 0, the recording is written: the declared paths and each declared
 directory's entries, each with its signature. Nothing else: a read that was not declared is
-not in the record, which is why the test suite runs every recorded run under the oracle of
+not in the recording, which is why the test suite runs every recorded run under the oracle of
 engine/inputs_oracle.py, which traces the process's own accesses and names any undeclared one.
 
-A record is only written when it can be trusted:
+A recording is only written when it can be trusted:
 - It holds what the run saw of each path it stat'ed (a change after that read shows at the
   next replay) and, for files it read and the entries of directories it listed, their
   signatures at its end (a file read and gone by then spoils it). Nothing it looked at may
   have changed in the second before it started (the "racy" rule of git's index): a change in
   the same timestamp tick as the read would not show in a later stat. A path it could not
-  read spoils it. Otherwise there is no record, and the next run is full.
+  read spoils it. Otherwise there is no recording, and the next run is full.
 - The run's own outputs are not inputs: the log base, the workspace lock and the records.
 - Options that do more than plan and build (`--install-deps` runs installers), print what
   differs from run to run (the CPU times of `--timings`) or select by test results (JUnit
@@ -47,12 +47,12 @@ from wsbuild.engine.replay import (
     ABSENT,
     FOLLOW,
     IDENTITY,
-    RECORDS,
+    RECORDINGS,
     RUN_LOG,
     replaced,
     STARTED,
     key_of,
-    record_path,
+    recording_path,
     signature,
 )
 
@@ -129,18 +129,18 @@ class ReplayRecorder:
         self.listed: set[str] = set()
         self.outcome: dict[str, str] | None = None
         self.active = False
-        #: the run met something a record could not describe (a path it could not read)
+        #: the run met something a recording could not describe (a path it could not read)
         self.spoiled = False
         #: what the recorded verb writes through (the process's streams, copied)
         self.stdout = _Tee(sys.stdout)
         self.stderr = _Tee(sys.stderr)
         self.finished = False
-        #: what the reporter showed, in order (a build's record draws it again)
+        #: what the reporter showed, in order (a build's recording draws it again)
         self._shown: list[list[object]] = []
         self._unlisten: Callable[[], None] | None = None
         #: the files wsbuild keeps for itself that the run read (`inputs.declare_memo`)
         self.memos: set[str] = set()
-        #: why the run leaves no record, once that is known (`_say_why_not`)
+        #: why the run leaves no recording, once that is known (`_say_why_not`)
         self.why_not = ""
         #: the test suite's oracle (engine/inputs_oracle.py), when WSBUILD_INPUTS_ORACLE names
         #: its file: the process's own accesses traced, the undeclared ones written down
@@ -152,7 +152,7 @@ class ReplayRecorder:
             return
         if kind in (inputs.UNREADABLE, inputs.UNRECORDED):
             # what the run made of it (unreadable: missing?) is unknown, or not all it read
-            # is declared: no record
+            # is declared: no recording
             self.spoiled = True
             return
         name = self._absolute(path)
@@ -217,19 +217,19 @@ class ReplayRecorder:
             self.oracle.uninstall()
 
     def finish(self, exit_code: int) -> None:
-        """At the end of the run: the record, if the run was a no-op that can be trusted."""
+        """At the end of the run: the recording, if the run was a no-op that can be trusted."""
         self._uninstall()
         self.finished = True
         try:
             self._write(exit_code)
-        except Exception as exc:  # noqa: BLE001 - a record is never worth failing the run
+        except Exception as exc:  # noqa: BLE001 - a recording is never worth failing the run
             # said, not swallowed: the run stands, the next one is a full one
             print(f"wsbuild: warning: this run was not kept for replaying the next one "
                   f"({type(exc).__name__}: {exc}); the next run is a full one",
                   file=self.stderr.stream)
         if self.oracle is not None and self.outcome is not None and exit_code == 0 \
-                and not self.spoiled:  # (a spoiled run leaves no record)
-            outputs = (self.outcome.get("log_base", ""), str(RECORDS.absolute()),
+                and not self.spoiled:  # (a spoiled run leaves no recording)
+            outputs = (self.outcome.get("log_base", ""), str(RECORDINGS.absolute()),
                        os.path.join(self.outcome["build_base"], ".wsbuild.build.lock"),
                        *sorted(self.memos))
             self.oracle.report_undeclared(self.seen, self.listed, outputs)
@@ -239,8 +239,8 @@ class ReplayRecorder:
         if exit_code != 0 or outcome is None or self.spoiled or self.stdout.failed \
                 or self.stderr.failed:
             return
-        if os.path.abspath(RECORDS.parent.parent) != outcome["build_base"]:
-            return  # a replay looks for the record under ./build only
+        if os.path.abspath(RECORDINGS.parent.parent) != outcome["build_base"]:
+            return  # a replay looks for the recording under ./build only
         self.why_not = ""
         inputs = self._paths(outcome)
         if "run_log" in outcome:  # a build: what its reporter showed, drawn again
@@ -254,29 +254,29 @@ class ReplayRecorder:
             self._say_why_not(self.why_not or "its log directory holds what a replay cannot "
                               "write again")
             return
-        record = {"key": self.key, "build_base": outcome["build_base"], "paths": inputs[0],
+        recording = {"key": self.key, "build_base": outcome["build_base"], "paths": inputs[0],
                   "digest": inputs[1], "stdout": stdout, "stderr": stderr, "shown": shown,
                   "log": log}
         from wsbuild.files import atomic_write, private_directory
 
         try:
-            private_directory(RECORDS.parent)
-            private_directory(RECORDS)
-            atomic_write(record_path(self.verb).absolute(),
-                         json.dumps(record, separators=(",", ":")), mode=0o600)
+            private_directory(RECORDINGS.parent)
+            private_directory(RECORDINGS)
+            atomic_write(recording_path(self.verb).absolute(),
+                         json.dumps(recording, separators=(",", ":")), mode=0o600)
         except OSError as exc:  # a full disk, a read-only build base: the next run is full
-            raise OSError(f"writing {record_path(self.verb)}: {exc.strerror or exc}") from exc
-        (RECORDS / WHY_NOT).absolute().unlink(missing_ok=True)
+            raise OSError(f"writing {recording_path(self.verb)}: {exc.strerror or exc}") from exc
+        (RECORDINGS / WHY_NOT).absolute().unlink(missing_ok=True)
 
     def _say_why_not(self, why: str) -> None:
-        """Why this run left no record (the next is a full one too), beside the records, for
+        """Why this run left no recording (the next is a full one too), beside the recordings, for
         whoever wonders why a no-op was not replayed: a path, never a value."""
         from wsbuild.files import atomic_write, private_directory
 
         try:
-            private_directory(RECORDS.parent)
-            private_directory(RECORDS)
-            atomic_write((RECORDS / WHY_NOT).absolute(), f"{self.verb}: {why}\n", mode=0o600)
+            private_directory(RECORDINGS.parent)
+            private_directory(RECORDINGS)
+            atomic_write((RECORDINGS / WHY_NOT).absolute(), f"{self.verb}: {why}\n", mode=0o600)
         except OSError:
             pass  # only an explanation
 
@@ -287,10 +287,10 @@ class ReplayRecorder:
         their signatures now; None when an opened file is gone, or a path changed too
         recently to trust."""
         outputs = tuple(path + os.sep for path in (outcome.get("log_base"),
-                                                   str(RECORDS.absolute())) if path)
+                                                   str(RECORDINGS.absolute())) if path)
         lock = os.path.join(outcome["build_base"], ".wsbuild.build.lock")
         wanted: dict[tuple[str, bool], tuple[int, ...] | None] = dict(self.seen)
-        for directory in sorted(self.listed):  # (a set: the same record for the same run)
+        for directory in sorted(self.listed):  # (a set: the same recording for the same run)
             wanted.setdefault((directory, True), None)
             try:
                 entries = list(os.scandir(directory))

@@ -1,4 +1,4 @@
-"""A command whose inputs did not change, answered from the record of its last run.
+"""A command whose inputs did not change, answered from the recording of its last run.
 
 `wsbuild build` when its plan finds every package up to date, and `list`, `graph` and `info`,
 which only read, record while they run every input they declare (wsbuild/inputs.py: the paths
@@ -14,7 +14,7 @@ as recorded, the full run would read the same files and so show the same: a buil
 (reporter.py) draws the events the recorded one drew, with this run's time, and the run writes a
 log directory with the same files and its own times; `list`, `graph` and `info` print what the
 recorded run printed — without parsing, scanning or planning anything. Anything else (a path
-changed, another build holding the lock, no record) goes down the full path, which records
+changed, another build holding the lock, no recording) goes down the full path, which records
 anew. This module imports nothing a replay does not use.
 """
 
@@ -37,7 +37,7 @@ if TYPE_CHECKING:
         """How a build's recorded reporter calls are shown again (reporter.py: `ReplayDrawing`)."""
 
         def decode(self, shown: Any) -> Any:
-            """The calls, their events decoded (ValueError: not a record this version wrote)."""
+            """The calls, their events decoded (ValueError: not a recording this version wrote)."""
             ...
 
         def draw(self, shown: Any, blank: str, run_log: str, started: float) -> None:
@@ -47,16 +47,16 @@ if TYPE_CHECKING:
 
 
 #: relative to the working directory: under the default build base of a run started at the
-#: workspace root, one record per verb
-RECORDS = Path("build") / ".wsbuild" / "noop"
+#: workspace root, one recording per verb
+RECORDINGS = Path("build") / ".wsbuild" / "noop"
 #: the verbs that are replayed: build (a no-op), and those that only read
 VERBS = frozenset({"build", "list", "graph", "info"})
 FORMAT = 8
 #: set by the shell for each command, meaningless to a build
 VOLATILE = frozenset({"_", "OLDPWD", "SHLVL"})
-#: what a record keeps in place of the run's log directory
+#: what a recording keeps in place of the run's log directory
 RUN_LOG = "\0run_log\0"
-#: report.json's start time, as the record keeps it (a JSON string)
+#: report.json's start time, as the recording keeps it (a JSON string)
 STARTED = '"@@wsbuild-started@@"'
 
 
@@ -75,7 +75,7 @@ def signature(path: str, how: int) -> tuple[int, ...]:
         st = os.stat(path) if how & FOLLOW else os.lstat(path)
     except (FileNotFoundError, NotADirectoryError):
         return ABSENT
-    except OSError as exc:  # a symlink loop, a path that cannot be read: unlike any record
+    except OSError as exc:  # a symlink loop, a path that cannot be read: unlike any recording
         return (-1, exc.errno or 0)
     if how & IDENTITY:
         return (st.st_mode, st.st_ino)
@@ -86,7 +86,7 @@ def digest(paths: list[list[Any]]) -> int:
     """One number for the signatures of `paths` ([directory, [name, ...], [how, ...]]; the
     name "" is the directory itself), in their order: a change to any path changes it. (The
     hash of a tuple of integers is the same in every process of one Python version; the
-    record's key holds the version.)"""
+    recording's key holds the version.)"""
     # signature() and stat_signature(), inlined: this loop is most of a replay (40,000 paths
     # for 1,000 packages), and a call per path costs a tenth of it
     stat, lstat = os.stat, os.lstat
@@ -130,7 +130,7 @@ def key_of(argv: Sequence[str]) -> dict[str, object]:
 
 def _environ() -> str:
     """A digest of the environment, less the shell's per-command variables (no value is ever
-    written to the record: a token in the environment stays out of build/). LD_LIBRARY_PATH
+    written to the recording: a token in the environment stays out of build/). LD_LIBRARY_PATH
     as a sorted set: the ROS wheels' bootstrapper writes its entries in a random (set) order
     in each process, and no plan reads their order."""
     environ = {k: v for k, v in os.environ.items() if k not in VOLATILE}
@@ -158,42 +158,42 @@ def _blake2b(*args: Any, **kwargs: Any) -> Any:
     return blake2b(*args, **kwargs)
 
 
-def record_path(verb: str) -> Path:
-    return RECORDS / f"{verb}.json"
+def recording_path(verb: str) -> Path:
+    return RECORDINGS / f"{verb}.json"
 
 
 def replay(argv: Sequence[str], drawing: Callable[[], Drawing]) -> int | None:
-    """Answer `wsbuild <argv>` from its record, or None: run it in full. `drawing` makes what
+    """Answer `wsbuild <argv>` from its recording, or None: run it in full. `drawing` makes what
     shows a build's recorded reporter calls again (reporter.py's, handed down by launch.py:
     this room imports nothing above it)."""
-    record = _read_record(argv)
-    if record is None:
+    recording = _read_recording(argv)
+    if recording is None:
         return None
     started = time.monotonic()
-    if record["log"] is None:  # a verb that only reads
-        if not _unchanged(record):
+    if recording["log"] is None:  # a verb that only reads
+        if not _unchanged(recording):
             return None
-        _print(record)
+        _print(recording)
         return 0
     from wsbuild.engine.lock import workspace_lock
     from wsbuild.errors import WorkspaceError
 
-    shown = record["shown"]
+    shown = recording["shown"]
     try:
         drawer = drawing()
         drawer.decode(shown)
     except (TypeError, ValueError, KeyError):
-        return None  # not a record this version wrote
-    lock = workspace_lock(Path(record["build_base"]), wait=False, on_wait=lambda _: None)
+        return None  # not a recording this version wrote
+    lock = workspace_lock(Path(recording["build_base"]), wait=False, on_wait=lambda _: None)
     try:
         lock.__enter__()
     except (WorkspaceError, OSError):  # busy, or unwritable: the full run says what is wrong
         return None
     try:
-        if not _unchanged(record):
+        if not _unchanged(recording):
             return None
         try:
-            run_log = _write_log(record["log"], started)
+            run_log = _write_log(recording["log"], started)
         except OSError:
             return None  # the full run says what is wrong (a full disk, a read-only log/)
         drawer.draw(shown, RUN_LOG, str(run_log), started)
@@ -213,17 +213,17 @@ def replaced(data: Any, old: str, new: str) -> Any:
     return data
 
 
-def _unchanged(record: dict[str, Any]) -> bool:
+def _unchanged(recording: dict[str, Any]) -> bool:
     try:
-        return digest(record["paths"]) == record["digest"]
-    except (TypeError, ValueError):  # not a record this version wrote
+        return digest(recording["paths"]) == recording["digest"]
+    except (TypeError, ValueError):  # not a recording this version wrote
         return False
 
 
-def _print(record: dict[str, Any]) -> None:
+def _print(recording: dict[str, Any]) -> None:
     """What the recorded run printed. A reader that went away (`wsbuild list | head -1`) is
     no error, as in cli.py."""
-    for stream, text in ((sys.stdout, record["stdout"]), (sys.stderr, record["stderr"])):
+    for stream, text in ((sys.stdout, recording["stdout"]), (sys.stderr, recording["stderr"])):
         try:
             stream.write(text)
             stream.flush()
@@ -231,27 +231,27 @@ def _print(record: dict[str, Any]) -> None:
             os.dup2(os.open(os.devnull, os.O_WRONLY), stream.fileno())
 
 
-def _read_record(argv: Sequence[str]) -> dict[str, Any] | None:
-    """The record, when there is one for this command line, directory and environment."""
+def _read_recording(argv: Sequence[str]) -> dict[str, Any] | None:
+    """The recording, when there is one for this command line, directory and environment."""
     try:
-        with open(record_path(argv[0]), encoding="utf-8") as handle:
-            record = json.load(handle)
+        with open(recording_path(argv[0]), encoding="utf-8") as handle:
+            recording = json.load(handle)
     except (OSError, ValueError):
         return None
-    if not isinstance(record, dict) or record.get("key") != key_of(argv):
+    if not isinstance(recording, dict) or recording.get("key") != key_of(argv):
         return None
-    log = record.get("log")
-    shapes = ((record.get("paths"), list), (record.get("digest"), int),
-              (record.get("stdout"), str), (record.get("stderr"), str),
-              (record.get("build_base"), str), (log, (dict, type(None))),
-              (record.get("shown"), (list, type(None))))
+    log = recording.get("log")
+    shapes = ((recording.get("paths"), list), (recording.get("digest"), int),
+              (recording.get("stdout"), str), (recording.get("stderr"), str),
+              (recording.get("build_base"), str), (log, (dict, type(None))),
+              (recording.get("shown"), (list, type(None))))
     if not all(isinstance(value, kind) for value, kind in shapes):
         return None
     if log is not None and not (isinstance(log.get("timings"), dict)
                                 and isinstance(log.get("table"), list)
                                 and isinstance(log.get("log_base"), str)):
         return None
-    return record
+    return recording
 
 
 def _write_log(log: dict[str, Any], started: float) -> Path:

@@ -7,14 +7,14 @@ import shutil
 from collections.abc import Mapping
 from pathlib import Path
 
-from wsbuild.build_types import Runner, StepFailed
+from wsbuild.build_types import CommandRunner, StepFailed
 from wsbuild.build_types.pybuild.setup_py import BuildSystem
 
 #: the script the target interpreter runs; it must not import wsbuild
 HOOK_SCRIPT = Path(__file__).with_name("pep517_hook.py")
 
 
-def build_wheel(source_dir: Path, build_dir: Path, build_system: BuildSystem, *, run: Runner,
+def build_wheel(source_dir: Path, build_dir: Path, build_system: BuildSystem, *, run: CommandRunner,
                 environ: Mapping[str, str], python_executable: str,
                 setup_requires_known_empty: bool = False) -> Path:
     """Build the package's wheel into `build_dir/wheel` and return its path.

@@ -28,7 +28,7 @@ headers and the compiler, observed where it read them), so reads there are no in
 package (`state_dirs`), nor are the variables it reads only to find its configuration and
 its storage (`OWN_VARIABLES`; the configuration files it then reads are observed). sccache
 compiles in its server, which wsbuild starts outside every step: the headers the compiler
-read are in Ninja's and the depfiles' lists (build_types/cmake_inputs.py), and the variables
+read are in Ninja's and the depfiles' lists (build_types/cmake_reads.py), and the variables
 a compiler reads (`COMPILER_VARIABLES`) count as read by every step that compiled through it.
 """
 

@@ -43,7 +43,7 @@ _INSTALL_KEYWORDS = frozenset({
     "FOLLOW_SYMLINK_CHAIN"})
 
 
-def external_inputs(build_dir: Path, source_dir: Path, ninja: Path | None) -> ReadOutside:
+def outside_reads(build_dir: Path, source_dir: Path, ninja: Path | None) -> ReadOutside:
     """What the build in `build_dir` read (absolute paths, normalized, sorted); the caller
     leaves out what lies in the package, its build directory and its stage."""
     files: set[str] = set()
