@@ -249,6 +249,19 @@ def test_a_changed_environment_runs_the_full_build(
     assert not runs.build("--packages-select", "pa")[2]
 
 
+def test_another_terminal_tab_or_editor_window_is_replayed(
+        recorded: tuple[Path, Runs], monkeypatch: pytest.MonkeyPatch) -> None:
+    """What a terminal or an editor sets per tab and window (terminal.py) reaches no step and
+    nothing wsbuild reads: another tab is the same build, answered from the same recording."""
+    ws, runs = recorded
+    assert runs.build()[2]
+    monkeypatch.setenv("GNOME_TERMINAL_SCREEN", "/org/gnome/Terminal/screen/another")
+    monkeypatch.setenv("VSCODE_GIT_IPC_HANDLE", "/run/user/1000/vscode-git-another.sock")
+    monkeypatch.setenv("SHLVL", "7")
+    code, out, replayed = runs.build()
+    assert code == 0 and replayed, out
+
+
 def test_another_build_holding_the_lock_is_not_replayed_past(
         recorded: tuple[Path, Runs]) -> None:
     ws, _ = recorded

@@ -27,6 +27,7 @@ import time
 from pathlib import Path
 
 from wsbuild.signature import stat_signature
+from wsbuild.terminal import is_per_tab
 
 TYPE_CHECKING = False
 if TYPE_CHECKING:
@@ -52,8 +53,6 @@ RECORDINGS = Path("build") / ".wsbuild" / "noop"
 #: the verbs that are replayed: build (a no-op), and those that only read
 VERBS = frozenset({"build", "list", "graph", "info"})
 FORMAT = 8
-#: set by the shell for each command, meaningless to a build
-VOLATILE = frozenset({"_", "OLDPWD", "SHLVL"})
 #: what a recording keeps in place of the run's log directory
 RUN_LOG = "\0run_log\0"
 #: report.json's start time, as the recording keeps it (a JSON string)
@@ -129,11 +128,12 @@ def key_of(argv: Sequence[str]) -> dict[str, object]:
 
 
 def _environ() -> str:
-    """A digest of the environment, less the shell's per-command variables (no value is ever
+    """A digest of the environment, less what names the terminal tab, window or command
+    (terminal.py: no step gets it, wsbuild reads none of it; no value is ever
     written to the recording: a token in the environment stays out of build/). LD_LIBRARY_PATH
     as a sorted set: the ROS wheels' bootstrapper writes its entries in a random (set) order
     in each process, and no plan reads their order."""
-    environ = {k: v for k, v in os.environ.items() if k not in VOLATILE}
+    environ = {k: v for k, v in os.environ.items() if not is_per_tab(k)}
     if "LD_LIBRARY_PATH" in environ:
         entries = sorted(set(environ["LD_LIBRARY_PATH"].split(os.pathsep)))
         environ["LD_LIBRARY_PATH"] = os.pathsep.join(entries)

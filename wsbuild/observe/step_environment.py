@@ -34,15 +34,13 @@ from collections.abc import Mapping
 from pathlib import Path
 
 from wsbuild.observe.library import Observer
+from wsbuild.terminal import PER_TAB
 
 #: what no step gets (see the module's docstring)
 NOT_PASSED: tuple[str, ...] = (
-    "_", "OLDPWD", "PWD", "SHLVL",
-    "TERM", "TERM_PROGRAM", "TERM_PROGRAM_VERSION", "TERM_SESSION_ID", "COLORTERM", "VTE_VERSION",
-    "WINDOWID", "COLUMNS", "LINES", "GNOME_TERMINAL_*", "KONSOLE_*", "ITERM_*", "WT_SESSION",
-    "WT_PROFILE_ID", "TMUX", "TMUX_PANE", "STY", "VSCODE_*",
-    "PS1", "PS2", "PS4", "PROMPT_COMMAND", "HISTFILE", "HISTSIZE", "HISTFILESIZE",
-    "HISTCONTROL", "LS_COLORS", "LESSOPEN", "LESSCLOSE", "MOTD_SHOWN",
+    *PER_TAB, "PWD",
+    "TERM", "TERM_PROGRAM", "TERM_PROGRAM_VERSION", "COLORTERM", "VTE_VERSION",
+    "COLUMNS", "LINES", "LS_COLORS", "LESSOPEN", "LESSCLOSE",
 )
 #: the locale every step gets, and the variables that would choose another
 LOCALE = "C.UTF-8"
