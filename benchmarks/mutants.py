@@ -2,8 +2,11 @@
 every branch of the one dirty check (record/dirty.py), every part of the record's two keys
 (record/model.py), of the cached test result's key and reuse (testing/), and of the build
 cache's key and restore proof (cache/). Each mutant removes one of them with a one-line change
-in a copy of the repository; the tests that hold it run against the copy, and a mutant they
-do not kill (every test passes) is a check the suite does not make.
+made in place, in the checkout the project venv's editable install runs (the tests start
+`wsbuild` as a user does, in a fresh terminal's environment: a copy on PYTHONPATH would be
+dropped, and its mutants never run), and undone after it (commit first: a crash is undone by
+`git checkout -- wsbuild`); a mutant the tests that hold it do not kill (every test passes) is
+a check the suite does not make.
 
     .venv/bin/python benchmarks/mutants.py               # every mutant (about an hour)
     .venv/bin/python benchmarks/mutants.py --only dirty  # the mutants whose name has "dirty"
@@ -16,10 +19,8 @@ from __future__ import annotations
 
 import argparse
 import os
-import shutil
 import subprocess
 import sys
-import tempfile
 import time
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -147,32 +148,23 @@ MUTANTS: tuple[Mutant, ...] = (
 )
 
 
-def _copy(root: Path) -> Path:
-    """A copy of the repository's code and tests (not its venv, builds or caches)."""
-    copy = root / "repo"
-    for name in ("wsbuild", "tests", "benchmarks", "templates", "requirements", "sample_ws"):
-        shutil.copytree(REPO / name, copy / name, symlinks=True,
-                        ignore=shutil.ignore_patterns("__pycache__", "build", "install",
-                                                      "log", ".pytest_cache"))
-    for name in ("pyproject.toml", "README.md"):
-        shutil.copy2(REPO / name, copy / name)
-    return copy
-
-
-def run_mutant(mutant: Mutant, copy: Path, timeout: float) -> tuple[bool, str]:
-    """(killed, by what) for `mutant` applied to `copy` (and undone after)."""
-    path = copy / mutant.path
+def run_mutant(mutant: Mutant, root: Path, timeout: float) -> tuple[bool, str]:
+    """(killed, by what) for `mutant` applied in the checkout `root` (and undone after). In
+    place: the tests start `wsbuild` as the user does, in a fresh terminal's environment
+    (tests/test_build_helpers.py's `clean_env` drops PYTHONPATH), so only the checkout the
+    project venv's editable install points at is the code they run."""
+    path = root / mutant.path
     original = path.read_text()
     if original.count(mutant.old) != 1:
         return False, f"NOT APPLIED: the text to mutate is not in {mutant.path} once"
     path.write_text(original.replace(mutant.old, mutant.new, 1))
     try:
         tests = list(dict.fromkeys((*mutant.tests, *HOLDERS)))
-        env = {**os.environ, "PYTHONPATH": str(copy), "PYTHONDONTWRITEBYTECODE": "1"}
+        env = {**os.environ, "PYTHONDONTWRITEBYTECODE": "1"}
         for test in tests:
             done = subprocess.run(
                 [sys.executable, "-m", "pytest", "-x", "-q", "-p", "no:cacheprovider",
-                 "-n", "2", test], cwd=copy, env=env, capture_output=True, text=True,
+                 "-n", "2", test], cwd=root, env=env, capture_output=True, text=True,
                 timeout=timeout, check=False)
             if done.returncode not in (0, 5):
                 failed = [line for line in done.stdout.splitlines()
@@ -181,6 +173,18 @@ def run_mutant(mutant: Mutant, copy: Path, timeout: float) -> tuple[bool, str]:
         return False, "SURVIVED: every test passed"
     finally:
         path.write_text(original)
+
+
+def _undone_on_signals() -> None:
+    """SIGTERM and SIGHUP end the run as Ctrl-C does: through `run_mutant`'s `finally`,
+    which puts the mutated file back."""
+    import signal
+
+    def stop(signum: int, _frame: object) -> None:
+        raise KeyboardInterrupt(f"signal {signum}")
+
+    for signum in (signal.SIGTERM, signal.SIGHUP):
+        signal.signal(signum, stop)
 
 
 def main(argv: Sequence[str] | None = None) -> int:
@@ -194,14 +198,20 @@ def main(argv: Sequence[str] | None = None) -> int:
         for mutant in chosen:
             print(f"{mutant.name}: {mutant.path}")
         return 0
+    dirty = subprocess.run(["git", "status", "--porcelain", "--", "wsbuild"], cwd=REPO,
+                           capture_output=True, text=True, check=False).stdout
+    if dirty:
+        print("wsbuild/ has uncommitted changes: commit them first (each mutant is made in "
+              "place and undone, and `git checkout -- wsbuild` undoes one a crash left)",
+              file=sys.stderr)
+        return 2
+    _undone_on_signals()
     started = time.monotonic()
     survived = 0
-    with tempfile.TemporaryDirectory(prefix="wsbuild-mutants-") as root:
-        copy = _copy(Path(root))
-        for mutant in chosen:
-            killed, why = run_mutant(mutant, copy, args.timeout)
-            survived += not killed
-            print(f"{'killed  ' if killed else 'SURVIVED'} {mutant.name}: {why}", flush=True)
+    for mutant in chosen:
+        killed, why = run_mutant(mutant, REPO, args.timeout)
+        survived += not killed
+        print(f"{'killed  ' if killed else 'SURVIVED'} {mutant.name}: {why}", flush=True)
     print(f"mutants: {len(chosen)}, killed {len(chosen) - survived}, survived {survived} "
           f"({(time.monotonic() - started) / 60:.1f} min)")
     return 1 if survived else 0

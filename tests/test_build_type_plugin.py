@@ -393,7 +393,7 @@ def test_a_plugin_identifies_packages_that_have_no_package_xml(tmp_path: Path) -
     without package.xml; its package builds with its build type, and a package.xml always
     wins over it. Edited, what it read is seen by the next plan."""
     env = {**os.environ, "PYTHONPATH": str(_map_distribution(tmp_path / "plugins")),
-           "WSBUILD_CACHE_DIR": str(tmp_path / "cache")}
+           "XDG_CACHE_HOME": str(tmp_path / "cache")}
     ws = tmp_path / "ws"
     (ws / "src" / "floor").mkdir(parents=True)
     (ws / "src" / "floor" / "map.yaml").write_text("name: floor_map\nresolution: 1\n")
@@ -407,7 +407,7 @@ def test_a_plugin_identifies_packages_that_have_no_package_xml(tmp_path: Path) -
     assert (ws / "install" / "floor_map" / "share" / "floor_map" / "resolution.txt"
             ).read_text() == "0.25\n"
     # the plugins found were kept, private to the user
-    [kept] = (tmp_path / "cache" / "plugins").glob("*.json")
+    [kept] = (tmp_path / "cache" / "wsbuild-observe" / "plugins").glob("*.json")
     assert "wsb_map_type:identify" in kept.read_text()
     assert stat.S_IMODE(kept.stat().st_mode) == 0o600
     (ws / "src" / "floor" / "map.yaml").write_text("name: renamed_map\n")

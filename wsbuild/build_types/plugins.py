@@ -4,8 +4,8 @@ way to recognise a package directory that has no package.xml).
 
 Scanning the installed distributions costs a run tens of milliseconds (importlib.metadata,
 then every dist-info of the interpreter's path), and every load of a workspace asks for the
-identifiers. What one scan found is kept in wsbuild's own cache (`plugins/<digest of the
-interpreter and its path>.json`, readable by its owner only) with the path it scanned and the stat signature of each of the path's
+identifiers. What one scan found is kept in the user's cache (`wsbuild-observe/plugins/<digest
+of the interpreter and its path>.json`, readable by its owner only) with the path it scanned and the stat signature of each of the path's
 directories, which changes with every distribution installed or removed there; while they hold,
 the scan's answer is taken from it. Those signatures are the declared inputs
 (wsbuild/inputs.py) of whatever the answer decides."""
@@ -70,11 +70,13 @@ def _path_signatures() -> list[list[object]]:
 
 
 def _memo_file() -> Path:
-    """One memo for each interpreter and path (runs with another PYTHONPATH keep theirs)."""
-    from wsbuild.files import wsbuild_cache_dir
+    """One memo for each interpreter and path (runs with another PYTHONPATH keep theirs),
+    beside the file digests' memo (record/file_digests.py): never in the build cache's
+    directory, which `--no-cache` leaves untouched."""
+    from wsbuild.files import user_cache_dir
     from wsbuild.record.model import digest_of
 
-    return wsbuild_cache_dir(os.environ) / "plugins" / \
+    return user_cache_dir(os.environ, "wsbuild-observe") / "plugins" / \
         f"{digest_of([sys.executable, _scanned_path()])}.json"
 
 
