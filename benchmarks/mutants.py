@@ -77,7 +77,7 @@ MUTANTS: tuple[Mutant, ...] = (
            "    if False:", ("tests/test_record.py", "tests/test_incremental.py")),
     Mutant("dirty: dependency rebuilt, not cut off", DIRTY,
            "    if changed_deps and not cutoff:", "    if False:",
-           ("tests/test_early_cutoff.py",)),
+           ("tests/test_record.py", "tests/test_early_cutoff.py")),
     Mutant("dirty: dependency built first (cutoff later)", DIRTY, "    if waiting:",
            "    if False:", ("tests/test_early_cutoff.py", "tests/test_record.py")),
     Mutant("dirty: outside read changed", DIRTY, "    if outside is not None:\n        changed =",

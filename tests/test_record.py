@@ -245,6 +245,19 @@ def test_the_one_dirty_check_names_what_changed_first(tmp_path: Path) -> None:
                      Environment({"PATH": "x"}), incomplete.dependencies)
     assert dirty_reason(incomplete, now, install_base=tmp_path, digests=Digests()).kind == \
         "unobserved"
+    # a dependency built first in this run, under a package whose record is incomplete: it is
+    # built, never cut off (what its unobserved steps read of the dependency is not known)
+    rebuilt = dirty_reason(incomplete, PackageNow(now.own, now.settings, now.environment,
+                                                  {"d": "pending:k2"}),
+                           install_base=tmp_path, digests=Digests(), pending=("d",))
+    assert rebuilt is not None and (rebuilt.kind, rebuilt.cutoff) == ("dependency", False)
+    # a workspace dependency that was not one at the last build (it joined the workspace):
+    # built, never cut off (the last build read it from elsewhere, or not at all)
+    joined = dirty_reason(old, PackageNow(own_files(pkg, old.own), old.settings,
+                                          Environment({"PATH": "x"}),
+                                          {**old.dependencies, "e": "pending:k3"}),
+                          install_base=tmp_path, digests=Digests(), pending=("e",))
+    assert joined is not None and (joined.kind, joined.cutoff) == ("dependency", False)
     volatile = _record(pkg, outside=take([str(header)], [], Digests()),
                        volatile="custom target version_header always runs")
     assert dirty_reason(volatile, now, install_base=tmp_path, digests=Digests()).kind == \
