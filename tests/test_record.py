@@ -312,3 +312,26 @@ def test_a_files_digest_is_kept_across_runs_only_for_its_signature_and_never_rac
     assert inputs.signature(fresh)[4] > now - file_digests.RACY_NS
     old.write_text("int c;\n")  # same size, another signature
     assert later.get(str(old), inputs.signature(old)) is None
+
+
+def test_what_a_record_read_of_its_dependencies_is_their_keys_here(tmp_path: Path) -> None:
+    """The build cache's restore proof and early cutoff ask `changed_read` with the keys the
+    package's dependencies have here: an entry built against another build of a dependency
+    (or against other dependencies) does not hold; one being built in this run is compared
+    by what was read of it, later."""
+    from wsbuild.record.dirty import changed_read
+
+    pkg = tmp_path / "pkg"
+    _write(pkg / "CMakeLists.txt")
+    record = _record(pkg)  # built against d at key k1
+
+    def asked(dependencies: dict[str, str]) -> str | None:
+        found = changed_read(record, digests=Digests(), install_base=tmp_path / "install",
+                             planning=True, dependencies=dependencies)
+        return None if found is None else f"{found.kind}: {found.text}"
+
+    assert asked({"d": "k1"}) is None
+    assert asked({"d": "k2"}) == "dependency: built against another build of d"
+    assert asked({"d": "pending:k2"}) is None
+    assert asked({"d": "k1", "e": "k9"}) == "dependency: built against another build of e"
+    assert asked({}) == "dependency: built against other dependencies"
