@@ -460,3 +460,21 @@ def test_the_dry_run_says_which_tests_would_run_and_why_in_the_dirty_checks_word
     assert done.returncode == 0 and ran_since(ws, before) == ["other"]
     log = (ws / "log" / "latest_test" / "other" / "command.log").read_text()
     assert "test result not reused: a file of the package changed" in log
+
+
+def test_a_package_rebuilt_for_a_variable_its_build_read_runs_its_tests_again(
+        tmp_path: Path) -> None:
+    """The test key's `build` part: a package rebuilt because a variable its build read changed
+    (none of its files did, nor any dependency) runs its tests again."""
+    ws = tmp_path / "ws"
+    cm = write_package(ws / "src", "cm", "cmake")
+    (cm / "CMakeLists.txt").write_text(CM_CMAKELISTS.format().replace(
+        "${RAN}", str(ws / "ran")).replace(
+        "enable_testing()", 'enable_testing()\nfile(WRITE ${CMAKE_BINARY_DIR}/stamp.txt '
+        '"$ENV{WSB_STAMP}")'))
+    for stamp, ran in (("1", 1), ("1", 1), ("2", 2)):
+        built = run_wsbuild("build", cwd=ws, env=_env(WSB_STAMP=stamp))
+        assert built.returncode == 0, built.stdout + built.stderr
+        tested = _test(ws, WSB_STAMP=stamp)
+        assert tested.returncode == 0, tested.stdout + tested.stderr
+        assert runs(ws) == {"cm": ran}, tested.stdout
