@@ -141,7 +141,7 @@ MUTANTS: tuple[Mutant, ...] = (
            ("tests/test_test_cache.py",)),
     Mutant("cache proof: the entry's inputs key", "wsbuild/cache/run.py",
            "    if record.inputs_key != inputs_key:", "    if False:",
-           ("tests/test_cache_build.py",)),
+           ("tests/test_record.py", "tests/test_cache_build.py")),
     Mutant("cache store: incomplete or volatile entries", "wsbuild/cache/run.py",
            "        if not package_record.complete or package_record.volatile:",
            "        if False:", ("tests/test_cache_build.py", "tests/test_observed.py")),

@@ -335,3 +335,28 @@ def test_what_a_record_read_of_its_dependencies_is_their_keys_here(tmp_path: Pat
     assert asked({"d": "pending:k2"}) is None
     assert asked({"d": "k1", "e": "k9"}) == "dependency: built against another build of e"
     assert asked({}) == "dependency: built against other dependencies"
+
+
+def test_a_cache_entry_whose_record_is_of_other_inputs_is_never_proven(tmp_path: Path) -> None:
+    """The build cache's restore proof: an entry found under a package's key whose record says
+    other inputs (a corrupted or foreign entry) is never restored; the same record, of these
+    inputs, is."""
+    import json
+
+    from wsbuild.cache.client import Found
+    from wsbuild.cache.run import OTHER_INPUTS, Disproof, disproof
+    from wsbuild.record.model import encode
+
+    pkg = tmp_path / "pkg"
+    _write(pkg / "CMakeLists.txt")
+    record = _record(pkg)
+    found = Found(record=None, from_local=True,  # type: ignore[arg-type]
+                  package_record=json.dumps(encode(record)).encode())
+
+    def proof(inputs_key: str) -> object:
+        return disproof(found, inputs_key, dict(record.dependencies), Digests(),
+                        install_base=tmp_path / "install", planning=True)
+
+    assert not isinstance(proof(record.inputs_key), Disproof)
+    refused = proof("the inputs key of another build")
+    assert isinstance(refused, Disproof) and refused.why == OTHER_INPUTS
