@@ -478,3 +478,17 @@ def test_a_restored_package_whose_tests_run_from_its_build_tree_is_built_for_the
     # built with the options it was built with: the next build has nothing to do
     after = run_build(ws, "--cmake-args", "-DCMAKE_BUILD_TYPE=Release", env=env)
     assert "1 package up to date" in after.stdout, output(after)
+
+
+def test_a_checkout_at_another_path_builds_what_its_install_prefix_would_make_differ(
+        tmp_path: Path, template: Path) -> None:
+    """The cache key holds the install prefix: an install names its prefix (CMake's configs,
+    scripts' interpreters, the environment hooks), so the same sources checked out at another
+    path are not restored from the first checkout's entries."""
+    env = env_for(tmp_path / "xdg")
+    first, second = tmp_path / "first", tmp_path / "elsewhere" / "second"
+    fresh_clone(first, template)
+    assert finished(run_build(first, env=env)) == sorted(PACKAGES)
+    fresh_clone(second, template)
+    again = run_build(second, env=env)
+    assert restored(again) == [] and finished(again) == sorted(PACKAGES), output(again)
