@@ -413,3 +413,22 @@ def test_a_plugin_identifies_packages_that_have_no_package_xml(tmp_path: Path) -
     (ws / "src" / "floor" / "map.yaml").write_text("name: renamed_map\n")
     again = run_wsbuild("list", cwd=ws, env=env)
     assert [line.split()[0] for line in again.stdout.splitlines()] == ["maps", "renamed_map"]
+
+
+def test_a_package_identifier_that_fails_is_one_error_naming_it(tmp_path: Path) -> None:
+    """A plugin's identifier that raises stops the run before anything is built: exit 2, the
+    identifier and the directory named, install/ untouched."""
+    plugins = _plugin_distribution(tmp_path / "plugins", "wsb_map", MAP_PLUGIN + (
+        "\n\ndef broken(path, names):\n    raise RuntimeError('cannot read map.yaml')\n"))
+    with (plugins / "wsb_map_type-0.1.dist-info" / "entry_points.txt").open("a") as handle:
+        handle.write("[wsbuild.package_identification]\nwsb_map = wsb_map_type:broken\n")
+    ws = tmp_path / "ws"
+    (ws / "src" / "floor").mkdir(parents=True)
+    (ws / "src" / "floor" / "map.yaml").write_text("name: floor_map\n")
+    done = run_wsbuild("build", cwd=ws, env={**os.environ, "PYTHONPATH": str(plugins),
+                                              "XDG_CACHE_HOME": str(tmp_path / "cache")})
+    assert done.returncode == 2, done.stdout + done.stderr
+    first = done.stderr.strip().splitlines()[0]
+    assert "wsb_map_type.broken failed on" in first and "cannot read map.yaml" in first, \
+        done.stderr
+    assert not (ws / "install").exists()

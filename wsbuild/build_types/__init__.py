@@ -470,15 +470,10 @@ def get_build_type(name: str) -> BuildType:
 
 
 def _load_entry_point(value: str) -> object:
-    """What `module:attribute` names, loaded as importlib.metadata.EntryPoint.load() does
-    (without importing importlib.metadata, which a no-op build need not pay for)."""
-    import importlib
+    """What `module:attribute` names (build_types/plugins.py: `load_value`)."""
+    from wsbuild.build_types.plugins import load_value
 
-    module, _, attribute = value.partition(":")
-    loaded: object = importlib.import_module(module)
-    for part in attribute.split(".") if attribute else ():
-        loaded = getattr(loaded, part)
-    return loaded
+    return load_value(value)
 
 
 def declared_options(*, plugins: bool) -> list[tuple[str, tuple[TypeOption, ...]]]:

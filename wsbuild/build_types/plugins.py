@@ -36,15 +36,20 @@ class Entry:
     value: str
 
     def load(self) -> object:
-        """What `module:attribute` names, loaded as importlib.metadata.EntryPoint.load() does
-        (without importing importlib.metadata)."""
-        import importlib
+        return load_value(self.value)
 
-        module, _, attribute = self.value.partition(":")
-        loaded: object = importlib.import_module(module)
-        for part in attribute.split(".") if attribute else ():
-            loaded = getattr(loaded, part)
-        return loaded
+
+def load_value(value: str) -> object:
+    """What `module:attribute` names, loaded as importlib.metadata.EntryPoint.load() does
+    (without importing importlib.metadata, which a no-op build need not pay for): the
+    built-in build types' entry points and the plugins'."""
+    import importlib
+
+    module, _, attribute = value.partition(":")
+    loaded: object = importlib.import_module(module)
+    for part in attribute.split(".") if attribute else ():
+        loaded = getattr(loaded, part)
+    return loaded
 
 
 _found: dict[str, tuple[Entry, ...]] = {}

@@ -46,7 +46,6 @@ from wsbuild.engine.ready_queue import JobGraph
 from wsbuild.testing.request import TestRequest
 from wsbuild.testing.tester import PackageTester
 from wsbuild.words import plural
-from wsbuild.testing.cached_result import read_cached_result
 
 if TYPE_CHECKING:
     from wsbuild.record.dirty import Reason
@@ -186,10 +185,7 @@ def test_plan(selection: Selection, request: TestRequest) -> list[tuple[str, Rea
             for path in inputs.walk_files(share):
                 inputs.declare_file(path)
         ctx = tester.context(name, runner, None)
-        key = tester.key(runner, ctx)
-        cached = read_cached_result(ws.build_base / name) \
-            if key is not None and request.reuse_results else None
-        plan.append((name, tester.rerun_reason(key, cached, ctx.environ)))
+        plan.append((name, tester.decided(name, tester.key(runner, ctx), ctx.environ)[1]))
     return plan
 
 

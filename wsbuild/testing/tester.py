@@ -103,24 +103,25 @@ class PackageTester:
                  environ: Mapping[str, str] | None = None) -> CachedResult | None:
         """The package's last passing result, when it still holds (`environ`: the
         environment its tests would run in now); why not, in its log."""
-        cached = read_cached_result(self.selection.workspace.build_base / name) \
-            if key is not None and self.request.reuse_results else None
-        reason = self.rerun_reason(key, cached, environ)
+        cached, reason = self.decided(name, key, environ)
         if reason is None:
             return cached
         if log_dir is not None:
             _log(log_dir, f"test result not reused: {reason.text}")
         return None
 
-    def rerun_reason(self, key: TestKey | None, cached: CachedResult | None,
-                     environ: Mapping[str, str] | None) -> Reason | None:
-        """Why the tests run again rather than reuse `cached` (record/tested.py)."""
+    def decided(self, name: str, key: TestKey | None, environ: Mapping[str, str] | None
+                ) -> tuple[CachedResult | None, Reason | None]:
+        """The package's last passing result, and why its tests run again rather than reuse
+        it (record/tested.py; None: it holds)."""
         from wsbuild.record.tested import rerun_reason
 
-        return rerun_reason(key, cached.run() if cached is not None else None,
-                            environ=environ, own_install=str(self.selection.workspace.install_base),
-                            ignored=self.request.env_ignore,
-                            forced=not self.request.reuse_results)
+        cached = read_cached_result(self.selection.workspace.build_base / name) \
+            if key is not None and self.request.reuse_results else None
+        return cached, rerun_reason(
+            key, cached.run() if cached is not None else None, environ=environ,
+            own_install=str(self.selection.workspace.install_base),
+            ignored=self.request.env_ignore, forced=not self.request.reuse_results)
 
     def environment(self, name: str) -> dict[str, str]:
         """The package's install last, after its test closure in dependency order."""

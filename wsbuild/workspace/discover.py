@@ -57,14 +57,20 @@ class _Claims:
     def claim(self, path: Path, names: frozenset[str]) -> Package | None:
         """What the first identifier that knows the directory says it is (checked)."""
         for identifier in self.identifiers:
-            package = identifier(path, names)
+            named = f"{getattr(identifier, '__module__', '?')}." \
+                f"{getattr(identifier, '__qualname__', type(identifier).__name__)}"
+            hint = ("an identifier returns a wsbuild.workspace.model.Package of the directory "
+                    "it was given, or None; update or uninstall the distribution providing it")
+            try:
+                package = identifier(path, names)
+            except Exception as exc:  # a broken plugin: one line, naming it
+                raise WorkspaceError(f"the package identifier {named} failed on {path}: {exc}",
+                                     hint=hint) from None
             if package is not None:
                 if not isinstance(package, Package) or package.path != path:
                     raise WorkspaceError(
-                        f"the package identifier {identifier!r} answered {package!r} for {path}",
-                        hint="an identifier returns a wsbuild.workspace.model.Package of the "
-                             "directory it was given, or None; update or uninstall its "
-                             "distribution")
+                        f"the package identifier {named} answered a "
+                        f"{type(package).__name__} not of {path}", hint=hint)
                 _checked_plain_name(package.name, path)
                 self.claimed[str(path)] = package
                 return package
