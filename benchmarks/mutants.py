@@ -145,8 +145,8 @@ MUTANTS: tuple[Mutant, ...] = (
     Mutant("cache store: incomplete or volatile entries", "wsbuild/cache/run.py",
            "        if not package_record.complete or package_record.volatile:",
            "        if False:", ("tests/test_cache_build.py", "tests/test_observed.py")),
-    Mutant("cache key: install prefix", "wsbuild/cache/key.py",
-           '        "install_prefix": str(install_prefix),\n', "",
+    Mutant("inputs key: install prefix", "wsbuild/builder/plan.py",
+           '        "install_prefix": str(prefix),\n', "",
            ("tests/test_cache_build.py",)),
 )
 

@@ -480,15 +480,18 @@ def test_a_restored_package_whose_tests_run_from_its_build_tree_is_built_for_the
     assert "1 package up to date" in after.stdout, output(after)
 
 
-def test_a_checkout_at_another_path_builds_what_its_install_prefix_would_make_differ(
+def test_another_install_base_of_the_same_checkout_builds_rather_than_restores(
         tmp_path: Path, template: Path) -> None:
     """The cache key holds the install prefix: an install names its prefix (CMake's configs,
-    scripts' interpreters, the environment hooks), so the same sources checked out at another
-    path are not restored from the first checkout's entries."""
+    scripts' interpreters, the environment hooks), so the same sources, at the same path,
+    installed into another base are built for it, not restored from the first base's
+    entries (a checkout at another path differs in its sources' path too: the test above)."""
     env = env_for(tmp_path / "xdg")
-    first, second = tmp_path / "first", tmp_path / "elsewhere" / "second"
-    fresh_clone(first, template)
-    assert finished(run_build(first, env=env)) == sorted(PACKAGES)
-    fresh_clone(second, template)
-    again = run_build(second, env=env)
+    ws = tmp_path / "ws"
+    fresh_clone(ws, template)
+    assert finished(run_build(ws, env=env)) == sorted(PACKAGES)
+    shutil.rmtree(ws / "build")
+    again = run_build(ws, "--install-base", "install_other", env=env)
     assert restored(again) == [] and finished(again) == sorted(PACKAGES), output(again)
+    talker = (ws / "install_other" / "cached_talker" / "lib" / "cached_talker" / "talker")
+    assert str(ws / "install" / "") not in talker.read_text()

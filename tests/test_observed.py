@@ -116,16 +116,24 @@ def test_an_always_run_target_that_reads_git_is_built_again_after_a_new_tag(
     _git(pkg, "add", "CMakeLists.txt", "package.xml", "src", "version.sh")
     _git(pkg, "commit", "-qm", "one")
     _git(pkg, "tag", "v1")
-    _build(ws, env=clean_env(**GIT))
+    # the build cache on, in a directory of its own (WSBUILD_CACHE empty: local only)
+    env = clean_env(**GIT, XDG_CACHE_HOME=str(tmp_path / "xdg"), WSBUILD_CACHE="")
+    env.pop("WSBUILD_CACHE_DIR", None)
+    _build(ws, env=env)
     assert _program(ws, "tagged") == "v1"
     # its build system always has work: the package is built every time (volatile)
     record = json.loads((ws / "build" / "tagged" / ".wsbuild" / "record.json").read_text())
     assert "version.sh" in record["volatile"], record["volatile"]
-    again = _build(ws, env=clean_env(**GIT))
+    # and the cache keeps no entry of it, which could never be restored (its log says why)
+    log = (ws / "log" / "latest_build" / "tagged" / "command.log").read_text()
+    assert "not cached: its build system always has work" in log, log
+    stats = run("cache", "stats", cwd=ws, env=env)
+    assert "0 entries, 0 blobs" in stats.stdout, output(stats)
+    again = _build(ws, env=env)
     assert _finished(again) == ["tagged"], output(again)
     _git(pkg, "commit", "-q", "--allow-empty", "-m", "two")
     _git(pkg, "tag", "v2")
-    result = _build(ws, env=clean_env(**GIT))
+    result = _build(ws, env=env)
     assert _finished(result) == ["tagged"], output(result)
     assert _program(ws, "tagged") == "v2"
 

@@ -311,7 +311,7 @@ def plan_package(planning: _Planning, name: str) -> PackagePlan:
     common["inputs_key"] = before
     common["backdated"] = _backdated(old, own)
     common["previous"] = old
-    cache_key = session.cache.key(name, package.build_type, before, prefix)
+    cache_key = session.cache.key(name, package.build_type, before)
     found = None
     if cache_key is not None and reason.kind is not Dirty.FORCED:
         found = session.cache.lookup(cache_key, before, now.dependencies, session.digests,

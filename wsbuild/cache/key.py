@@ -76,9 +76,9 @@ class CacheKey:
         return CacheKey(self.package, self.text, hashlib.sha256(text.encode()).hexdigest())
 
 
-def cache_key(*, package: str, inputs_key: str, install_prefix: Path, build_type: str,
-              version: str) -> CacheKey:
-    """The key under which `package`'s install is stored."""
+def cache_key(*, package: str, inputs_key: str, build_type: str, version: str) -> CacheKey:
+    """The key under which `package`'s install is stored. The install prefix is not a part
+    of its own: the inputs key holds it (builder/plan.py `package_settings`)."""
     with _FIRST_CALL:  # the first call looks at the machine; the others wait and reuse it
         platform = platform_id()
     parts = {
@@ -86,7 +86,6 @@ def cache_key(*, package: str, inputs_key: str, install_prefix: Path, build_type
         "package": package,
         "build_type": build_type,
         "inputs_key": inputs_key,
-        "install_prefix": str(install_prefix),
         "wsbuild": version,
         "platform": platform,
     }

@@ -167,15 +167,15 @@ class RunCache:
                    f"these addresses); {'it was' if count == 1 else 'they were'} refused "
                    "before anything was unpacked, and built here")
 
-    def key(self, name: str, build_type: str, inputs_key: str, prefix: Path) -> CacheKey | None:
+    def key(self, name: str, build_type: str, inputs_key: str) -> CacheKey | None:
         if self.settings is None:
             return None
         started = time.perf_counter()
         from wsbuild import __version__
         from wsbuild.cache.key import cache_key
 
-        key = cache_key(package=name, inputs_key=inputs_key, install_prefix=prefix,
-                        build_type=build_type, version=__version__)
+        key = cache_key(package=name, inputs_key=inputs_key, build_type=build_type,
+                        version=__version__)
         with self._lock:  # counted with the lookups
             self._seconds["lookup"] += time.perf_counter() - started
         return key
