@@ -6,7 +6,6 @@ cache's server, the times, register, commit) is a planned, labelled step too."""
 
 from __future__ import annotations
 
-import json
 import os
 import shutil
 from dataclasses import replace
@@ -15,7 +14,7 @@ from pathlib import Path
 from conftest import run_wsbuild, write_package
 
 from wsbuild.build_types import BuildOptions, Command, Step, get_build_type, package_context
-from wsbuild.build_types.cmake_facts import CONFIGURE_RECORD
+from wsbuild.record.configured import read_configured
 from wsbuild.builder.package import step_differences
 from wsbuild.workspace.manifest import parse_manifest
 
@@ -46,9 +45,9 @@ def test_the_configure_record_is_what_the_build_s_context_gives_not_the_plan_s(
     now = replace(planned, environ={**planned.environ, "CC": "gcc"})
     assert step.action is not None
     step.action(now)
-    written = json.loads((planned.build_dir / CONFIGURE_RECORD).read_text())
-    assert written == json.loads(json.dumps(build_type._record(now)))
-    assert written != json.loads(json.dumps(build_type._record(planned)))
+    written = read_configured(planned.build_dir)
+    assert written == build_type.configured(now)
+    assert written != build_type.configured(planned)
 
 
 def test_the_same_context_gives_equal_steps_every_field_included(tmp_path: Path) -> None:

@@ -31,6 +31,7 @@ if TYPE_CHECKING:
     from wsbuild.build_types.plugins import Entry
     from wsbuild.build_types.pybuild.recipe import PythonBuildPlan
     from wsbuild.build_types.test_runner import TestRunner
+    from wsbuild.record.dirty import Reason
 
 from wsbuild.build_types.step_observer import StepObserver
 from wsbuild.errors import ManifestError, WsbuildError
@@ -272,6 +273,9 @@ class Step:
     #: what it reads and writes, where known (printed by `--dry-run`)
     reads: tuple[Path, ...] = ()
     writes: tuple[Path, ...] = ()
+    #: why a step that runs only sometimes runs now (a configure: record/configured.py), in
+    #: the words a package's build is explained in; printed by `--dry-run`
+    why: Reason | None = None
 
     def __post_init__(self) -> None:
         if (self.action is None) == (self.command is None):

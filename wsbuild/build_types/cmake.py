@@ -19,7 +19,6 @@ from __future__ import annotations
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
 
 from wsbuild.build_types import (
     PackageContext,
@@ -32,7 +31,6 @@ from wsbuild.build_types import (
     key_options,
 )
 from wsbuild.build_types.cmake_facts import (
-    CONFIGURE_RECORD,
     CMakeFacts,
     CMakeState,
     NinjaTool,
@@ -45,6 +43,8 @@ from wsbuild.build_types.cmake_actions import (
 from wsbuild.build_types.staging import staged_install_steps
 from wsbuild.build_types.cmake_options import CMAKE_OPTIONS, CMakeOptions
 from wsbuild.prefix.hooks import EnvironmentHooks
+from wsbuild.record.configured import CONFIGURED_FILE, Configured, reconfigure_reason
+from wsbuild.record.dirty import Reason
 
 
 NINJA = "Ninja"
@@ -130,9 +130,10 @@ class CMakeBuildType:
         clean = self.clean_step(ctx)
         if clean is not None:
             steps.append(clean)
-        if self.needs_configure(ctx):
+        why = self.configure_reason(ctx)
+        if why is not None:
             steps += self.prepare_configure_steps(ctx)
-            steps.append(self.configure_step(ctx))
+            steps.append(self.configure_step(ctx, why))
             steps.append(self.configure_record_step(ctx))
         steps.append(self.build_step(ctx))
         steps += self.install_steps(ctx)
@@ -210,11 +211,11 @@ class CMakeBuildType:
         return args
 
     def _gate_configured(self, ctx: PackageContext) -> bool:
-        record = self.state(ctx).record
-        previous = record.get("args", []) if record is not None else []
+        configured = self.state(ctx).configured
+        previous = configured.args if configured is not None else ()
         return any(a == "-UCMAKE_PROJECT_INCLUDE" or (
             a.startswith("-DCMAKE_PROJECT_INCLUDE=") and a.endswith("local_gate.cmake"))
-            for a in previous if isinstance(a, str))
+            for a in previous)
 
     def build_environ(self, ctx: PackageContext) -> dict[str, str]:
         """The package environment for configure and build, plus: Ninja ≥ 1.13 joins the
@@ -249,26 +250,29 @@ class CMakeBuildType:
         ninja = self.ninja(ctx)
         return outside_reads(ctx.build_dir, ctx.source_dir, ninja.path if ninja else None)
 
-    def needs_configure(self, ctx: PackageContext) -> bool:
-        """Configure when asked, when there is no cache, when the source, the arguments or the
-        compilers' variables differ from the last configure's, and when the last configure
-        read a file or a variable that changed since (`ctx.redo`: the package's record says
-        which step read what changed; CMake itself watches only its own list of files, not
-        what `file(READ)` or `$ENV{}` read). What the build step read counts too: a build
-        step runs CMake's configure again when a file CMake watches changed, and what that
-        configure read is the build step's. A clean goes before a configure (`clean_step`)."""
+    def configure_reason(self, ctx: PackageContext) -> Reason | None:
+        """Why CMake configures before the build (None: it need not), asked of record/ as a
+        package's build is: when asked, when there is no cache, when the source, the arguments
+        or the compilers' variables differ from the last configure's, and when the last
+        configure read a file or a variable that changed since (`ctx.redo`: the package's
+        record says which step read what changed; CMake itself watches only its own list of
+        files, not what `file(READ)` or `$ENV{}` read). What the build step read counts too: a
+        build step runs CMake's configure again when a file CMake watches changed, and what
+        that configure read is the build step's. A clean goes before a configure
+        (`clean_step`)."""
         own = cmake_options(ctx)
-        if own.clean_cache or own.force_configure or own.clean_first \
-                or {"configure", "build"} & _redone(ctx):
-            return True
+        asked = next((flag for flag, on in (("--cmake-clean-cache", own.clean_cache),
+                                            ("--cmake-force-configure", own.force_configure),
+                                            ("--cmake-clean-first", own.clean_first)) if on), "")
         state = self.state(ctx)
-        return not state.cache or self._record(ctx) != state.record
+        return reconfigure_reason(state.configured, self.configured(ctx),
+                                  configured=state.cache, asked=asked, redo=_redone(ctx))
 
-    def _record(self, ctx: PackageContext) -> dict[str, Any]:
-        """What decides whether to configure again: the source, the arguments and the
-        compilers' variables (a change configures from scratch)."""
-        return {"source": str(ctx.source_dir), "args": self.configure_args(ctx),
-                "environment": _compiler_digests(ctx.environ)}
+    def configured(self, ctx: PackageContext) -> Configured:
+        """What a configure now uses, as the last one's is kept: the source, the arguments
+        and the compilers' variables (a change of those configures from scratch)."""
+        return Configured(str(ctx.source_dir), tuple(self.configure_args(ctx)),
+                          _compiler_digests(ctx.environ))
 
     def prepare_configure_steps(self, ctx: PackageContext) -> list[Step]:
         """What goes before a configure: a cache CMake cannot configure again (made with
@@ -300,8 +304,8 @@ class CMakeBuildType:
                 "empty build directory", self.empty_for_install_mode,
                 description=f"empty the build directory (but wsbuild's records): it was built "
                             f"{switched}", writes=(build_dir,)))
-        record = build_dir / CONFIGURE_RECORD
-        if state.record is not None:
+        record = build_dir / CONFIGURED_FILE
+        if state.configured is not None:
             steps.append(Step(
                 "forget configure", forget_configure_record,
                 description="drop the last configure's record (a failed configure is tried "
@@ -319,8 +323,8 @@ class CMakeBuildType:
             return (f"of another generator ({state.generator})",
                     f"{ctx.build_dir} was configured with the '{state.generator}' generator, "
                     f"this build uses '{wanted}': configuring it from scratch")
-        before = state.record.get("environment") if state.record is not None else None
-        if isinstance(before, dict):
+        if state.configured is not None:
+            before = state.configured.compilers
             changed = [name for name, digest in _compiler_digests(ctx.environ).items()
                        if before.get(name) != digest]
             if changed:
@@ -329,17 +333,17 @@ class CMakeBuildType:
                         "configuring it from scratch (CMake reads them at the first configure)")
         return None
 
-    def configure_step(self, ctx: PackageContext) -> Step:
-        """`cmake SOURCE ARGS` in the build directory."""
+    def configure_step(self, ctx: PackageContext, why: Reason | None = None) -> Step:
+        """`cmake SOURCE ARGS` in the build directory (`why`: the reason it runs)."""
         env, run_env = self._build_env(ctx)
         return Step("configure", command=Command(
             ("cmake", str(ctx.source_dir), *self.configure_args(ctx)), ctx.build_dir, env=env,
             run_env=run_env, problems=configure_problems),
-            reads=(ctx.source_dir,), writes=(ctx.build_dir,))
+            reads=(ctx.source_dir,), writes=(ctx.build_dir,), why=why)
 
     def configure_record_step(self, ctx: PackageContext) -> Step:
         """After a configure: the record of what it used, which decides the next one."""
-        record = ctx.build_dir / CONFIGURE_RECORD
+        record = ctx.build_dir / CONFIGURED_FILE
         return Step("configure record", self.record_configure,
                     description="write what this configure used (its arguments, digests of "
                                 "the environment)", writes=(record,))
@@ -358,7 +362,7 @@ class CMakeBuildType:
 
     def record_configure(self, ctx: PackageContext) -> None:
         """What the configure that just ran used: its arguments, its compilers' digests."""
-        write_configure_record(ctx, record=self._record(ctx))
+        write_configure_record(ctx, configured=self.configured(ctx))
 
     def install_mode_switched(self, ctx: PackageContext) -> str:
         """How the build directory was built, when it was for another install mode, whose

@@ -1,18 +1,16 @@
 """What the CMake build types' steps that run in wsbuild do (each a `Step(label, action)` of
 cmake.py's recipe, shown by `--dry-run`): drop a cache (with or without CMake's files) or
-empty a build directory, forget and write the last configure's record. (Staging the install:
-build_types/staging.py.)"""
+empty a build directory, forget and keep what the last configure used (record/configured.py).
+(Staging the install: build_types/staging.py.)"""
 
 from __future__ import annotations
 
-import json
 import os
 import shutil
-from collections.abc import Mapping
 from pathlib import Path
 
 from wsbuild.build_types import PackageContext
-from wsbuild.build_types.cmake_facts import CONFIGURE_RECORD
+from wsbuild.record.configured import Configured, forget_configured, write_configured
 
 #: what stays when a build directory is emptied: wsbuild's own records and markers
 KEPT_IN_BUILD_DIRECTORY = frozenset({".wsbuild", "COLCON_IGNORE", "AMENT_IGNORE"})
@@ -47,12 +45,8 @@ def empty(ctx: PackageContext, *, why: str) -> None:
 
 
 def forget_configure_record(ctx: PackageContext) -> None:
-    (ctx.build_dir / CONFIGURE_RECORD).unlink(missing_ok=True)
+    forget_configured(ctx.build_dir)
 
 
-def write_configure_record(ctx: PackageContext, *, record: Mapping[str, object]) -> None:
-    from wsbuild.files import atomic_write, private_directory
-
-    path = ctx.build_dir / CONFIGURE_RECORD
-    private_directory(path.parent)
-    atomic_write(path, json.dumps(record, indent=1) + "\n", mode=0o600)
+def write_configure_record(ctx: PackageContext, *, configured: Configured) -> None:
+    write_configured(ctx.build_dir, configured)

@@ -5,7 +5,6 @@ record, read once when its context is made), so that `steps()` reads and runs no
 
 from __future__ import annotations
 
-import json
 import os
 import re
 import subprocess
@@ -14,8 +13,8 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
-#: what the last configure used, to know when to configure again
-CONFIGURE_RECORD = Path(".wsbuild") / "cmake_configure.json"
+from wsbuild.record.configured import Configured, read_configured
+
 #: the first Ninja release that is a GNU make jobserver client
 NINJA_JOBSERVER = (1, 13)
 
@@ -91,8 +90,8 @@ class CMakeState:
     generator: str | None = None
     #: the cache's AMENT_CMAKE_SYMLINK_INSTALL (None: not set)
     symlink_install: bool | None = None
-    #: the last configure's record (CONFIGURE_RECORD), None when there is none
-    record: Mapping[str, object] | None = None
+    #: what the last configure used (record/configured.py), None when none is known
+    configured: Configured | None = None
 
 
 _SYMLINK_INSTALL = re.compile(r"^AMENT_CMAKE_SYMLINK_INSTALL:[A-Z]+=(.*)$", re.MULTILINE)
@@ -101,15 +100,11 @@ _GENERATOR = re.compile(r"^CMAKE_GENERATOR:INTERNAL=(.*)$", re.MULTILINE)
 
 def read_cmake_state(build_dir: Path) -> CMakeState:
     """What `build_dir` holds: its CMake cache's generator and symlink-install setting, and
-    the last configure's record."""
+    what the last configure used."""
     try:
         text: str | None = (build_dir / "CMakeCache.txt").read_text(errors="replace")
     except OSError:
         text = None
-    try:
-        record = json.loads((build_dir / CONFIGURE_RECORD).read_text())
-    except (OSError, ValueError):
-        record = None
     generator = symlink = None
     if text is not None:
         found = _GENERATOR.search(text)
@@ -118,4 +113,4 @@ def read_cmake_state(build_dir: Path) -> CMakeState:
         symlink = found is not None and found.group(1).strip().upper() in (
             "1", "ON", "TRUE", "YES", "Y")
     return CMakeState(cache=text is not None, generator=generator, symlink_install=symlink,
-                      record=record if isinstance(record, dict) else None)
+                      configured=read_configured(build_dir))

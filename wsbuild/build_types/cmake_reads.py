@@ -20,7 +20,7 @@ from collections.abc import Iterable, Iterator
 from pathlib import Path
 
 from wsbuild.build_types import ReadOutside, ninja_deps
-from wsbuild.build_types.cmake_facts import CONFIGURE_RECORD
+from wsbuild.record.configured import read_configured
 from wsbuild.build_types.ninja_deps import make_prerequisites
 
 #: CMake's regeneration list in Makefile projects
@@ -76,18 +76,12 @@ def _tools(build_dir: Path) -> Iterator[str]:
 
 
 def _initial_caches(build_dir: Path) -> Iterator[str]:
-    """The scripts the last configure's `-C FILE` arguments preloaded (the configure record of
-    build_types/cmake.py; CMake's regeneration list does not name them)."""
-    import json
-
-    try:
-        args = json.loads((build_dir / CONFIGURE_RECORD).read_text())["args"]
-    except (OSError, ValueError, KeyError, TypeError):
-        return
+    """The scripts the last configure's `-C FILE` arguments preloaded (what it used,
+    record/configured.py; CMake's regeneration list does not name them)."""
+    configured = read_configured(build_dir)
+    args = configured.args if configured is not None else ()
     for index, arg in enumerate(args):
-        if not isinstance(arg, str):
-            continue
-        if arg == "-C" and index + 1 < len(args) and isinstance(args[index + 1], str):
+        if arg == "-C" and index + 1 < len(args):
             yield args[index + 1]
         elif arg.startswith("-C") and len(arg) > 2:
             yield arg[2:]

@@ -395,7 +395,7 @@ def step_differences(planned: Sequence[Step], now: Sequence[Step]) -> list[str]:
     differences = []
     for old, new in zip(planned, now):
         fields = [name for name in ("action", "command", "description", "by_hand", "reads",
-                                    "writes") if getattr(old, name) != getattr(new, name)]
+                                    "writes", "why") if getattr(old, name) != getattr(new, name)]
         if old.command is not None and new.command is not None and "command" in fields:
             fields[fields.index("command")] = "command's " + ", ".join(
                 name for name in ("argv", "cwd", "env", "run_env", "problems")

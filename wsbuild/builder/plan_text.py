@@ -65,6 +65,8 @@ class PlannedCommands:
         lines += [f"# (in wsbuild) {work.description} (no command)" for work in planned.before]
         for step in planned.steps:
             command = step.shown
+            if step.why is not None:  # a step that runs only sometimes: why it runs now
+                lines.append(f"# {step.label}: {step.why.text}")
             if step.command is None:
                 # what wsbuild does in its own process, and where
                 where = ", ".join(_shown_path(path) for path in step.writes)
@@ -226,6 +228,9 @@ def _step_json(step: Step, env: Mapping[str, str] | None) -> dict[str, object]:
         "env": None if env is None else dict(env),
         "reads": [os.fspath(path) for path in step.reads],
         "writes": [os.fspath(path) for path in step.writes],
+        "why": None if step.why is None else {"kind": step.why.kind.value,
+                                               "text": step.why.text,
+                                               "details": list(step.why.details)},
         "builder": False,
     }
 
@@ -233,4 +238,5 @@ def _step_json(step: Step, env: Mapping[str, str] | None) -> dict[str, object]:
 def _builder_step_json(work: BuilderStep) -> dict[str, object]:
     """One of the builder's own steps, in the form of a build type's in-process step."""
     return {"label": work.label, "in_process": True, "description": work.description,
-            "argv": None, "cwd": None, "env": None, "reads": [], "writes": [], "builder": True}
+            "argv": None, "cwd": None, "env": None, "reads": [], "writes": [], "why": None,
+            "builder": True}

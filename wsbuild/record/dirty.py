@@ -45,6 +45,8 @@ class Dirty(str, Enum):
     UNOBSERVED = "unobserved"
     #: its build system had work left right after its last build: it runs every time
     VOLATILE = "volatile"
+    #: (a configure) the last run of the step, or of a later one, read what changed since
+    REREAD = "reread"
     #: (a test result) its package was rebuilt since its tests passed
     REBUILT = "rebuilt"
     #: (a test result) the result files its run wrote changed or are gone
