@@ -36,6 +36,7 @@ SIDEWAYS: dict[tuple[str, str], str] = {
     ("files", "inputs"): "a write that compares with what is there reads it as a declared input",
     ("inputs", "signature"): "a declared input is compared by the one stat signature",
     ("record", "observe"): "a record holds what the steps were observed to read",
+    ("engine", "record"): "a command's recording asks of its environment what a record asks",
 }
 
 

@@ -25,6 +25,9 @@ from conftest import (
 from wsbuild import cli, launch
 from wsbuild.engine import replay
 from wsbuild.engine.recording import WHY_NOT
+from wsbuild.record.environment import environment_digests, environment_reason
+from wsbuild.record.reason import Dirty
+from wsbuild.terminal import is_per_tab
 
 #: a recording run must start this long after the last change it could read (engine/recording.py's
 #: racy rule): a change in the same timestamp tick as the read would not show
@@ -260,6 +263,31 @@ def test_another_terminal_tab_or_editor_window_is_replayed(
     monkeypatch.setenv("SHLVL", "7")
     code, out, replayed = runs.build()
     assert code == 0 and replayed, out
+
+
+def test_the_replay_asks_of_the_environment_what_a_record_asks(
+        recorded: tuple[Path, Runs], monkeypatch: pytest.MonkeyPatch) -> None:
+    """One rule (record/environment.py): each variable by a digest of its value (the recording
+    keeps no value), LD_LIBRARY_PATH as a set of directories; a variable set since is named in
+    the dirty check's words, and the command runs in full."""
+    ws, runs = recorded
+    monkeypatch.setenv("LD_LIBRARY_PATH", os.pathsep.join(["/wsb/one", "/wsb/two"]))
+    runs.build()
+    time.sleep(SETTLE)
+    runs.build()  # the no-op in this environment, recorded
+    assert runs.build()[2]
+    monkeypatch.setenv("LD_LIBRARY_PATH", os.pathsep.join(["/wsb/two", "/wsb/one"]))
+    assert runs.build()[2], "the same directories in another order are the same environment"
+    kept = json.loads((ws / replay.recording_path("build")).read_text())["key"]["environ"]
+    monkeypatch.setenv("WSB_TOKEN", "s3cret-token")
+    reason = environment_reason(kept, environment_digests(os.environ, leave_out=is_per_tab))
+    assert reason is not None and reason.kind is Dirty.ENVIRONMENT, reason
+    assert reason.details == ("WSB_TOKEN",)
+    code, out, replayed = runs.build()
+    assert code == 0 and not replayed, out
+    for recording in (ws / replay.RECORDINGS).iterdir():
+        assert "s3cret-token" not in recording.read_text()
+        assert "/wsb/one" not in recording.read_text()
 
 
 def test_another_build_holding_the_lock_is_not_replayed_past(

@@ -26,6 +26,7 @@ import sys
 import time
 from pathlib import Path
 
+from wsbuild.record.environment import environment_digests, environment_reason
 from wsbuild.signature import stat_signature
 from wsbuild.terminal import is_per_tab
 
@@ -52,7 +53,7 @@ if TYPE_CHECKING:
 RECORDINGS = Path("build") / ".wsbuild" / "noop"
 #: the verbs that are replayed: build (a no-op), and those that only read
 VERBS = frozenset({"build", "list", "graph", "info"})
-FORMAT = 8
+FORMAT = 9
 #: what a recording keeps in place of the run's log directory
 RUN_LOG = "\0run_log\0"
 #: report.json's start time, as the recording keeps it (a JSON string)
@@ -127,21 +128,13 @@ def key_of(argv: Sequence[str]) -> dict[str, object]:
     }
 
 
-def _environ() -> str:
-    """A digest of the environment, less what names the terminal tab, window or command
-    (terminal.py: no step gets it, wsbuild reads none of it; no value is ever
-    written to the recording: a token in the environment stays out of build/). LD_LIBRARY_PATH
-    as a sorted set: the ROS wheels' bootstrapper writes its entries in a random (set) order
-    in each process, and no plan reads their order."""
-    environ = {k: v for k, v in os.environ.items() if not is_per_tab(k)}
-    if "LD_LIBRARY_PATH" in environ:
-        entries = sorted(set(environ["LD_LIBRARY_PATH"].split(os.pathsep)))
-        environ["LD_LIBRARY_PATH"] = os.pathsep.join(entries)
-    digest = _blake2b(digest_size=32)
-    for name in sorted(environ):
-        digest.update(name.encode("utf-8", "surrogateescape") + b"\0"
-                      + environ[name].encode("utf-8", "surrogateescape") + b"\0")
-    return digest.hexdigest()
+def _environ() -> dict[str, str]:
+    """The environment by the digest of each variable (record/environment.py's rule, as a
+    package record compares the variables its steps read: LD_LIBRARY_PATH as a set of
+    directories; no value is ever written to the recording, a token in the environment stays
+    out of build/), less what names the terminal tab, window or command (terminal.py: no step
+    gets it, wsbuild reads none of it)."""
+    return environment_digests(os.environ, leave_out=is_per_tab)
 
 
 def _digest(text: str) -> str:
@@ -238,7 +231,14 @@ def _read_recording(argv: Sequence[str]) -> dict[str, Any] | None:
             recording = json.load(handle)
     except (OSError, ValueError):
         return None
-    if not isinstance(recording, dict) or recording.get("key") != key_of(argv):
+    if not isinstance(recording, dict) or not isinstance(recording.get("key"), dict):
+        return None
+    key = key_of(argv)
+    environ = key.pop("environ")
+    if {k: v for k, v in recording["key"].items() if k != "environ"} != key:
+        return None
+    # the environment is asked as a record's variables are (record/environment.py)
+    if environment_reason(recording["key"]["environ"], environ) is not None:
         return None
     log = recording.get("log")
     shapes = ((recording.get("paths"), list), (recording.get("digest"), int),

@@ -1,6 +1,7 @@
 """The one dirty check: whether a package's record still holds for the package as it is now,
 and if not, why (cargo's `DirtyReason`). The plan, early cutoff, the build cache and
-`--dry-run` all ask it; a cached test result is asked in the same words (record/tested.py)."""
+`--dry-run` all ask it; a cached test result is asked in the same words (record/tested.py),
+which are record/reason.py's."""
 
 from __future__ import annotations
 
@@ -8,68 +9,16 @@ import json
 import os
 from collections.abc import Collection, Iterable, Mapping
 from dataclasses import dataclass
-from enum import Enum
 from pathlib import Path
 
-from wsbuild.record.environment import changed_names, names_digest, variable_digests
+from wsbuild.record.environment import (changed_names, names_digest, variable_digests,
+                                        variables_changed)
 from wsbuild.record.environment import held as is_held
 from wsbuild.record.installed import damaged_install
 from wsbuild.record.model import PENDING, PackageRecord
 from wsbuild.record.outside import Digests, changed_paths, first_change, own_entries
 from wsbuild.record.own_files import OwnFiles, files_digest
-
-
-class Dirty(str, Enum):
-    """What kind of change makes a package build, in the order the check looks for them (the
-    value is what `--dry-run --json` writes)."""
-
-    #: its last build was cut short (the record says nothing then)
-    UNFINISHED = "unfinished"
-    #: the command line asks for it (--force, --cmake-force-configure, …)
-    FORCED = "forced"
-    #: it has no record: never built here, or built by another tool
-    NEW = "new"
-    #: the options it is built with (its build type's, --cmake-args, a mixin, a meta file)
-    OPTIONS = "options"
-    #: a variable of the environment its build sees
-    ENVIRONMENT = "environment"
-    #: one of its own files (by content)
-    SOURCE = "source"
-    #: a workspace dependency was rebuilt, and this build read what changed of it
-    DEPENDENCY = "dependency"
-    #: a file outside the package its build read (a header of the underlay, a tool)
-    EXTERNAL = "external"
-    #: what it installed is missing or changed under install/
-    INSTALL = "install"
-    #: its steps were not all observed: its build system runs every time
-    UNOBSERVED = "unobserved"
-    #: its build system had work left right after its last build: it runs every time
-    VOLATILE = "volatile"
-    #: (a configure) the last run of the step, or of a later one, read what changed since
-    REREAD = "reread"
-    #: (a test result) its package was rebuilt since its tests passed
-    REBUILT = "rebuilt"
-    #: (a test result) the result files its run wrote changed or are gone
-    RESULTS = "results"
-
-    def __str__(self) -> str:
-        return self.value
-
-
-@dataclass(frozen=True, slots=True)
-class Reason:
-    """Why a package is built: `kind` for tools, `text` for people, `details` the files,
-    options, variables or dependencies that changed."""
-
-    kind: Dirty
-    text: str
-    details: tuple[str, ...] = ()
-    #: decided once the dependencies in `details` are built in this run: built only if what
-    #: it read of them changed (early cutoff), else up to date
-    cutoff: bool = False
-    #: the labels of the steps that read what changed (record.read_by): a build type redoes
-    #: from the first of them (CMake configures again when its configure read it)
-    redo: tuple[str, ...] = ()
+from wsbuild.record.reason import Dirty, Reason
 
 
 @dataclass(frozen=True, slots=True)
@@ -139,10 +88,8 @@ def dirty_reason(old: PackageRecord | None, now: PackageNow, *, install_base: Pa
         return Reason(Dirty.OPTIONS, "build options changed: " + "; ".join(changed), changed)
     changed_variables = environment_change(old, now.environment)
     if changed_variables:
-        shown = ", ".join(changed_variables[:5]) + (" …" if len(changed_variables) > 5 else "")
-        return Reason(Dirty.ENVIRONMENT, f"environment variable changed: {shown}",
-                      changed_variables,
-                      redo=_redo(old, (f"${name}" for name in changed_variables)))
+        return variables_changed(changed_variables,
+                                 redo=_redo(old, (f"${name}" for name in changed_variables)))
     if (old.own_digest or files_digest(old.own)) != now.own.digest:  # by content, not stat
         changed = now.own.changed or sorted(set(old.own) ^ set(now.own.files))
         shown = ", ".join(changed[:3]) + (" …" if len(changed) > 3 else "")

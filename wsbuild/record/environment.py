@@ -22,10 +22,18 @@ from __future__ import annotations
 
 import fnmatch
 import functools
-import hashlib
 import os
 import re
-from collections.abc import Collection, Iterable, Mapping
+from collections.abc import Callable, Collection, Iterable, Mapping
+
+from wsbuild.record.reason import Dirty, Reason
+
+# hashlib's blake2b from CPython's built-in module: importing hashlib loads OpenSSL first (3 ms
+# of a replay, which asks this module), for a function it does not take from there
+try:
+    from _blake2 import blake2b as _blake2b
+except ImportError:  # another Python
+    from hashlib import blake2b as _blake2b
 
 #: variables no record holds, whoever reads them (names, or fnmatch patterns with `*`)
 NEVER_HELD: tuple[str, ...] = ("WSBUILD_*", "WSOBSERVE_*")
@@ -46,7 +54,7 @@ def matches(name: str, patterns: Iterable[str]) -> bool:
 
 
 def _digest(value: str) -> str:
-    return hashlib.blake2b(value.encode("utf-8", "surrogateescape"), digest_size=8).hexdigest()
+    return _blake2b(value.encode("utf-8", "surrogateescape"), digest_size=8).hexdigest()
 
 
 def is_path_list(name: str) -> bool:
@@ -99,3 +107,28 @@ def names_digest(environ: Mapping[str, str | None], *, ignored: Collection[str] 
 def changed_names(old: Mapping[str, str], new: Mapping[str, str]) -> list[str]:
     """The variables set, unset or changed between two records' digests, sorted."""
     return sorted(name for name in set(old) | set(new) if old.get(name) != new.get(name))
+
+
+def environment_digests(environ: Mapping[str, str], *,
+                        leave_out: Callable[[str], bool]) -> dict[str, str]:
+    """Every variable of `environ` but those `leave_out` names, by the digest of its value as
+    a record compares it (LD_LIBRARY_PATH as a set), wsbuild's own settings included: what a
+    command's recording keeps of the environment it ran in (engine/replay.py)."""
+    return {name: _digest(normalized(name, value, "") or "")
+            for name, value in sorted(environ.items()) if not leave_out(name)}
+
+
+def variables_changed(changed: Collection[str], *, redo: tuple[str, ...] = ()) -> Reason:
+    """The reason of a change of the variables `changed` (sorted), in the dirty check's
+    words."""
+    names = tuple(changed)
+    shown = ", ".join(names[:5]) + (" …" if len(names) > 5 else "")
+    return Reason(Dirty.ENVIRONMENT, f"environment variable changed: {shown}", names,
+                  redo=redo)
+
+
+def environment_reason(before: Mapping[str, str], now: Mapping[str, str]) -> Reason | None:
+    """Why two environments' digests (`environment_digests`) are not the same one: the
+    variables set, unset or changed; None when they are."""
+    changed = changed_names(before, now)
+    return variables_changed(changed) if changed else None
