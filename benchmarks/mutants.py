@@ -56,6 +56,9 @@ def _dropped(path: str, name: str, line: str, tests: tuple[str, ...] = ()) -> Mu
 DIRTY = "wsbuild/record/dirty.py"
 MODEL = "wsbuild/record/model.py"
 TESTS = ("tests/test_test_cache.py", "tests/test_observed.py")
+CONFIGURED = "wsbuild/record/configured.py"
+CONFIGURE_TESTS = ("tests/test_configured.py", "tests/test_build_cmake_options.py",
+                   "tests/test_ninja.py")
 #: record/tested.py's pure tests, which kill its mutants in seconds, before the builds
 TESTED = ("tests/test_test_cache.py::test_a_rerun_has_a_typed_reason_for_each_way_a_result_stops_holding",
           "tests/test_test_cache.py::test_a_changed_key_says_what_changed_first_in_the_dirty_checks_words",
@@ -69,8 +72,9 @@ MUTANTS: tuple[Mutant, ...] = (
     _dropped(DIRTY, "dirty: options",
              '        return Reason(Dirty.OPTIONS, "build options changed: " + "; ".join(changed), '
              'changed)', ("tests/test_record.py", "tests/test_package_options.py")),
-    Mutant("dirty: environment", DIRTY, "    if changed_variables:\n        shown = ",
-           "    if False and changed_variables:\n        shown = ",
+    Mutant("dirty: environment", DIRTY,
+           "    if changed_variables:\n        return variables_changed(",
+           "    if False:\n        return variables_changed(",
            ("tests/test_record.py", "tests/test_observed.py")),
     Mutant("dirty: source", DIRTY,
            "    if (old.own_digest or files_digest(old.own)) != now.own.digest:",
@@ -148,6 +152,17 @@ MUTANTS: tuple[Mutant, ...] = (
     Mutant("inputs key: install prefix", "wsbuild/builder/plan.py",
            '        "install_prefix": str(prefix),\n', "",
            ("tests/test_cache_build.py",)),
+    Mutant("configure: arguments", CONFIGURED, "    if last.args != now.args:", "    if False:",
+           CONFIGURE_TESTS),
+    Mutant("configure: compilers", CONFIGURED, "    if compilers:", "    if False:",
+           CONFIGURE_TESTS),
+    Mutant("configure: what it read changed", CONFIGURED, "    if read:", "    if False:",
+           ("tests/test_configured.py", "tests/test_observed.py")),
+    Mutant("configure: unfinished", CONFIGURED, "    if last is None:", "    if False:",
+           CONFIGURE_TESTS),
+    Mutant("replay: environment", "wsbuild/engine/replay.py",
+           '    if environment_reason(recording["key"]["environ"], environ) is not None:',
+           "    if False:", ("tests/test_noop_replay.py",)),
 )
 
 
