@@ -16,10 +16,13 @@ from collections.abc import Callable, Collection, Mapping, Sequence
 from typing import TYPE_CHECKING, NoReturn
 from pathlib import Path
 
-from wsbuild import __version__
-from wsbuild.errors import Interrupted, WsbuildError
-from wsbuild.verbs.arguments import PASSTHROUGH, add_workspace_arguments
+from wsbuild import __version__, inputs
+from wsbuild.errors import Interrupted, WsbuildError, environment_failure
+from wsbuild.verbs import colcon, mixin
+from wsbuild.verbs.arguments import PASSTHROUGH, add_negations, add_workspace_arguments
 from wsbuild.verbs.arguments import collect_passthrough, may_pass_through
+from wsbuild.verbs.colcon import apply_global_arguments, ignored_notes
+from wsbuild.verbs.mixin import NOT_MIXED, apply_mixins
 from wsbuild.words import did_you_mean
 
 if TYPE_CHECKING:
@@ -166,9 +169,6 @@ def build_parser(*, pkg_arguments: bool = True, verbs: Collection[str] | None = 
     modules are not even imported). `pkg_arguments=False` leaves out `pkg create`'s
     options, whose defaults need the (slow to import) template machinery;
     `plugin_options=False` the options of third-party build types, whose scan costs."""
-    from wsbuild import inputs
-    from wsbuild.verbs import colcon
-
     inputs.declare_translations("messages")  # argparse's, through gettext
     parser = _Parser(
         prog="wsbuild",
@@ -188,7 +188,6 @@ def build_parser(*, pkg_arguments: bool = True, verbs: Collection[str] | None = 
     for name in VERBS:
         if verbs is None or name in verbs:
             _ADDERS.get(name, _mirrored_parser)(tree, name)
-    from wsbuild.verbs.arguments import add_negations
 
     add_negations(parser)
     return parser
@@ -219,8 +218,6 @@ _MIRRORED = {
 
 def _mirrored_parser(tree: _Tree, name: str) -> None:
     import importlib
-
-    from wsbuild.verbs import colcon
 
     module_name, run, doc, own_arguments, operands = _MIRRORED[name]
     module = importlib.import_module(f"wsbuild.verbs.{module_name}")
@@ -291,8 +288,6 @@ def _run_parser(tree: _Tree, name: str) -> None:
 
 
 def _mixin_parser(tree: _Tree, name: str) -> None:
-    from wsbuild.verbs import mixin
-
     verbs = tree.subparsers
     sub = verbs.add_parser("mixin", help=VERBS[name],
                            description=mixin.MIXIN_DOC.strip(), formatter_class=_Formatter)
@@ -434,7 +429,6 @@ def main(argv: Sequence[str] | None = None, *, recorder: ReplayRecorder | None =
 
     # the values of the environment's secrets are hidden in all wsbuild writes
     remember_environment(os.environ)
-    from wsbuild.verbs.colcon import ignored_notes
 
     # where the verb's words go (through the recorder's copies when it is recorded)
     args.terminal = terminal = Terminal.of(recorder)
@@ -453,8 +447,6 @@ def main(argv: Sequence[str] | None = None, *, recorder: ReplayRecorder | None =
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
         return 0
     except OSError as exc:
-        from wsbuild.errors import environment_failure
-
         # a full disk or a read-only directory is the machine's failure, not a bug
         message = environment_failure(exc, doing=f"running wsbuild {args.verb}")
         if message is None:
@@ -478,9 +470,6 @@ def _print_choices(verb: str | None) -> None:
 def _finish(parser: argparse.ArgumentParser, verb: str, args: argparse.Namespace,
             environ: Mapping[str, str], cwd: Path) -> None:
     """After parsing: the mixins the command line names, and colcon's options before the verb."""
-    from wsbuild.verbs.colcon import apply_global_arguments
-    from wsbuild.verbs.mixin import NOT_MIXED, apply_mixins
-
     if verb and verb.split(".")[0] not in NOT_MIXED:
         apply_mixins(parser, verb, args, environ, cwd)
     apply_global_arguments(args)

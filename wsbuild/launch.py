@@ -8,6 +8,8 @@ from __future__ import annotations
 import os
 import sys
 
+from wsbuild import __version__
+
 TYPE_CHECKING = False
 if TYPE_CHECKING:
     from wsbuild.reporter import ReplayDrawing
@@ -16,8 +18,6 @@ if TYPE_CHECKING:
 def main() -> int:
     argv = sys.argv[1:]
     if argv == ["--version"]:
-        from wsbuild import __version__
-
         print(f"wsbuild {__version__}")
         return 0
     search_pythonpath_last()

@@ -12,10 +12,14 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+from wsbuild.build_types import get_build_type
 from wsbuild.cache.run import RunCache
 from wsbuild.cache.settings import CacheSettings
 from wsbuild.engine.jobserver import Jobserver
 from wsbuild.events import Emit, Notice
+from wsbuild.files import create_if_missing, private_directory
+from wsbuild.prefix.layout import (
+    IGNORE_MARKER, mark_install_layout, resolve_layout, write_ignore_marker)
 from wsbuild.record.outside import Digests
 
 if TYPE_CHECKING:
@@ -86,8 +90,6 @@ class Session:
         """What a build type finds once per run (`BuildType.run_facts`: the tools it runs),
         resolved when first asked for."""
         if build_type not in self._facts:
-            from wsbuild.build_types import get_build_type
-
             self._facts[build_type] = get_build_type(build_type).run_facts(self.environ)
         return self._facts[build_type]
 
@@ -143,7 +145,6 @@ def open_session(workspace: Workspace, options: SessionOptions, emit: Emit) -> I
     it, unless a dry run), make the run's log directory. Everything is released on exit."""
     from wsbuild.engine.lock import workspace_lock
     from wsbuild.engine.logs import new_run_log
-    from wsbuild.prefix.layout import IGNORE_MARKER, resolve_layout
 
     merged = resolve_layout(workspace.install_base, options.merge_install, verb=options.verb,
                             build_base=workspace.build_base)
@@ -190,11 +191,7 @@ def _kept_digests() -> FileDigests:
 def _prepare_install(workspace: Workspace, merged: bool) -> None:
     """build/ and install/ get colcon's markers, so tools and later runs recognise them; a
     previous install an interrupted run parked is put back."""
-    from wsbuild.files import create_if_missing
-    from wsbuild.prefix.layout import mark_install_layout, write_ignore_marker
     from wsbuild.prefix.stage import recover_all
-
-    from wsbuild.files import private_directory
 
     for base in (workspace.build_base, workspace.install_base):
         base.mkdir(parents=True, exist_ok=True)

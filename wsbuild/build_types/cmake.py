@@ -45,6 +45,7 @@ from wsbuild.build_types.cmake_actions import (
 from wsbuild.build_types.staging import staged_install_steps
 from wsbuild.build_types.cmake_options import CMAKE_OPTIONS, CMakeOptions
 from wsbuild.prefix.hooks import EnvironmentHooks
+from wsbuild.record.environment import UNSET, variable_digests
 
 
 NINJA = "Ninja"
@@ -63,8 +64,6 @@ COMPILER_ENVIRONMENT = ("CC", "CXX", "CFLAGS", "CXXFLAGS", "CPPFLAGS", "LDFLAGS"
 
 def _compiler_digests(environ: Mapping[str, str]) -> dict[str, str | None]:
     """Each compiler variable by a digest of its value (None: unset)."""
-    from wsbuild.record.environment import UNSET, variable_digests
-
     digests = variable_digests(environ, COMPILER_ENVIRONMENT)
     return {name: None if digests[name] == UNSET else digests[name]
             for name in COMPILER_ENVIRONMENT}

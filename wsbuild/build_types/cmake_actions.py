@@ -13,6 +13,7 @@ from pathlib import Path
 
 from wsbuild.build_types import PackageContext
 from wsbuild.build_types.cmake_facts import CONFIGURE_RECORD
+from wsbuild.files import atomic_write, private_directory
 
 #: what stays when a build directory is emptied: wsbuild's own records and markers
 KEPT_IN_BUILD_DIRECTORY = frozenset({".wsbuild", "COLCON_IGNORE", "AMENT_IGNORE"})
@@ -51,8 +52,6 @@ def forget_configure_record(ctx: PackageContext) -> None:
 
 
 def write_configure_record(ctx: PackageContext, *, record: Mapping[str, object]) -> None:
-    from wsbuild.files import atomic_write, private_directory
-
     path = ctx.build_dir / CONFIGURE_RECORD
     private_directory(path.parent)
     atomic_write(path, json.dumps(record, indent=1) + "\n", mode=0o600)

@@ -12,6 +12,8 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from wsbuild.engine.jobs import JobResult, Outcome
+from wsbuild.engine.process import format_command
+from wsbuild.workspace.resolve import ament_index
 
 if TYPE_CHECKING:
     from wsbuild.build_types import StepFailed
@@ -103,7 +105,6 @@ def failed_result(name: str, failure: StepFailed, build_dir: Path, log_dir: Path
     """A failed package build's result: what failed, the tail of its log, and the command
     that reproduces the failed step (in the build directory's reproduce.sh too)."""
     from wsbuild.builder.reproduce import write_reproduce_script
-    from wsbuild.engine.process import format_command
 
     reproduce, script = "", None
     if failure.command:
@@ -121,8 +122,6 @@ def failed_result(name: str, failure: StepFailed, build_dir: Path, log_dir: Path
 def known_names(selection: Selection, session: Session) -> set[str]:
     """The names a misspelt dependency may have meant: the workspace's packages and those of
     the underlays' ament index."""
-    from wsbuild.workspace.resolve import ament_index
-
     prefixes = [Path(p) for p in session.environ.get("AMENT_PREFIX_PATH", "").split(os.pathsep)
                 if p] + session.underlay_prefixes
     return {*selection.packages, *ament_index(prefixes)}

@@ -31,16 +31,19 @@ from typing import TYPE_CHECKING
 from wsbuild.build_types import get_build_type
 from wsbuild.builder.plan import BuildPlan, Decision, make_plan
 from wsbuild.builder.request import BuildRequest
+from wsbuild.builder.overrides import override_warning
 from wsbuild.engine.jobs import JobFinished, JobResult, JobStarted, Outcome
 from wsbuild.engine.schedule import FailurePolicy, RunInterrupted
 from wsbuild.engine.timings import CompileJobs, cpu_times, record_durations
 from wsbuild.errors import BuildFailed, Interrupted
 from wsbuild.events import Emit, NoOpFinished, Notice, PlanMade, RunFinished
+from wsbuild.record.model import write_record
 from wsbuild.session import Session, SessionOptions, open_session
 from wsbuild.workspace.selection import Selection
 from wsbuild.words import plural
 
 from wsbuild.runreport.package_run import PackageRun
+from wsbuild.runreport.report_json import RunFacts
 
 if TYPE_CHECKING:  # what only packages to build need: a no-op imports none of it
     from wsbuild.build_types import BuildType
@@ -227,8 +230,6 @@ def _settle_up_to_date(plan: BuildPlan, session: Session, emit: Emit) -> dict[st
             emit(JobStarted(planned.name))
             result = JobResult(planned.name, Outcome.UP_TO_DATE, message=planned.note)
             if planned.cut_off is not None:  # its record with its dependencies' new keys
-                from wsbuild.record.model import write_record
-
                 write_record(session.workspace.build_base / planned.name, planned.cut_off)
             emit(JobFinished(result))
             results[planned.name] = result
@@ -322,7 +323,6 @@ def _after_packages(session: Session, compilers: CompilerCache | None,
 def _warn(plan: BuildPlan, emit: Emit, selection: Selection, session: Session) -> None:
     """The plan's warnings, once for the run: unresolved build dependencies, overrides."""
     from wsbuild.builder.failure import known_names
-    from wsbuild.builder.overrides import override_warning
 
     if plan.unresolved:
         emit(Notice(unresolved_warning(plan.unresolved, known_names(selection, session),
@@ -400,7 +400,6 @@ def _finish(run: PackageRun, request: BuildRequest, session: Session,
     the compiler cache's counts, the memory budget and peaks, with --timings the table and
     the report's path."""
     from wsbuild.builder.resources.memory import finish_memory
-    from wsbuild.runreport.report_json import RunFacts
 
     lines = _cut_off_line(results)
     compiler = None

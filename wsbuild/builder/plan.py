@@ -19,7 +19,7 @@ from typing import TYPE_CHECKING
 from wsbuild.build_types import BuildOptions, Step, get_build_type
 from wsbuild.builder import bookkeeping
 from wsbuild.builder.bookkeeping import BuilderStep
-from wsbuild.builder.overrides import Override
+from wsbuild.builder.overrides import Override, overrides_to_warn
 from wsbuild.builder.request import BuildRequest, PackageOptions
 from wsbuild.engine.ready_queue import JobGraph, start_order
 from wsbuild.errors import DependencyError
@@ -30,7 +30,9 @@ from wsbuild.record.outside import OutsideReads, own_entries, refreshed
 from wsbuild.record.own_files import OwnFiles, own_files
 from wsbuild.session import Session
 from wsbuild.workspace.selection import Selection
+from wsbuild import __version__
 from wsbuild import inputs as declared
+from wsbuild.prefix.layout import is_installed, package_prefix
 
 if TYPE_CHECKING:
     from wsbuild.cache.key import CacheKey
@@ -214,7 +216,6 @@ def make_plan(selection: Selection, request: BuildRequest, session: Session, *,
     """What `wsbuild build` will do with `selection`, package by package, and why.
     `priorities`: the weights the scheduler ranks packages by, when not their own recorded
     times (a shard's: each package's work in the whole split, builder/shards/run.py)."""
-    from wsbuild.builder.overrides import overrides_to_warn
     from wsbuild.builder.weights import package_weights
 
     ws = selection.workspace
@@ -389,8 +390,6 @@ def _backdated(old: PackageRecord | None, own: OwnFiles) -> tuple[str, ...]:
 
 
 def _prefix(selection: Selection, session: Session, name: str) -> Path:
-    from wsbuild.prefix.layout import package_prefix
-
     return package_prefix(selection.workspace.install_base, name, merged=session.merged)
 
 
@@ -402,8 +401,6 @@ def package_settings(build_type: str, options: BuildOptions, prefix: Path,
     build, as its record holds it (JSON values). The build type says which options count
     (worked out once per build type and options with `memo`); `underlay` is
     `underlay_paths()` of the run."""
-    from wsbuild import __version__
-
     memo = {} if memo is None else memo
     key_options = memo.get((build_type, options))
     if key_options is None:  # as JSON keeps them: tuples become lists
@@ -433,8 +430,6 @@ def underlay_paths(own: str, environ: Mapping[str, str]) -> dict[str, list[str]]
 def unbuilt_dependencies(selection: Selection, merged: bool) -> dict[str, list[str]]:
     """Workspace packages that selected ones need but that are neither selected nor installed:
     dependency -> the selected packages needing it, sorted by name."""
-    from wsbuild.prefix.layout import is_installed
-
     selected = set(selection.selected)
     install_base = selection.workspace.install_base
     not_built: dict[str, list[str]] = {}

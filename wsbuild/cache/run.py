@@ -22,8 +22,12 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+from wsbuild import __version__
 from wsbuild.cache.settings import CacheSettings
 from wsbuild.events import Emit, Notice
+from wsbuild.record.model import decode, encode
+from wsbuild.redaction import redact
+from wsbuild.words import plural
 from wsbuild.workspace.root import Workspace
 
 if TYPE_CHECKING:
@@ -72,7 +76,6 @@ def disproof(found: Found, inputs_key: str, dependencies: Mapping[str, str], dig
     dependency is yet to be built or restored in this run, so what the entry read in the
     install base is compared at the restore only; `environment`: the variables here."""
     from wsbuild.record.dirty import Dirty, changed_read
-    from wsbuild.record.model import decode
 
     if found.package_record is None:
         return Disproof(NO_RECORD)
@@ -157,8 +160,6 @@ class RunCache:
         """One warning naming a server that answered with entries no wsbuild could use."""
         if not self._unusable or self.settings is None:
             return
-        from wsbuild.redaction import redact
-        from wsbuild.words import plural
 
         count = len(self._unusable)
         self._warn(f"cache server {redact(self.settings.url or '')} answered "
@@ -171,7 +172,6 @@ class RunCache:
         if self.settings is None:
             return None
         started = time.perf_counter()
-        from wsbuild import __version__
         from wsbuild.cache.key import cache_key
 
         key = cache_key(package=name, inputs_key=inputs_key, install_prefix=prefix,
@@ -297,8 +297,6 @@ class RunCache:
         and that cannot happen in this run. A merged prefix is shared, so it is packed at
         once."""
         import json
-
-        from wsbuild.record.model import encode
 
         if not package_record.complete or package_record.volatile:
             return ("not cached: its steps were not all observed" if not package_record.complete

@@ -26,6 +26,7 @@ import sys
 import time
 from pathlib import Path
 
+from wsbuild import __version__
 from wsbuild.signature import stat_signature
 from wsbuild.terminal import is_per_tab
 
@@ -111,8 +112,6 @@ def digest(paths: list[list[Any]]) -> int:
 
 def key_of(argv: Sequence[str]) -> dict[str, object]:
     """Everything besides files that a build's plan and its console output depend on."""
-    from wsbuild import __version__
-
     tty = [sys.stdout.isatty(), sys.stderr.isatty()]
     columns = os.get_terminal_size(sys.stdout.fileno()).columns if tty[0] else 0
     return {

@@ -20,7 +20,7 @@ from wsbuild.engine.cpu_sampler import CpuSample
 from wsbuild.engine.jobs import JobResult, Outcome
 from wsbuild.engine.ready_queue import JobGraph
 from wsbuild.engine.timing_files import started_at
-from wsbuild import inputs
+from wsbuild import __version__, inputs
 from wsbuild.redaction import redact
 
 if TYPE_CHECKING:
@@ -119,8 +119,6 @@ def report_data(selection: Selection, facts: RunFacts, run_log: Path, jobs: JobG
     """report.json of a run: each package with its dependencies among the run's `jobs` and its
     result; `extra` adds to or replaces a package's fields (a test run's counts and failing
     tests). A build also names its CMake generator and its build cache."""
-    from wsbuild import __version__
-
     building = facts.verb == "build"
     packages = []
     for result in sorted(results, key=lambda r: r.package):

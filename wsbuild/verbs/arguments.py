@@ -10,6 +10,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+from wsbuild.errors import WsbuildError
 from wsbuild.workspace.root import BUILD_BASE, INSTALL_BASE, LOG_BASE, Workspace
 
 if TYPE_CHECKING:  # imported when a verb runs, not to parse its arguments
@@ -251,8 +252,6 @@ def add_env_ignore_argument(group: argparse._ActionsContainer) -> None:
 def env_ignore_from_args(args: argparse.Namespace) -> tuple[str, ...]:
     """The --env-ignore names and patterns, checked: letters, digits, _ and *."""
     import re
-
-    from wsbuild.errors import WsbuildError
 
     names = tuple(getattr(args, "env_ignore", None) or ())
     for name in names:

@@ -10,14 +10,21 @@ import sys
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
+from wsbuild.build_types import BuildOptions, declared_options
 from wsbuild.errors import WsbuildError
+from wsbuild.verbs import metas
 from wsbuild.verbs.arguments import (
     add_base_arguments,
     add_env_ignore_argument,
     add_scheduling_arguments,
     env_ignore_from_args,
     secondary,
+    terminal_from_args,
 )
+from wsbuild.verbs.cache_selection import cache_selection_from_args
+from wsbuild.verbs.colcon import console_from_args
+from wsbuild.verbs.metas import metadata_from_args
+from wsbuild.words import plural
 
 if TYPE_CHECKING:  # the modules of the work are imported when the verb runs, not to parse
     from wsbuild.build_types import TypeOption
@@ -89,8 +96,6 @@ def add_type_arguments(parser: argparse.ArgumentParser, *, plugins: bool) -> Non
     order they come (an option two types share is in the first one's): the built-in types',
     and (`plugins`) those of the installed third-party types, whose scan costs; the parse
     asks for them when the command line, --help or a defaults file needs them (cli.py)."""
-    from wsbuild.build_types import declared_options
-
     added: set[str] = set()
     chosen: list[TypeOption] = []
     for name, options in declared_options(plugins=plugins):
@@ -176,7 +181,6 @@ def type_values_from_args(args: argparse.Namespace) -> dict[str, object]:
 
 def request_from_args(args: argparse.Namespace) -> BuildRequest:
     """The BuildRequest the options of `args` ask for (checked)."""
-    from wsbuild.build_types import BuildOptions
     from wsbuild.builder.resources.distcc import distribute_spec
     from wsbuild.builder.request import BuildRequest, RunOptions, cpu_count
     from wsbuild.engine.memory_budget import parse_memory_limit
@@ -279,10 +283,7 @@ class BuildVerbRequest:
 
 
 def build_verb_request_from_args(args: argparse.Namespace) -> BuildVerbRequest:
-    from wsbuild.verbs.cache_selection import cache_selection_from_args
-    from wsbuild.verbs.colcon import console_from_args
     from wsbuild.verbs.load import load_request_from_args
-    from wsbuild.verbs.metas import metadata_from_args
 
     build = request_from_args(args)
     dry_run = args.dry_run
@@ -303,8 +304,6 @@ def run_build_verb(args: argparse.Namespace) -> int:
     from wsbuild.builder.pipeline import run_build
     from wsbuild.reporter import Reporter
     from wsbuild.runreport.write import progress_of
-    from wsbuild.verbs import metas
-    from wsbuild.verbs.arguments import terminal_from_args
     from wsbuild.verbs.load import load
     from wsbuild.workspace.selection import Selection
 
@@ -343,7 +342,6 @@ def _dry_run(selection: Selection, request: BuildRequest, *, json_output: bool,
     from wsbuild.builder.resources.memory import budget_json, budget_line
     from wsbuild.builder.pipeline import dry_run
     from wsbuild.builder.plan_text import plan_json, plan_lines
-    from wsbuild.words import plural
     from wsbuild.reporter import Reporter
 
     # the plan goes to stdout (JSON for tools): a cache's warnings go to stderr

@@ -19,7 +19,9 @@ import sys
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
+from wsbuild import inputs
 from wsbuild.verbs.arguments import secondary
+from wsbuild.verbs.metas import metadata_from_args, with_build_arguments, with_test_arguments
 
 if TYPE_CHECKING:  # imported when the options are given, not to parse them
     from wsbuild.builder.request import BuildRequest
@@ -65,7 +67,6 @@ def cache_selection_from_args(args: argparse.Namespace, *, build: BuildRequest |
             or getattr(args, "packages_skip_cache_valid", False)):
         return None
     from wsbuild.testing.request import TestRequest
-    from wsbuild.verbs.metas import metadata_from_args
 
     key = getattr(args, "packages_select_cache_key", None) or ("test" if test else "build")
     return CacheSelection(key=key, build=build or _plain_build(), test=test or TestRequest(),
@@ -79,9 +80,7 @@ def select_by_cache(selection_by: CacheSelection, selection: Selection) -> list[
 
     from wsbuild.builder.pipeline import plan_build
     from wsbuild.builder.plan import Decision
-    from wsbuild import inputs
     from wsbuild.testing.test_run import reusable_results
-    from wsbuild.verbs.metas import with_build_arguments, with_test_arguments
 
     # the answer depends on the whole plan, more than a replay's record describes
     inputs.declare_unrecorded("a selection by the caches' validity")

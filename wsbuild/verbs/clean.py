@@ -13,6 +13,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from wsbuild.errors import WorkspaceError
+from wsbuild.prefix.layout import MERGED, PACKAGE_INDEX, read_install_layout
 from wsbuild.reporter import print_warnings
 from wsbuild.verbs.arguments import add_base_arguments
 from wsbuild.words import plural
@@ -116,8 +117,6 @@ def plan_clean(root: Path, bases: dict[str, Path], kinds: Sequence[str],
                packages: Sequence[str] | None, sources: Sequence[Path]) -> CleanPlan:
     """What `clean` deletes from the `kinds` of `bases`: whole bases (`packages` None) or the
     packages' entries. Raises before anything is touched when an entry is not safe to delete."""
-    from wsbuild.prefix.layout import MERGED, read_install_layout
-
     chosen = {kind: bases[kind] for kind in kinds}
     for base in chosen.values():
         check_base(base, root, sources)
@@ -143,7 +142,6 @@ def plan_clean(root: Path, bases: dict[str, Path], kinds: Sequence[str],
 
 def _install_entries(install: Path, build: Path, packages: Sequence[str],
                      merged: bool) -> list[Removal]:
-    from wsbuild.prefix.layout import PACKAGE_INDEX
     from wsbuild.prefix.stage import MERGED_RECORD
 
     if not merged:

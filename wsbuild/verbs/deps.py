@@ -12,6 +12,12 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+from wsbuild.errors import WsbuildError
+from wsbuild.files import atomic_write
+from wsbuild.reporter import print_warnings
+from wsbuild.verbs.metas import META_FILE
+from wsbuild.workspace.model import DepKind
+
 if TYPE_CHECKING:
     from wsbuild.deps.install import InstallReport
     from wsbuild.deps.needs import Need
@@ -95,7 +101,6 @@ def deps_request_from_args(args: argparse.Namespace) -> DepsRequest:
 
 def run_deps(args: argparse.Namespace) -> int:
     """Check, plan or install the selected packages' missing dependencies."""
-    from wsbuild.reporter import print_warnings
     from wsbuild.verbs.load import load, load_request_from_args
 
     request, load_request = deps_request_from_args(args), load_request_from_args(args)
@@ -133,7 +138,6 @@ def _fetch_sources(request: DepsRequest, load_request: LoadRequest, loaded: Load
         keep_only_needed,
         write_repos_file,
     )
-    from wsbuild.reporter import print_warnings
     from wsbuild.verbs.load import load
 
     root = loaded.workspace.root
@@ -186,9 +190,6 @@ def tests_off(root: Path, names: Sequence[str]) -> None:
     its kin need for their tests (mimick_vendor, performance_test_fixture) are not fetched.
     A package the file already names keeps what it says."""
     import json
-
-    from wsbuild.files import atomic_write
-    from wsbuild.verbs.metas import META_FILE
 
     if not names:
         return
@@ -256,15 +257,12 @@ def _survey(request: DepsRequest, loaded: Loaded, names: list[str] | None = None
 
     from wsbuild.deps.needs import parse_types
     from wsbuild.deps.survey import survey
-    from wsbuild.errors import WsbuildError
 
     if request.constraint is not None and not request.constraint.is_file():
         raise WsbuildError("the constraints file does not exist", path=request.constraint,
                            hint="give an existing pip constraints file, or leave --constraint "
                                 "out to use the one wsbuild ships for the underlay's ROS distro")
     from dataclasses import replace
-
-    from wsbuild.workspace.model import DepKind
 
     packages = [loaded.packages[name]
                 for name in (loaded.selected if names is None else names)]

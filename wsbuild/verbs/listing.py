@@ -8,9 +8,10 @@ import os
 from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
-
 from typing import TYPE_CHECKING
 
+from wsbuild.errors import SelectionError
+from wsbuild.verbs.arguments import terminal_from_args
 
 if TYPE_CHECKING:  # the modules of the work are imported when a verb runs, not to parse
     from wsbuild.reporter import Terminal
@@ -90,7 +91,6 @@ def _read_only(terminal: Terminal, loaded: Loaded) -> None:
 
 def run_list(args: argparse.Namespace) -> int:
     """List the selected packages."""
-    from wsbuild.verbs.arguments import terminal_from_args
     from wsbuild.verbs.load import load, load_request_from_args
 
     terminal = terminal_from_args(args)
@@ -233,7 +233,6 @@ def format_graph(graph: Graph, names: list[str], style: str) -> str:
 
 def run_graph(args: argparse.Namespace) -> int:
     """Print the dependency graph of the selected packages."""
-    from wsbuild.verbs.arguments import terminal_from_args
     from wsbuild.verbs.load import load, load_request_from_args
 
     terminal = terminal_from_args(args)
@@ -248,8 +247,6 @@ def run_graph(args: argparse.Namespace) -> int:
 
 def run_info(args: argparse.Namespace) -> int:
     """Describe packages in detail."""
-    from wsbuild.errors import SelectionError
-    from wsbuild.verbs.arguments import terminal_from_args
     from wsbuild.verbs.load import load, load_request_from_args
 
     terminal = terminal_from_args(args)

@@ -8,6 +8,8 @@ import re
 import sys
 from pathlib import Path
 
+from wsbuild.errors import WsbuildError
+
 CREATE_DOC = """Create a new package from templates (`ros2 pkg create`'s options, plus --launch).
 
 The package goes into the workspace's src/ (or the current directory when that is inside
@@ -32,7 +34,6 @@ def add_pkg_create_arguments(parser: argparse.ArgumentParser) -> None:
     from wsbuild.create.licenses import NO_LICENSE
     from wsbuild.create.templates import available_build_types
     from wsbuild.create.validation import DEFAULT_BUILD_TYPE, DEFAULT_DESCRIPTION, PACKAGE_FORMATS
-    from wsbuild.errors import WsbuildError
 
     try:
         build_types = ", ".join(available_build_types())
@@ -71,7 +72,6 @@ def run_pkg_create(args: argparse.Namespace) -> int:
     from wsbuild.create.defaults import default_destination, default_maintainer
     from wsbuild.create.validation import PackageRequest
     from wsbuild.create.writing import create_package
-    from wsbuild.errors import WsbuildError
 
     if args.license == "?":
         width = max(len(entry.spdx) for entry in LICENSES)

@@ -10,7 +10,8 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 from wsbuild.errors import WsbuildError
-from wsbuild.reporter import print_warnings
+from wsbuild.reporter import print_notes, print_warnings
+from wsbuild.words import plural
 
 if TYPE_CHECKING:  # imported when the verb runs, not to parse
     from wsbuild.builder.shards.split import Split
@@ -78,7 +79,6 @@ def run_plan_verb(args: argparse.Namespace) -> int:
     from wsbuild.builder.shards.run import split_of
     from wsbuild.builder.shards.split import shard_run_id
     from wsbuild.cache.documents import SharedDocuments
-    from wsbuild.reporter import print_notes
     from wsbuild.verbs.load import load
     from wsbuild.workspace.selection import Selection
 
@@ -106,8 +106,6 @@ def run_plan_verb(args: argparse.Namespace) -> int:
 
 def plan_lines(split: Split) -> list[str]:
     """The split as text: each shard's packages and predicted time, then the figures."""
-    from wsbuild.words import plural
-
     count = len(split.assignment)
     known = count - len(split.estimated)
     lines = [f"{plural(count, 'package')} in {plural(split.count, 'shard')} of "

@@ -15,6 +15,7 @@ from dataclasses import dataclass
 from enum import Enum
 from pathlib import Path
 from wsbuild import inputs
+from wsbuild.verbs.arguments import secondary
 
 
 class Previous(Enum):
@@ -80,8 +81,6 @@ class ResultSelection:
 
 def add_result_selection_arguments(group: argparse._ActionsContainer) -> None:
     """colcon-package-selection's selections by the previous build or test run (one of them)."""
-    from wsbuild.verbs.arguments import secondary
-
     group = group.add_mutually_exclusive_group()
     for option, text in (
         ("--packages-select-build-failed", "only packages whose last build failed"),

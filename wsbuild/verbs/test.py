@@ -10,8 +10,10 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+from wsbuild.build_types import get_build_type
 from wsbuild.errors import Interrupted, WorkspaceError, WsbuildError
-from wsbuild.reporter import print_warnings
+from wsbuild.events import Notice, Summary
+from wsbuild.reporter import Reporter, print_notes, print_warnings
 from wsbuild.verbs.arguments import (
     add_base_arguments,
     add_env_ignore_argument,
@@ -20,11 +22,12 @@ from wsbuild.verbs.arguments import (
     add_workspace_option,
     secondary,
 )
+from wsbuild.verbs.colcon import console_from_args
 from wsbuild.workspace.root import BUILD_BASE
 
 if TYPE_CHECKING:  # the modules of the work are imported when the verb runs, not to parse
     from wsbuild.builder.shards.split import ShardSpec
-    from wsbuild.reporter import Console, Reporter
+    from wsbuild.reporter import Console
     from wsbuild.workspace.selection import Selection
     from wsbuild.testing.request import TestRequest
     from wsbuild.verbs.load import Loaded, LoadRequest
@@ -183,7 +186,6 @@ class TestVerbRequest:
 
 def test_verb_request_from_args(args: argparse.Namespace) -> TestVerbRequest:
     from wsbuild.verbs.cache_selection import cache_selection_from_args
-    from wsbuild.verbs.colcon import console_from_args
     from wsbuild.verbs.load import load_request_from_args, workspace_root
     from wsbuild.verbs.metas import metadata_from_args
 
@@ -201,12 +203,9 @@ def test_verb_request_from_args(args: argparse.Namespace) -> TestVerbRequest:
 
 def run_test_verb(args: argparse.Namespace) -> int:
     """Run the tests of the selected packages; 1 when any test fails or errors."""
-    from wsbuild.events import Notice, Summary
-    from wsbuild.reporter import Reporter
     from wsbuild.runreport.write import progress_of
     from wsbuild.testing.results import summary_lines
     from wsbuild.testing.test_run import run_tests
-    from wsbuild.reporter import print_notes
     from wsbuild.verbs import metas
     from wsbuild.verbs.load import load
     from wsbuild.workspace.selection import Selection
@@ -290,7 +289,6 @@ def _build_changed(selection: Selection, names: list[str], request: TestRequest,
 
     from wsbuild.builder.pipeline import run_build
     from wsbuild.builder.request import BuildRequest, RunOptions, options_of_record
-    from wsbuild.events import Notice
     from wsbuild.record.model import read_record
     from wsbuild.workspace.selection import Selection as Selected
 
@@ -315,10 +313,8 @@ def _build_test_trees(selection: Selection, request: TestRequest, reporter: Repo
     built first (configure, build, install), with the options their records hold."""
     import json
 
-    from wsbuild.build_types import get_build_type
     from wsbuild.builder.pipeline import run_build
     from wsbuild.builder.request import BuildRequest, RunOptions, options_of_record
-    from wsbuild.events import Notice
     from wsbuild.record.model import read_record
     from wsbuild.workspace.selection import Selection
 
@@ -346,7 +342,6 @@ def _build_test_trees(selection: Selection, request: TestRequest, reporter: Repo
 def _missing_ros_pytest(loaded: Loaded, python_executable: str) -> str:
     """One line when a selected package has pytest tests and the pytest the distro's plugins
     need is not where `wsbuild test` looks ("" otherwise)."""
-    from wsbuild.build_types import get_build_type
     from wsbuild.build_types.pybuild.tests import PYTEST
     from wsbuild.testing.pytest_env import ROS_PYTEST_VERSION, install_hint
     from wsbuild.build_types.ros_pytest import ros_pytest_dir, ros_pytest_installed

@@ -7,6 +7,7 @@ import os
 import sys
 
 from wsbuild.errors import UnderlayError
+from wsbuild.words import plural
 
 UNDERLAY_DOC = """Check or repair a ROS 2 underlay installed from PyPI wheels into the virtualenv.
 
@@ -46,7 +47,6 @@ def run_check(args: argparse.Namespace) -> int:
     a summary, or every line with --verbose. Exit 0: nothing to do; NEEDS_WORK otherwise."""
     from wsbuild.underlay.missing import missing_packages
     from wsbuild.underlay.repair import scan_underlay
-    from wsbuild.words import plural
 
     venv = _venv()
     problems = scan_underlay(venv, use_cache=False)

@@ -17,6 +17,8 @@ from collections.abc import Mapping, Sequence
 from pathlib import Path
 
 from wsbuild.build_types import PackageContext, BuildOptions, Command, Problems, StepFailed
+from wsbuild.build_types import get_build_type, package_context
+from wsbuild.workspace.model import Package
 from wsbuild.workspace.names import is_valid_dependency_name
 
 MODULE = "wsbuild.build_types.pybuild.by_hand"
@@ -84,9 +86,6 @@ def _context(values: Mapping[str, str], symlink: bool, warnings: list[str]) -> P
     package's (`--dry-run` prints the export line that sets it), the install goes straight
     into the prefix."""
     import os
-
-    from wsbuild.build_types import get_build_type, package_context
-    from wsbuild.workspace.model import Package
 
     source = Path(values["source"]).absolute()
     build = Path(values["build"]).absolute()

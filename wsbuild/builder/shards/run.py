@@ -34,6 +34,7 @@ from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+from wsbuild import inputs
 from wsbuild.builder.shards.cover import TIMES, run_of, run_times, shared_times
 from wsbuild.builder.shards.split import (
     ShardSpec,
@@ -42,19 +43,21 @@ from wsbuild.builder.shards.split import (
     graph_digest,
     split_packages,
 )
+from wsbuild.cache.documents import SharedDocuments
 from wsbuild.engine.jobs import JobResult, Outcome
 from wsbuild.engine.logs import append_command_log
 from wsbuild.engine.ready_queue import JobGraph
+from wsbuild.engine.timings import read_durations
 from wsbuild.events import Emit, Notice
+from wsbuild.files import atomic_write
 from wsbuild.words import plural
+from wsbuild.workspace.selection import Selection
 
 if TYPE_CHECKING:
     from wsbuild.builder.plan import BuildPlan, PackagePlan
-    from wsbuild.cache.documents import SharedDocuments
     from wsbuild.cache.settings import CacheSettings
     from wsbuild.engine.memory_records import PackageMemoryRecord
     from wsbuild.session import Session
-    from wsbuild.workspace.selection import Selection
 
 #: under the build base: the split this workspace's last `build --shard` ran (`test --shard`
 #: tests the same packages)
@@ -117,7 +120,6 @@ def recorded_times(documents: SharedDocuments | None, build_base: Path, run: str
             else shared_times(documents)
         if times is not None:
             return times
-    from wsbuild.engine.timings import read_durations
 
     return read_durations(build_base)
 
@@ -150,9 +152,6 @@ def shard_selection(selection: Selection, spec: ShardSpec, workers: int,
                     session: Session) -> tuple[Selection, ShardPlan]:
     """This shard's selection (its packages and those of other shards they need) and its
     part of the plan."""
-    from wsbuild.cache.documents import SharedDocuments
-    from wsbuild.workspace.selection import Selection as Selected
-
     from wsbuild.builder.resources.memory import shared_memory
 
     spec = replace(spec, run=run_of(selection, spec.run))
@@ -178,7 +177,7 @@ def shard_selection(selection: Selection, spec: ShardSpec, workers: int,
     notices.insert(0, (_plan_line(spec, split, own, waits), False))
     shard = ShardPlan(spec, split, own, waits, split.priorities(needed), workspace,
                       frozenset(strangers), tuple(notices), memory=memory)
-    return Selected(selection.workspace, selection.packages, selection.graph,
+    return Selection(selection.workspace, selection.packages, selection.graph,
                     list(needed)), shard
 
 
@@ -252,9 +251,6 @@ def announce(shard: ShardPlan, packages: Sequence[PackagePlan], session: Session
     """Write what this shard planned: its note for the run's other shards (when the run is
     known) and the split for `test --shard` (build/.wsbuild/shard.json). Returns what could
     not be written."""
-    from wsbuild.cache.documents import SharedDocuments
-    from wsbuild.files import atomic_write
-
     spec, split = shard.spec, shard.split
     body = {"run": spec.run, "shard": spec.index, "shards": spec.count,
             "workers": split.workers, "workspace": shard.workspace, "split": split.digest,
@@ -328,8 +324,6 @@ class _Peers:
         return ""
 
     def _note(self, peer: int) -> Mapping[str, object] | None:
-        from wsbuild.cache.documents import SharedDocuments
-
         with self.lock:
             if peer in self.notes:
                 return self.notes[peer]
@@ -465,8 +459,6 @@ def publish_times(settings: CacheSettings | None, times: Mapping[str, float],
                   scratch: Path) -> list[str]:
     """Merge `times` into the server's shared document; once more when another shard wrote
     it meanwhile and ours are not in it. Returns what could not be done."""
-    from wsbuild.cache.documents import SharedDocuments
-
     documents = SharedDocuments.open(settings)
     if documents is None or not times:
         return []
@@ -495,10 +487,6 @@ def test_selection(selection: Selection, spec: ShardSpec, workers: int,
     """`test --shard K/N`: shard K's packages of the split the last `build --shard` here ran
     (build/.wsbuild/shard.json), when it is of this selection and N; else of the split that
     build would make. Returns the selection and a line saying which."""
-    from wsbuild import inputs
-    from wsbuild.cache.documents import SharedDocuments
-    from wsbuild.workspace.selection import Selection as Selected
-
     jobs = selection_jobs(selection)
     assignment: Mapping[str, int] | None = None
     try:
@@ -522,4 +510,4 @@ def test_selection(selection: Selection, spec: ShardSpec, workers: int,
     own = [name for name in selection.selected if assignment.get(name) == spec.index]
     line = (f"shard {spec.label}: testing {plural(len(own), 'package')} of "
             f"{len(selection.selected)}, by {source}")
-    return Selected(selection.workspace, selection.packages, selection.graph, own), line
+    return Selection(selection.workspace, selection.packages, selection.graph, own), line
