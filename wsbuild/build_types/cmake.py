@@ -243,7 +243,7 @@ class CMakeBuildType:
         """What CMake's regeneration list, the build rules, the depfiles, the compiler's
         dependency lists, the verified globs and the install script name outside the package,
         and the programs the build ran (build_types/cmake_reads.py)."""
-        from wsbuild.build_types.cmake_reads import outside_reads
+        from wsbuild.build_types.cmake_reads import outside_reads  # lazy: off the full no-op build
 
         ninja = self.ninja(ctx)
         return outside_reads(ctx.build_dir, ctx.source_dir, ninja.path if ninja else None)
@@ -393,7 +393,7 @@ class CMakeBuildType:
 
     def work_left(self, ctx: PackageContext) -> str:
         """What the build system still runs right after the build (cmake_work_left.py)."""
-        from wsbuild.build_types.cmake_work_left import work_left
+        from wsbuild.build_types.cmake_work_left import work_left  # lazy: off the full no-op build
 
         ninja = self.ninja(ctx)
         return work_left(ctx.build_dir, self.generator(ctx), ninja.path if ninja else None,

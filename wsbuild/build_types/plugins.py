@@ -80,7 +80,7 @@ def _memo_file() -> Path:
     """One memo for each interpreter and path (runs with another PYTHONPATH keep theirs),
     beside the file digests' memo (record/file_digests.py): never in the build cache's
     directory, which `--no-cache` leaves untouched."""
-    from wsbuild.record.model import digest_of
+    from wsbuild.record.model import digest_of  # lazy: off `test-result` and `report`
 
     return user_cache_dir(os.environ, "wsbuild-observe") / "plugins" / \
         f"{digest_of([sys.executable, _scanned_path()])}.json"

@@ -88,7 +88,7 @@ def with_unresolved(result: JobResult, unresolved: Sequence[str], selection: Sel
     it has none, a did-you-mean among the known names: underlay/wheels.py)."""
     if result.outcome is not Outcome.FAILED or not unresolved:
         return result
-    from wsbuild.underlay.wheels import install_hint
+    from wsbuild.underlay.wheels import install_hint  # lazy: off the full no-op build
 
     known = known_names(selection, session)
     pip = session.underlay.venv is not None
@@ -104,7 +104,8 @@ def failed_result(name: str, failure: StepFailed, build_dir: Path, log_dir: Path
                   seconds: float) -> JobResult:
     """A failed package build's result: what failed, the tail of its log, and the command
     that reproduces the failed step (in the build directory's reproduce.sh too)."""
-    from wsbuild.builder.reproduce import write_reproduce_script
+    from wsbuild.builder.reproduce import (
+        write_reproduce_script)  # lazy: off builds that do not fail
 
     reproduce, script = "", None
     if failure.command:

@@ -107,7 +107,7 @@ class PackageBuild(PackageJob):
     def stage(self) -> None:
         """Mark the build unfinished, make a fresh stage and the package's context (the one
         the plan decided its steps from, with the run's own resources: builder/context.py)."""
-        from wsbuild.builder.times import redo_for_backdated
+        from wsbuild.builder.times import redo_for_backdated  # lazy: off builds that only restore
 
         self.mark_unfinished()
         self.stage_prefix = staging.new_stage(self.run.selection.workspace.install_base,
@@ -227,7 +227,8 @@ class PackageBuild(PackageJob):
     def _advance_changed_files(self) -> None:
         """Files whose content changed while their time did not advance get the current time
         (builder/times.py), so make and Ninja see what the record sees."""
-        from wsbuild.builder.times import advance_changed_files
+        from wsbuild.builder.times import (
+            advance_changed_files)  # lazy: off builds that only restore
 
         self.touched.update(advance_changed_files(
             self.planned, self.build_dir, self.run.selection.workspace.root,
@@ -235,7 +236,8 @@ class PackageBuild(PackageJob):
 
     def register(self) -> None:
         """package.xml, the index marker and the environment hooks, into the stage."""
-        from wsbuild.build_types.pybuild.paths import site_packages_relpath
+        from wsbuild.build_types.pybuild.paths import (
+            site_packages_relpath)  # lazy: off builds that only restore
 
         ctx = self._ctx()
         assert self.stage_prefix is not None

@@ -216,7 +216,7 @@ def make_plan(selection: Selection, request: BuildRequest, session: Session, *,
     """What `wsbuild build` will do with `selection`, package by package, and why.
     `priorities`: the weights the scheduler ranks packages by, when not their own recorded
     times (a shard's: each package's work in the whole split, builder/shards/run.py)."""
-    from wsbuild.builder.weights import package_weights
+    from wsbuild.builder.weights import package_weights  # lazy: off `test` and `test --shard`
 
     ws = selection.workspace
     # the arguments the underlay needs (its Python, libpython's link flags, the linters'
@@ -349,10 +349,11 @@ def _steps(planning: _Planning, name: str, prefix: Path, own_options: PackageOpt
     """The steps of a package to build (or to restore: a refused entry builds it), decided as
     the build decides them (builder/context.py), with the compiler launcher the build will
     use; and the environment they start from."""
-    from wsbuild.builder.context import planned_steps
+    from wsbuild.builder.context import planned_steps  # lazy: off the full no-op build
 
     if planning.launcher is None:
-        from wsbuild.builder.resources.compiler_cache import planned_launcher
+        from wsbuild.builder.resources.compiler_cache import (
+            planned_launcher)  # lazy: off the full no-op build
 
         planning.launcher = planned_launcher(planning.request.compiler_cache,
                                              planning.session.environ,
@@ -446,8 +447,8 @@ def _unresolved(selection: Selection, request: BuildRequest,
     while the environment holds (builder/unresolved.py)."""
     if request.skip_dependency_check:
         return {}
-    from wsbuild.builder.unresolved import unresolved
-    from wsbuild.workspace.resolve import Resolver
+    from wsbuild.builder.unresolved import unresolved  # lazy: off `test` and `test --shard`
+    from wsbuild.workspace.resolve import Resolver  # lazy: off `test` and `test --shard`
 
     resolver = Resolver.from_environment(
         session.environ, session.underlay_prefixes,

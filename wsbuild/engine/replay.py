@@ -174,8 +174,8 @@ def replay(argv: Sequence[str], drawing: Callable[[], Drawing]) -> int | None:
             return None
         _print(recording)
         return 0
-    from wsbuild.engine.lock import workspace_lock
-    from wsbuild.errors import WorkspaceError
+    from wsbuild.engine.lock import workspace_lock  # lazy: off a replayed `list` and `list`
+    from wsbuild.errors import WorkspaceError  # lazy: off a replayed `list`
 
     shown = recording["shown"]
     try:
@@ -255,14 +255,14 @@ def _read_recording(argv: Sequence[str]) -> dict[str, Any] | None:
 
 def _write_log(log: dict[str, Any], started: float) -> Path:
     """The run's log directory, as the recorded run wrote it, with this run's times."""
-    from wsbuild.engine.logs import new_run_log
+    from wsbuild.engine.logs import new_run_log  # lazy: off a replayed `list` and `list`
     from wsbuild.engine.timing_files import (
         cpu_seconds,
         started_at,
         summary_line,
         totals_json,
         write_timing_files,
-    )
+    )  # lazy: off a replayed `list` and `list`
 
     run_log = new_run_log(Path(log["log_base"]), "build")
     if log["up_to_date"]:

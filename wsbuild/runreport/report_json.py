@@ -64,7 +64,7 @@ def artifact_cache_text(settings: CacheSettings | None, symlink_install: bool = 
         return "off (--symlink-install builds are not cached)"
     if settings is None:
         return "off"
-    from wsbuild.cache.settings import redact
+    from wsbuild.cache.settings import redact  # lazy: off `report`
 
     where = "local" + (f" + {redact(settings.url)}" if settings.url else "")
     return where + (" (read-only)" if settings.read_only else "")

@@ -178,7 +178,7 @@ class PackageTester:
         package's build directory and its install, which its keys hold, left out), and the
         variables it read, by their values in the package's test environment (what the
         runner's command sets on top of it derives from the test options, in the key)."""
-        from wsbuild.record.observed import Where, observed_reads
+        from wsbuild.record.observed import Where, observed_reads  # lazy: off `test`
 
         ws = self.selection.workspace
         prefix = package_prefix(ws.install_base, name, merged=self.merged)

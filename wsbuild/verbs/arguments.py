@@ -191,7 +191,7 @@ def selection_from_args(args: argparse.Namespace) -> SelectionOptions:
     """The --packages-* options of `args` (absent ones: not given)."""
     from dataclasses import fields
 
-    from wsbuild.workspace.selection import SelectionOptions
+    from wsbuild.workspace.selection import SelectionOptions  # lazy: off `pkg create`
 
     values = {}
     for field in fields(SelectionOptions):
@@ -264,7 +264,7 @@ def env_ignore_from_args(args: argparse.Namespace) -> tuple[str, ...]:
 def terminal_from_args(args: argparse.Namespace) -> Terminal:
     """Where the verb's words go: the terminal cli.py made for this run (through the replay's
     recorder when the run is recorded), else the process's streams."""
-    from wsbuild.reporter import Terminal
+    from wsbuild.reporter import Terminal  # lazy: off `build --help` and `pkg create --help`
 
     terminal = getattr(args, "terminal", None)
     return terminal if isinstance(terminal, Terminal) else Terminal.of(None)

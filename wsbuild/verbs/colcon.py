@@ -53,7 +53,7 @@ def event_handler_switch(value: str) -> str:
 
 def console_from_args(args: argparse.Namespace) -> Console:
     """What the reporter shows, from `--event-handlers a+ b- …` (later ones win)."""
-    from wsbuild.reporter import Console
+    from wsbuild.reporter import Console  # lazy: off `build --help` and `pkg create --help`
 
     switches = {value[:-1]: value.endswith("+") for value in getattr(args, "event_handlers",
                                                                       None) or ()}

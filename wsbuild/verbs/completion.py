@@ -43,7 +43,7 @@ def run_completion(args: argparse.Namespace) -> int:
 def workspace_package_names(root: Path, base_paths: Iterable[Path] | None = None) -> list[str]:
     """The names of the packages under `root`/src (or `base_paths`), from a crawl that reads
     only each package.xml's <name> (no parsing, no graph): instant also on 1,000 packages."""
-    from wsbuild.workspace.discover import find_package_dirs
+    from wsbuild.workspace.discover import find_package_dirs  # lazy: off `completion`
 
     workspace = Workspace.at(root)
     bases = list(base_paths) if base_paths else workspace.default_base_paths()
@@ -134,7 +134,7 @@ def _event_handler_completer(prefix: str, **_kwargs: object) -> list[str]:
 
 def _build_type_completer(prefix: str, **_kwargs: object) -> list[str]:
     """`pkg create --build-type <Tab>`: the build types wsbuild knows."""
-    from wsbuild.build_types import KnownBuildTypes
+    from wsbuild.build_types import KnownBuildTypes  # lazy: off `completion`
 
     return sorted(n for n in KnownBuildTypes() if n.startswith(prefix))
 

@@ -69,8 +69,8 @@ def load_request_from_args(args: argparse.Namespace, *,
                            cache: CacheSelection | None = None) -> LoadRequest:
     """The LoadRequest of a verb's options (`cache`: the verb's own cache-based selection,
     judged by its build or test request; else one judged as a plain build and test would)."""
-    from wsbuild.verbs.cache_selection import cache_selection_from_args
-    from wsbuild.verbs.results import result_selection_from_args
+    from wsbuild.verbs.cache_selection import cache_selection_from_args  # lazy: off `test-result`
+    from wsbuild.verbs.results import result_selection_from_args  # lazy: off `test-result`
 
     base_paths, paths = getattr(args, "base_paths", None), getattr(args, "paths", None)
     return LoadRequest(
@@ -129,7 +129,7 @@ def load(request: LoadRequest, *, select: bool = True,
     packages = discovery.packages
     if need_packages and not packages:
         _no_packages(workspace, paths or base_paths)
-    from wsbuild.workspace.versions import check_version_constraints
+    from wsbuild.workspace.versions import check_version_constraints  # lazy: off `test-result`
 
     warnings = (*discovery.warnings, *check_version_constraints(packages))
     if warn is not None and not strict:
@@ -186,11 +186,11 @@ def _selected(request: LoadRequest, workspace: Workspace, packages: dict[str, Pa
     if select:
         selected = select_packages(options, graph)
         if request.results is not None:
-            from wsbuild.verbs.results import select_by_results
+            from wsbuild.verbs.results import select_by_results  # lazy: off `test-result`
 
             selected = select_by_results(request.results, workspace.build_base, selected)
         if request.cache is not None:
-            from wsbuild.verbs.cache_selection import select_by_cache
+            from wsbuild.verbs.cache_selection import select_by_cache  # lazy: off `test-result`
 
             selected = select_by_cache(request.cache,
                                        Selection(workspace, packages, graph, selected))

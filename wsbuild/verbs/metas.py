@@ -185,7 +185,7 @@ def with_build_arguments(request: BuildRequest, metadata: MetadataRequest,
     what is not applied."""
     from dataclasses import replace
 
-    from wsbuild.builder.request import PackageOptions
+    from wsbuild.builder.request import PackageOptions  # lazy: off `list` and `graph`
 
     found = read_metadata(metadata_files(metadata, os.environ, Path.cwd()))
     wanted = package_arguments(found, _paths(packages), selected, BUILD_KEYS)

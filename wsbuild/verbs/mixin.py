@@ -193,7 +193,8 @@ def apply_mixins(parser: argparse.ArgumentParser, verb: str, args: argparse.Name
 
 
 def _apply(parser: argparse.ArgumentParser, mixin: Mixin, args: argparse.Namespace) -> None:
-    from wsbuild.verbs.defaults import FileEntry, check_value, settable_options
+    from wsbuild.verbs.defaults import (
+        FileEntry, check_value, settable_options)  # lazy: off Tab completion
 
     options = settable_options(parser)
     for key, value in mixin.options.items():

@@ -103,8 +103,8 @@ def _context(values: Mapping[str, str], symlink: bool, warnings: list[str]) -> P
 
 def run_step(step: str, ctx: PackageContext) -> None:
     """One step of the recipe, into `ctx.stage_prefix`."""
-    from wsbuild.build_types.pybuild import recipe
-    from wsbuild.build_types.pybuild.index import register
+    from wsbuild.build_types.pybuild import recipe  # lazy: off `build --dry-run`
+    from wsbuild.build_types.pybuild.index import register  # lazy: off `build --dry-run`
 
     if step == "configure":
         recipe.configure(ctx)
@@ -127,7 +127,8 @@ def main(argv: Sequence[str]) -> int:
         sys.stderr.write("".join(f"warning: {w}\n" for w in warnings) + f"error: {exc}\n")
         return 1
     finally:
-        from wsbuild.build_types.pybuild.setup_py import shutdown_helpers
+        from wsbuild.build_types.pybuild.setup_py import (
+            shutdown_helpers)  # lazy: off `build --dry-run`
 
         shutdown_helpers()
     sys.stderr.write("".join(f"warning: {w}\n" for w in warnings))

@@ -128,7 +128,7 @@ def split_of(selection: Selection, count: int, workers: int,
              documents: SharedDocuments | None, run: str = "", *, fix: bool = False) -> Split:
     """The split of the selection into `count` shards of `workers` workers, balanced on the
     recorded times (`recorded_times`: those fixed for `run` when there is a server)."""
-    from wsbuild.builder.weights import estimate_seconds
+    from wsbuild.builder.weights import estimate_seconds  # lazy: off `test --shard`
 
     jobs = selection_jobs(selection)
     times = recorded_times(documents, selection.workspace.build_base, run, fix=fix)
@@ -152,7 +152,7 @@ def shard_selection(selection: Selection, spec: ShardSpec, workers: int,
                     session: Session) -> tuple[Selection, ShardPlan]:
     """This shard's selection (its packages and those of other shards they need) and its
     part of the plan."""
-    from wsbuild.builder.resources.memory import shared_memory
+    from wsbuild.builder.resources.memory import shared_memory  # lazy: off `test --shard`
 
     spec = replace(spec, run=run_of(selection, spec.run))
     documents = SharedDocuments.open(session.cache.settings)
@@ -286,7 +286,7 @@ def finish(plan: BuildPlan, shard: ShardPlan, results: Sequence[JobResult], sess
            emit: Emit) -> tuple[str, ...]:
     """After the packages: the times of what the shard built into the shared document, and
     the summary's line on what it waited for."""
-    from wsbuild.builder.resources.memory import publish_memory
+    from wsbuild.builder.resources.memory import publish_memory  # lazy: off `test --shard`
 
     times = built_times(shard, {p.name: p for p in plan.packages}, results)
     for problem in publish_times(session.cache.settings, times,
@@ -348,7 +348,7 @@ def with_waits(plan: BuildPlan, shard: ShardPlan) -> BuildPlan:
     """The plan of a shard: each package it would build that another shard builds (and whose
     entry the plan did not find) is waited for first (`PackagePlan.wait`), as `--dry-run`
     says."""
-    from wsbuild.builder.plan import Decision, ShardWait
+    from wsbuild.builder.plan import Decision, ShardWait  # lazy: off `plan`
 
     count = shard.spec.count
     return replace(plan, packages=tuple(
@@ -381,9 +381,9 @@ def shard_jobs(shard: ShardPlan, planned: Mapping[str, PackagePlan],
 def _wait_then_build(shard: ShardPlan, planned: PackagePlan,
                      build: Callable[[PackagePlan], JobResult], session: Session, emit: Emit,
                      until: float, peers: _Peers) -> JobResult:
-    from wsbuild.builder.plan import Decision
-    from wsbuild.builder.records import dependency_keys
-    from wsbuild.cache.waiting import wait_for_entry
+    from wsbuild.builder.plan import Decision  # lazy: off `plan`
+    from wsbuild.builder.records import dependency_keys  # lazy: off `test --shard` and `plan`
+    from wsbuild.cache.waiting import wait_for_entry  # lazy: off `build --shard` and `test --shard`
 
     name = planned.name
     assert planned.cache_key is not None
@@ -440,7 +440,7 @@ def built_times(shard: ShardPlan, planned: Mapping[str, PackagePlan],
                 results: Sequence[JobResult]) -> dict[str, float]:
     """The build times of the packages this shard built (not restored): its own packages
     the plan built, and those of other shards it built after their wait."""
-    from wsbuild.builder.plan import Decision
+    from wsbuild.builder.plan import Decision  # lazy: off `plan`
 
     times = {}
     own = set(shard.own)
