@@ -261,6 +261,60 @@ def test_the_size_check_finds_a_long_function(tmp_path: Path) -> None:
     assert oversized(module) == []
 
 
+#: why a function, rather than its module's top, imports a wsbuild module: measured to keep it
+#: off a path that does not need it (`# lazy: <that path>`), or an import circle at the top
+#: (`# circle: <the module it would import back>`)
+IMPORT_REASONS = ("# lazy: ", "# circle: ")
+
+
+def untagged_imports(path: Path) -> list[int]:
+    """Lines of the imports of a wsbuild module inside a function of `path` whose line (a
+    parenthesised import's last line) gives none of IMPORT_REASONS."""
+    text = path.read_text(encoding="utf-8")
+    lines = text.splitlines()
+    found: set[int] = set()
+    for function in ast.walk(ast.parse(text)):
+        if not isinstance(function, (ast.FunctionDef, ast.AsyncFunctionDef)):
+            continue
+        for node in ast.walk(function):
+            if isinstance(node, ast.ImportFrom):
+                internal = bool(node.level) or (node.module or "").split(".")[0] == "wsbuild"
+            elif isinstance(node, ast.Import):
+                internal = any(alias.name.split(".")[0] == "wsbuild" for alias in node.names)
+            else:
+                continue
+            last = lines[(node.end_lineno or node.lineno) - 1]
+            if internal and not any(reason in last for reason in IMPORT_REASONS):
+                found.add(node.lineno)
+    return sorted(found)
+
+
+def test_function_level_imports_of_wsbuild_say_why() -> None:
+    found = [f"{path.relative_to(PACKAGE.parent)}:{line}"
+             for path in sorted(PACKAGE.rglob("*.py")) for line in untagged_imports(path)]
+    assert not found, ("import these at the module's top, or say why (# lazy: <the path it "
+                       "keeps the module off> / # circle: <the module it would import back>):\n"
+                       + "\n".join(found))
+
+
+def test_the_import_check_finds_an_untagged_function_level_import(tmp_path: Path) -> None:
+    module = tmp_path / "m.py"
+    module.write_text(
+        "from wsbuild.errors import WsbuildError\n\n\n"
+        "def f():\n"
+        "    import json\n"
+        "    from wsbuild.files import atomic_write\n"
+        "    from wsbuild.words import (\n"
+        "        plural)  # lazy: off the replayed no-op\n"
+        "    from wsbuild.cli import (  # lazy: said on the first line only\n"
+        "        main)\n"
+        "    import wsbuild.engine.replay  # circle: wsbuild.engine.replay\n"
+        "\n"
+        "    def g():\n"
+        "        import wsbuild.reporter\n")
+    assert untagged_imports(module) == [6, 9, 14]
+
+
 def test_the_modules_the_docs_and_docstrings_name_exist() -> None:
     """A path like `builder/pipeline.py` in docs/architecture.md, README.md or a docstring
     names a module that is there (a renamed module leaves no stale name behind)."""

@@ -16,10 +16,13 @@ from collections.abc import Callable, Collection, Mapping, Sequence
 from typing import TYPE_CHECKING, NoReturn
 from pathlib import Path
 
-from wsbuild import __version__
-from wsbuild.errors import Interrupted, WsbuildError
-from wsbuild.verbs.arguments import PASSTHROUGH, add_workspace_arguments
+from wsbuild import __version__, inputs
+from wsbuild.errors import Interrupted, WsbuildError, environment_failure
+from wsbuild.verbs import colcon, mixin
+from wsbuild.verbs.arguments import PASSTHROUGH, add_negations, add_workspace_arguments
 from wsbuild.verbs.arguments import collect_passthrough, may_pass_through
+from wsbuild.verbs.colcon import apply_global_arguments, ignored_notes
+from wsbuild.verbs.mixin import NOT_MIXED, apply_mixins
 from wsbuild.words import did_you_mean
 
 if TYPE_CHECKING:
@@ -152,7 +155,7 @@ class _Tree:
         _help_arguments(sub)
         group = add_workspace_arguments(sub, selection=selection)
         if selection:  # the selections by earlier results and by cache, and colcon.meta
-            from wsbuild.verbs import cache_selection, metas, results
+            from wsbuild.verbs import cache_selection, metas, results  # lazy: off `test-result`
             results.add_result_selection_arguments(group)
             cache_selection.add_cache_selection_arguments(group)
             metas.add_metadata_arguments(group)
@@ -166,9 +169,6 @@ def build_parser(*, pkg_arguments: bool = True, verbs: Collection[str] | None = 
     modules are not even imported). `pkg_arguments=False` leaves out `pkg create`'s
     options, whose defaults need the (slow to import) template machinery;
     `plugin_options=False` the options of third-party build types, whose scan costs."""
-    from wsbuild import inputs
-    from wsbuild.verbs import colcon
-
     inputs.declare_translations("messages")  # argparse's, through gettext
     parser = _Parser(
         prog="wsbuild",
@@ -188,7 +188,6 @@ def build_parser(*, pkg_arguments: bool = True, verbs: Collection[str] | None = 
     for name in VERBS:
         if verbs is None or name in verbs:
             _ADDERS.get(name, _mirrored_parser)(tree, name)
-    from wsbuild.verbs.arguments import add_negations
 
     add_negations(parser)
     return parser
@@ -220,8 +219,6 @@ _MIRRORED = {
 def _mirrored_parser(tree: _Tree, name: str) -> None:
     import importlib
 
-    from wsbuild.verbs import colcon
-
     module_name, run, doc, own_arguments, operands = _MIRRORED[name]
     module = importlib.import_module(f"wsbuild.verbs.{module_name}")
     sub = tree.verb(name, f"wsbuild.verbs.{module_name}:{run}", getattr(module, doc),
@@ -234,20 +231,21 @@ def _mirrored_parser(tree: _Tree, name: str) -> None:
 
 
 def _clean_parser(tree: _Tree, name: str) -> None:
-    from wsbuild.verbs.clean import CLEAN_DOC, add_clean_arguments
+    from wsbuild.verbs.clean import CLEAN_DOC, add_clean_arguments  # lazy: off the full no-op build
 
     add_clean_arguments(tree.verb(name, "wsbuild.verbs.clean:run_clean", CLEAN_DOC))
 
 
 def _deps_parser(tree: _Tree, name: str) -> None:
-    from wsbuild.verbs import deps
+    from wsbuild.verbs import deps  # lazy: off the full no-op build and `list`
 
     deps.add_arguments(tree.verb(name, "wsbuild.verbs.deps:run_deps", deps.DEPS_DOC,
                                  operands=" [check|install]"))
 
 
 def _completion_parser(tree: _Tree, name: str) -> None:
-    from wsbuild.verbs.completion import COMPLETION_DOC, add_completion_arguments
+    from wsbuild.verbs.completion import (
+        COMPLETION_DOC, add_completion_arguments)  # lazy: off the full no-op build
 
     verbs = tree.subparsers
     sub = verbs.add_parser("completion", help=VERBS[name],
@@ -257,7 +255,7 @@ def _completion_parser(tree: _Tree, name: str) -> None:
 
 
 def _test_result_parser(tree: _Tree, name: str) -> None:
-    from wsbuild.verbs import colcon, test
+    from wsbuild.verbs import colcon, test  # lazy: off the full no-op build and `list`
 
     verbs = tree.subparsers
     sub = verbs.add_parser("test-result", help=VERBS[name],
@@ -271,7 +269,8 @@ def _test_result_parser(tree: _Tree, name: str) -> None:
 
 
 def _report_parser(tree: _Tree, name: str) -> None:
-    from wsbuild.verbs.run_report import REPORT_DOC, add_report_arguments
+    from wsbuild.verbs.run_report import (
+        REPORT_DOC, add_report_arguments)  # lazy: off the full no-op build
 
     verbs = tree.subparsers
     sub = verbs.add_parser("report", help=VERBS[name],
@@ -281,7 +280,7 @@ def _report_parser(tree: _Tree, name: str) -> None:
 
 
 def _run_parser(tree: _Tree, name: str) -> None:
-    from wsbuild.verbs import run
+    from wsbuild.verbs import run  # lazy: off the full no-op build and `list`
 
     verbs = tree.subparsers
     sub = verbs.add_parser("run", help=VERBS[name],
@@ -291,8 +290,6 @@ def _run_parser(tree: _Tree, name: str) -> None:
 
 
 def _mixin_parser(tree: _Tree, name: str) -> None:
-    from wsbuild.verbs import mixin
-
     verbs = tree.subparsers
     sub = verbs.add_parser("mixin", help=VERBS[name],
                            description=mixin.MIXIN_DOC.strip(), formatter_class=_Formatter)
@@ -308,7 +305,7 @@ def _mixin_parser(tree: _Tree, name: str) -> None:
 
 
 def _pkg_parser(tree: _Tree, name: str) -> None:
-    from wsbuild.verbs.pkg import CREATE_DOC
+    from wsbuild.verbs.pkg import CREATE_DOC  # lazy: off the full no-op build and `list`
 
     verbs = tree.subparsers
     sub = verbs.add_parser("pkg", help=VERBS[name],
@@ -319,13 +316,14 @@ def _pkg_parser(tree: _Tree, name: str) -> None:
                                 description=CREATE_DOC.strip(), formatter_class=_Formatter)
     create.set_defaults(func="wsbuild.verbs.pkg:run_pkg_create")
     if tree.pkg_arguments:
-        from wsbuild.verbs.pkg import add_pkg_create_arguments
+        from wsbuild.verbs.pkg import add_pkg_create_arguments  # lazy: off the full no-op build
 
         add_pkg_create_arguments(create)
 
 
 def _underlay_parser(tree: _Tree, name: str) -> None:
-    from wsbuild.verbs.underlay import UNDERLAY_DOC, add_check_arguments
+    from wsbuild.verbs.underlay import (
+        UNDERLAY_DOC, add_check_arguments)  # lazy: off the full no-op build
 
     verbs = tree.subparsers
     sub = verbs.add_parser("underlay", help=VERBS[name],
@@ -339,7 +337,7 @@ def _underlay_parser(tree: _Tree, name: str) -> None:
 
 
 def _cache_parser(tree: _Tree, name: str) -> None:
-    from wsbuild.verbs.cache import CACHE_DOC, add_prune_arguments
+    from wsbuild.verbs.cache import CACHE_DOC, add_prune_arguments  # lazy: off the full no-op build
 
     verbs = tree.subparsers
     sub = verbs.add_parser("cache", help=VERBS[name],
@@ -355,7 +353,7 @@ def _cache_parser(tree: _Tree, name: str) -> None:
 
 
 def _plan_parser(tree: _Tree, name: str) -> None:
-    from wsbuild.verbs.plan import PLAN_DOC, add_arguments
+    from wsbuild.verbs.plan import PLAN_DOC, add_arguments  # lazy: off the full no-op build
 
     add_arguments(tree.verb(name, "wsbuild.verbs.plan:run_plan_verb", PLAN_DOC))
 
@@ -372,7 +370,7 @@ _ADDERS: dict[str, Callable[[_Tree, str], None]] = {
 def _known_long_options(argv: Sequence[str]) -> set[str]:
     """The long options of the verb `argv` runs and those before it (not the other verbs':
     `test --ctest-args --verbose` passes `--verbose` on, although test-result has one)."""
-    from wsbuild.verbs.defaults import chosen_verb, verb_parsers
+    from wsbuild.verbs.defaults import chosen_verb, verb_parsers  # lazy: off Tab completion
 
     parser = build_parser(pkg_arguments=False, verbs=verbs_named(argv), plugin_options=False)
     parsers = [parser, verb_parsers(parser).get(chosen_verb(parser, argv), parser)]
@@ -393,7 +391,7 @@ def parse_command_line(raw: list[str], environ: Mapping[str, str],
     """`argv` → the arguments of the verb it runs: pass-through values collected, defaults
     files applied (colcon-defaults' ~/.colcon/defaults.yaml, then <ws>/wsbuild.yaml), then the
     mixins it names. Usage errors exit (2); bad files raise WsbuildError."""
-    from wsbuild.verbs.defaults import parse_with_defaults
+    from wsbuild.verbs.defaults import parse_with_defaults  # lazy: off Tab completion
 
     if any(may_pass_through(item) for item in raw):
         raw = collect_passthrough(raw, _known_long_options(raw))
@@ -417,7 +415,7 @@ def main(argv: Sequence[str] | None = None, *, recorder: ReplayRecorder | None =
     replayed; it reaches the verb with the run's terminal (`args.terminal`)."""
     raw = list(sys.argv[1:] if argv is None else argv)
     if "_ARGCOMPLETE" in os.environ:  # the shell asks for completions (wsbuild completion)
-        from wsbuild.verbs.completion import complete
+        from wsbuild.verbs.completion import complete  # lazy: off the full no-op build and `list`
 
         complete(build_parser(pkg_arguments="pkg" in os.environ.get("COMP_LINE", "")))
     try:
@@ -428,13 +426,13 @@ def main(argv: Sequence[str] | None = None, *, recorder: ReplayRecorder | None =
     if not hasattr(args, "func"):  # a bare `wsbuild` or `wsbuild cache`: what each one does
         _print_choices(args.verb)
         return 2
-    from wsbuild.engine.process import interrupted_exit_code, stop_signals_interrupt
-    from wsbuild.redaction import remember_environment
-    from wsbuild.reporter import Terminal
+    from wsbuild.engine.process import (
+        interrupted_exit_code, stop_signals_interrupt)  # lazy: off Tab completion
+    from wsbuild.redaction import remember_environment  # lazy: off Tab completion and `--help`
+    from wsbuild.reporter import Terminal  # lazy: off `build --help` and `pkg create --help`
 
     # the values of the environment's secrets are hidden in all wsbuild writes
     remember_environment(os.environ)
-    from wsbuild.verbs.colcon import ignored_notes
 
     # where the verb's words go (through the recorder's copies when it is recorded)
     args.terminal = terminal = Terminal.of(recorder)
@@ -453,8 +451,6 @@ def main(argv: Sequence[str] | None = None, *, recorder: ReplayRecorder | None =
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
         return 0
     except OSError as exc:
-        from wsbuild.errors import environment_failure
-
         # a full disk or a read-only directory is the machine's failure, not a bug
         message = environment_failure(exc, doing=f"running wsbuild {args.verb}")
         if message is None:
@@ -469,7 +465,7 @@ def _print_choices(verb: str | None) -> None:
     """The help of the top level (every verb) or of a verb with actions (every action)."""
     parser = build_parser(pkg_arguments=False, verbs=None if verb is None else {verb})
     if verb is not None:
-        from wsbuild.verbs.defaults import verb_parsers
+        from wsbuild.verbs.defaults import verb_parsers  # lazy: off Tab completion
 
         parser = verb_parsers(parser)[verb]
     parser.print_help()
@@ -478,9 +474,6 @@ def _print_choices(verb: str | None) -> None:
 def _finish(parser: argparse.ArgumentParser, verb: str, args: argparse.Namespace,
             environ: Mapping[str, str], cwd: Path) -> None:
     """After parsing: the mixins the command line names, and colcon's options before the verb."""
-    from wsbuild.verbs.colcon import apply_global_arguments
-    from wsbuild.verbs.mixin import NOT_MIXED, apply_mixins
-
     if verb and verb.split(".")[0] not in NOT_MIXED:
         apply_mixins(parser, verb, args, environ, cwd)
     apply_global_arguments(args)

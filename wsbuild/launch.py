@@ -8,6 +8,8 @@ from __future__ import annotations
 import os
 import sys
 
+from wsbuild import __version__
+
 TYPE_CHECKING = False
 if TYPE_CHECKING:
     from wsbuild.reporter import ReplayDrawing
@@ -16,15 +18,13 @@ if TYPE_CHECKING:
 def main() -> int:
     argv = sys.argv[1:]
     if argv == ["--version"]:
-        from wsbuild import __version__
-
         print(f"wsbuild {__version__}")
         return 0
     search_pythonpath_last()
-    from wsbuild.engine import replay
+    from wsbuild.engine import replay  # lazy: off `--version`
 
     if not argv or argv[0] not in replay.VERBS:
-        from wsbuild.cli import main as run_command_line
+        from wsbuild.cli import main as run_command_line  # lazy: off the replayed no-op
 
         return run_command_line(argv)
     try:
@@ -34,14 +34,14 @@ def main() -> int:
         return 130
     if replayed is not None:
         return replayed
-    from wsbuild.engine.recording import recording
+    from wsbuild.engine.recording import recording  # lazy: off the replayed no-op
 
     # the standard library's sysconfig probes the interpreter's own installation when first
     # imported (Modules/Setup): the interpreter's start, whose path and version key the record
     import sysconfig  # noqa: F401
 
     with recording(argv) as recorder:
-        from wsbuild.cli import main as run_command_line
+        from wsbuild.cli import main as run_command_line  # lazy: off the replayed no-op
 
         code = run_command_line(argv, recorder=recorder)
         if recorder is not None:
@@ -51,7 +51,7 @@ def main() -> int:
 
 def _drawing() -> ReplayDrawing:
     """The reporter's side of a replayed build (imported only when a build is replayed)."""
-    from wsbuild.reporter import ReplayDrawing
+    from wsbuild.reporter import ReplayDrawing  # lazy: off a replayed `list` and `--version`
 
     return ReplayDrawing()
 

@@ -31,6 +31,7 @@ from wsbuild.events import (
 )
 from wsbuild.engine.jobs import JobResult, Outcome
 from wsbuild.engine.progress import Progress
+from wsbuild.engine.replay import replaced
 from wsbuild.words import plural
 
 TYPE_CHECKING = False  # (typing is not imported on a replay: 3 ms)
@@ -100,8 +101,6 @@ class ReplayDrawing:
     def draw(self, shown: list[list[object]], blank: str, run_log: str,
              started: float) -> None:
         from dataclasses import replace
-
-        from wsbuild.engine.replay import replaced
 
         reporter = None
         try:

@@ -12,10 +12,14 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+from wsbuild.build_types import get_build_type
 from wsbuild.cache.run import RunCache
 from wsbuild.cache.settings import CacheSettings
 from wsbuild.engine.jobserver import Jobserver
 from wsbuild.events import Emit, Notice
+from wsbuild.files import create_if_missing, private_directory
+from wsbuild.prefix.layout import (
+    IGNORE_MARKER, mark_install_layout, resolve_layout, write_ignore_marker)
 from wsbuild.record.outside import Digests
 
 if TYPE_CHECKING:
@@ -77,7 +81,7 @@ class Session:
         applied, less what a terminal sets for itself, with a fixed locale
         (observe/step_environment.py)."""
         if self._environ is None:
-            from wsbuild.observe.step_environment import step_base
+            from wsbuild.observe.step_environment import step_base  # lazy: off `info`
 
             self._environ = step_base(self.underlay.environ)
         return self._environ
@@ -86,15 +90,13 @@ class Session:
         """What a build type finds once per run (`BuildType.run_facts`: the tools it runs),
         resolved when first asked for."""
         if build_type not in self._facts:
-            from wsbuild.build_types import get_build_type
-
             self._facts[build_type] = get_build_type(build_type).run_facts(self.environ)
         return self._facts[build_type]
 
     @property
     def environment(self) -> Environment:
         """`environ` as records compare it (record/dirty.py)."""
-        from wsbuild.record.dirty import Environment
+        from wsbuild.record.dirty import Environment  # lazy: off `info`
 
         return Environment(self.environ, own_install=str(self.workspace.install_base),
                            ignored=self.options.env_ignore)
@@ -104,7 +106,7 @@ class Session:
         """The step observer (observe/library.py), built when a step first needs it; else
         why there is none."""
         if self._observer is None:
-            from wsbuild.observe.library import home, observer
+            from wsbuild.observe.library import home, observer  # lazy: off `info`
 
             if os.environ.get(OBSERVE_VARIABLE) == "0":  # benchmarks/: the cost of observing
                 self._observer = f"observing is off ({OBSERVE_VARIABLE}=0)"
@@ -126,8 +128,8 @@ class Session:
 
     def close(self) -> None:
         if not self.options.dry_run:
-            from wsbuild.record.file_digests import save_file_digests
-            from wsbuild.record.memo import save_memos
+            from wsbuild.record.file_digests import save_file_digests  # lazy: off `info`
+            from wsbuild.record.memo import save_memos  # lazy: off `info`
 
             save_memos()
             save_file_digests()
@@ -141,9 +143,8 @@ class Session:
 def open_session(workspace: Workspace, options: SessionOptions, emit: Emit) -> Iterator[Session]:
     """Enter a run: check the install layout, take the lock, prepare the underlay (repairing
     it, unless a dry run), make the run's log directory. Everything is released on exit."""
-    from wsbuild.engine.lock import workspace_lock
-    from wsbuild.engine.logs import new_run_log
-    from wsbuild.prefix.layout import IGNORE_MARKER, resolve_layout
+    from wsbuild.engine.lock import workspace_lock  # lazy: off `info`
+    from wsbuild.engine.logs import new_run_log  # lazy: off `info`
 
     merged = resolve_layout(workspace.install_base, options.merge_install, verb=options.verb,
                             build_base=workspace.build_base)
@@ -169,8 +170,8 @@ def open_session(workspace: Workspace, options: SessionOptions, emit: Emit) -> I
         cache.environment = session.environment
         session.digests.kept = _kept_digests()
         if merged:  # a listing in the shared prefix leaves out the other packages' entries
-            from wsbuild.prefix.stage import MERGED_RECORD
-            from wsbuild.record.merged_owners import register
+            from wsbuild.prefix.stage import MERGED_RECORD  # lazy: off `info` and `build --dry-run`
+            from wsbuild.record.merged_owners import register  # lazy: off `info`
 
             register(workspace.install_base, workspace.build_base, MERGED_RECORD)
         try:
@@ -181,8 +182,8 @@ def open_session(workspace: Workspace, options: SessionOptions, emit: Emit) -> I
 
 def _kept_digests() -> FileDigests:
     """The digests of files earlier runs took (record/file_digests.py), beside the observer."""
-    from wsbuild.observe.library import home
-    from wsbuild.record.file_digests import file_digests
+    from wsbuild.observe.library import home  # lazy: off `info`
+    from wsbuild.record.file_digests import file_digests  # lazy: off `info`
 
     return file_digests(home(os.environ))
 
@@ -190,11 +191,7 @@ def _kept_digests() -> FileDigests:
 def _prepare_install(workspace: Workspace, merged: bool) -> None:
     """build/ and install/ get colcon's markers, so tools and later runs recognise them; a
     previous install an interrupted run parked is put back."""
-    from wsbuild.files import create_if_missing
-    from wsbuild.prefix.layout import mark_install_layout, write_ignore_marker
-    from wsbuild.prefix.stage import recover_all
-
-    from wsbuild.files import private_directory
+    from wsbuild.prefix.stage import recover_all  # lazy: off `info` and `build --dry-run`
 
     for base in (workspace.build_base, workspace.install_base):
         base.mkdir(parents=True, exist_ok=True)

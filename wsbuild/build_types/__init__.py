@@ -33,6 +33,7 @@ if TYPE_CHECKING:
     from wsbuild.build_types.test_runner import TestRunner
     from wsbuild.record.dirty import Reason
 
+from wsbuild.build_types.plugins import BUILD_TYPES, entries, load_value
 from wsbuild.build_types.step_observer import StepObserver
 from wsbuild.errors import ManifestError, WsbuildError
 from wsbuild.prefix.hooks import EnvironmentHooks
@@ -475,8 +476,6 @@ def get_build_type(name: str) -> BuildType:
 
 def _load_entry_point(value: str) -> object:
     """What `module:attribute` names (build_types/plugins.py: `load_value`)."""
-    from wsbuild.build_types.plugins import load_value
-
     return load_value(value)
 
 
@@ -532,8 +531,6 @@ def _checked(loaded: object, name: str, value: str) -> BuildType:
 
 def _entry_points() -> Sequence[Entry]:
     """The third-party build types' entry points (build_types/plugins.py)."""
-    from wsbuild.build_types.plugins import BUILD_TYPES, entries
-
     return [entry for entry in entries(BUILD_TYPES) if entry.name not in BUILTIN]
 
 

@@ -34,6 +34,7 @@ BUILD_TYPE = AmentPythonBuildType()
 
 def register(ctx: PackageContext) -> None:
     """The `index` step: the ament index marker and package.xml, if setup.py did not."""
-    from wsbuild.build_types.pybuild.index import register as install_index
+    from wsbuild.build_types.pybuild.index import (
+        register as install_index)  # lazy: off the full no-op build
 
     install_index(ctx)

@@ -45,6 +45,7 @@ from wsbuild.build_types.cmake_options import CMAKE_OPTIONS, CMakeOptions
 from wsbuild.prefix.hooks import EnvironmentHooks
 from wsbuild.record.configured import CONFIGURED_FILE, Configured, reconfigure_reason
 from wsbuild.record.dirty import Reason
+from wsbuild.record.environment import UNSET, variable_digests
 
 
 NINJA = "Ninja"
@@ -63,8 +64,6 @@ COMPILER_ENVIRONMENT = ("CC", "CXX", "CFLAGS", "CXXFLAGS", "CPPFLAGS", "LDFLAGS"
 
 def _compiler_digests(environ: Mapping[str, str]) -> dict[str, str | None]:
     """Each compiler variable by a digest of its value (None: unset)."""
-    from wsbuild.record.environment import UNSET, variable_digests
-
     digests = variable_digests(environ, COMPILER_ENVIRONMENT)
     return {name: None if digests[name] == UNSET else digests[name]
             for name in COMPILER_ENVIRONMENT}
@@ -245,7 +244,7 @@ class CMakeBuildType:
         """What CMake's regeneration list, the build rules, the depfiles, the compiler's
         dependency lists, the verified globs and the install script name outside the package,
         and the programs the build ran (build_types/cmake_reads.py)."""
-        from wsbuild.build_types.cmake_reads import outside_reads
+        from wsbuild.build_types.cmake_reads import outside_reads  # lazy: off the full no-op build
 
         ninja = self.ninja(ctx)
         return outside_reads(ctx.build_dir, ctx.source_dir, ninja.path if ninja else None)
@@ -398,7 +397,7 @@ class CMakeBuildType:
 
     def work_left(self, ctx: PackageContext) -> str:
         """What the build system still runs right after the build (cmake_work_left.py)."""
-        from wsbuild.build_types.cmake_work_left import work_left
+        from wsbuild.build_types.cmake_work_left import work_left  # lazy: off the full no-op build
 
         ninja = self.ninja(ctx)
         return work_left(ctx.build_dir, self.generator(ctx), ninja.path if ninja else None,

@@ -53,7 +53,7 @@ class CTestRunner(TestRunnerBase):
         are not in its build tree (no CTestTestfile.cmake: it enables no testing)."""
         if (build_dir / "CMakeCache.txt").is_file():
             return True
-        from wsbuild.record.model import read_record
+        from wsbuild.record.model import read_record  # lazy: off `test-result`
 
         record = read_record(build_dir)
         return record is not None and not record.test_tree
@@ -65,7 +65,7 @@ class CTestRunner(TestRunnerBase):
     def environment(self, env: Mapping[str, str], python_executable: str) -> dict[str, str]:
         """The package's test environment, with the ROS tests' pytest first on PYTHONPATH for
         the pytest tests CTest runs (ament_cmake_pytest)."""
-        from wsbuild.build_types.ros_pytest import with_ros_pytest
+        from wsbuild.build_types.ros_pytest import with_ros_pytest  # lazy: off `test-result`
 
         return with_ros_pytest(env, python_executable)
 

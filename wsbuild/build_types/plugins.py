@@ -20,6 +20,8 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from wsbuild import inputs
+from wsbuild.errors import WsbuildError
+from wsbuild.files import atomic_write, private_directory, user_cache_dir
 
 BUILD_TYPES = "wsbuild.build_types"
 PACKAGE_IDENTIFICATION = "wsbuild.package_identification"
@@ -78,8 +80,7 @@ def _memo_file() -> Path:
     """One memo for each interpreter and path (runs with another PYTHONPATH keep theirs),
     beside the file digests' memo (record/file_digests.py): never in the build cache's
     directory, which `--no-cache` leaves untouched."""
-    from wsbuild.files import user_cache_dir
-    from wsbuild.record.model import digest_of
+    from wsbuild.record.model import digest_of  # lazy: off `test-result` and `report`
 
     return user_cache_dir(os.environ, "wsbuild-observe") / "plugins" / \
         f"{digest_of([sys.executable, _scanned_path()])}.json"
@@ -98,8 +99,6 @@ def _scanned() -> dict[str, tuple[Entry, ...]]:
         pass
     found = _scan()
     try:
-        from wsbuild.files import atomic_write, private_directory
-
         private_directory(memo.parent)
         atomic_write(memo, json.dumps({"key": key, "entries": {
             group: [[e.name, e.value] for e in found[group]] for group in GROUPS}}) + "\n",
@@ -128,8 +127,6 @@ def _scan() -> dict[str, tuple[Entry, ...]]:
 def package_identifiers() -> list[Callable[[Path, frozenset[str]], object]]:
     """The installed package identifiers (workspace/discover.py's `Identifier`), by name; one
     that cannot be loaded, or is not callable, is an error naming it."""
-    from wsbuild.errors import WsbuildError
-
     loaded = []
     for entry in entries(PACKAGE_IDENTIFICATION):
         try:

@@ -41,14 +41,16 @@ def close_python_run() -> None:
 def configure(ctx: PackageContext) -> None:
     """Decide how `install` installs (what setup() installs; the fast path or a PEP 517
     wheel): the typed output the install step reads (`ctx.outputs.python_plan`)."""
-    from wsbuild.build_types.pybuild.recipe import configure as decide
+    from wsbuild.build_types.pybuild.recipe import (
+        configure as decide)  # lazy: off the full no-op build
 
     ctx.outputs.python_plan = decide(ctx)
 
 
 def install(ctx: PackageContext) -> None:
     """Install into the stage as the configure step decided."""
-    from wsbuild.build_types.pybuild.recipe import install as place
+    from wsbuild.build_types.pybuild.recipe import (
+        install as place)  # lazy: off the full no-op build
 
     place(ctx, ctx.outputs.python_plan)
 
@@ -67,8 +69,10 @@ def python_steps(ctx: PackageContext, *,
     """The recipe's steps: in-process, because the helper stays warm across packages and the
     files go straight into the stage; each with the by-hand command that does the same.
     `extra`: a build type's own steps after `install` (ament_python's `index`)."""
-    from wsbuild.build_types.pybuild.by_hand import STEPS as BY_HAND_STEPS
-    from wsbuild.build_types.pybuild.by_hand import by_hand_command
+    from wsbuild.build_types.pybuild.by_hand import (
+        STEPS as BY_HAND_STEPS)  # lazy: off the full no-op build
+    from wsbuild.build_types.pybuild.by_hand import (
+        by_hand_command)  # lazy: off the full no-op build
 
     actions: dict[str, Callable[[PackageContext], None]] = {
         "configure": configure, "install": install, **(extra or {})}

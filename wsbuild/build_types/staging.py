@@ -99,13 +99,13 @@ def take_destdir(ctx: PackageContext) -> None:
 def park_install(ctx: PackageContext) -> None:
     """Before an install that writes straight into the final prefix: the previous install
     aside, a fresh prefix (prefix/stage.py)."""
-    from wsbuild.prefix.stage import park_previous_install
+    from wsbuild.prefix.stage import park_previous_install  # lazy: off `build --dry-run` and `test`
 
     park_previous_install(ctx.install_prefix, ctx.stage_prefix)
 
 
 def stage_direct_install(ctx: PackageContext) -> None:
     """After it: the new install into the stage, the previous one back."""
-    from wsbuild.prefix.stage import stage_direct_install as stage
+    from wsbuild.prefix.stage import stage_direct_install as stage  # lazy: off `build --dry-run`
 
     stage(ctx.install_prefix, ctx.stage_prefix)

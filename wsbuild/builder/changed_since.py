@@ -8,6 +8,7 @@ from collections.abc import Iterable, Sequence
 
 from wsbuild.record.dirty import Dirty, Environment, PackageNow, dirty_reason
 from wsbuild.record.model import PackageRecord, read_record
+from wsbuild.record.outside import Digests
 from wsbuild.record.own_files import own_files
 from wsbuild.workspace.selection import Selection
 
@@ -33,8 +34,6 @@ def sources_changed(selection: Selection, names: Sequence[str]) -> dict[str, str
     """`wsbuild test`: the packages whose own files changed since their last build, with the
     one dirty check's words ("source changed: test/test_greeter.cpp"); each is asked with its
     record's own settings, environment and dependencies, so only its files can differ."""
-    from wsbuild.record.outside import Digests
-
     ws = selection.workspace
     outputs = tuple(str(base) for base in (ws.build_base, ws.install_base, ws.log_base))
     changed: dict[str, str] = {}

@@ -22,6 +22,10 @@ from wsbuild.build_types import (
     get_build_type,
     package_context,
 )
+from wsbuild.builder.resources.distcc import planned_environ
+from wsbuild.prefix import environment_for
+from wsbuild.prefix.layout import is_installed, package_prefix
+from wsbuild.prefix.stage import stage_path
 from wsbuild.session import Session
 from wsbuild.workspace.selection import Selection
 
@@ -39,9 +43,6 @@ def make_context(selection: Selection, session: Session, name: str, *, prefix: P
                  observe: StepObserver | None = None) -> PackageContext:
     """Package `name`'s context (see the module's docstring); without `run`, a context that
     runs nothing (the plan's, `--dry-run`'s)."""
-    from wsbuild.prefix import environment_for
-    from wsbuild.prefix.layout import is_installed, package_prefix
-
     workspace = selection.workspace
     closure = selection.graph.build_closure(name)
     merged = session.merged
@@ -70,12 +71,8 @@ def planned_steps(selection: Selection, session: Session, name: str, *, prefix: 
     the run's resources, the plan knows only the local gate's CMake file of a distributed run
     (a stable path); where the run turns out otherwise (no distcc host answers), the build
     decides again (builder/package.py: `steps`)."""
-    from wsbuild.prefix.stage import stage_path
-
     run_environ = {}
     if distributing:
-        from wsbuild.builder.resources.distcc import planned_environ
-
         run_environ = planned_environ(selection.workspace.build_base)
     ctx = make_context(selection, session, name, prefix=prefix, options=options,
                        stage_prefix=stage_path(selection.workspace.install_base, name),

@@ -8,14 +8,15 @@ from __future__ import annotations
 
 from wsbuild.builder.failure import with_unresolved
 from wsbuild.builder.job import PackageJob, RunResources
+from wsbuild.builder.package import PackageBuild
 from wsbuild.builder.plan import Decision, PackagePlan
+from wsbuild.builder.reuse import cut_off, restore
 from wsbuild.engine.jobs import JobResult, Outcome
+from wsbuild.errors import environment_failure
 
 
 def execute(planned: PackagePlan, run: RunResources) -> JobResult:
     """The job of `planned`, done."""
-    from wsbuild.errors import environment_failure
-
     job = PackageJob(planned, run)
     try:
         result = _carry_out(job)
@@ -30,9 +31,6 @@ def execute(planned: PackagePlan, run: RunResources) -> JobResult:
 
 
 def _carry_out(job: PackageJob) -> JobResult:
-    from wsbuild.builder.package import PackageBuild
-    from wsbuild.builder.reuse import cut_off, restore
-
     planned = job.planned
     if planned.decision is Decision.UP_TO_DATE:
         return JobResult(job.name, Outcome.UP_TO_DATE, job._seconds())

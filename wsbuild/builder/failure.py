@@ -12,6 +12,8 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from wsbuild.engine.jobs import JobResult, Outcome
+from wsbuild.engine.process import format_command
+from wsbuild.workspace.resolve import ament_index
 
 if TYPE_CHECKING:
     from wsbuild.build_types import StepFailed
@@ -86,7 +88,7 @@ def with_unresolved(result: JobResult, unresolved: Sequence[str], selection: Sel
     it has none, a did-you-mean among the known names: underlay/wheels.py)."""
     if result.outcome is not Outcome.FAILED or not unresolved:
         return result
-    from wsbuild.underlay.wheels import install_hint
+    from wsbuild.underlay.wheels import install_hint  # lazy: off the full no-op build
 
     known = known_names(selection, session)
     pip = session.underlay.venv is not None
@@ -102,8 +104,8 @@ def failed_result(name: str, failure: StepFailed, build_dir: Path, log_dir: Path
                   seconds: float) -> JobResult:
     """A failed package build's result: what failed, the tail of its log, and the command
     that reproduces the failed step (in the build directory's reproduce.sh too)."""
-    from wsbuild.builder.reproduce import write_reproduce_script
-    from wsbuild.engine.process import format_command
+    from wsbuild.builder.reproduce import (
+        write_reproduce_script)  # lazy: off builds that do not fail
 
     reproduce, script = "", None
     if failure.command:
@@ -121,8 +123,6 @@ def failed_result(name: str, failure: StepFailed, build_dir: Path, log_dir: Path
 def known_names(selection: Selection, session: Session) -> set[str]:
     """The names a misspelt dependency may have meant: the workspace's packages and those of
     the underlays' ament index."""
-    from wsbuild.workspace.resolve import ament_index
-
     prefixes = [Path(p) for p in session.environ.get("AMENT_PREFIX_PATH", "").split(os.pathsep)
                 if p] + session.underlay_prefixes
     return {*selection.packages, *ament_index(prefixes)}

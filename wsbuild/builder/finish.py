@@ -11,9 +11,11 @@ from pathlib import Path
 from wsbuild.engine.jobs import JobResult, Outcome
 from wsbuild.files import write_if_changed
 from wsbuild.events import Emit, Notice
-from wsbuild.underlay.environment import PreparedUnderlay
+from wsbuild.underlay.environment import BOOTSTRAP_GUARD_VAR, PreparedUnderlay, build_environment
+from wsbuild.underlay.lint import stand_ins_used
 from wsbuild.workspace.root import Workspace
 from wsbuild import inputs
+from wsbuild.prefix import ChainedUnderlay, underlays_from_environment, write_workspace_scripts
 
 
 #: what the workspace's setup scripts were last written from (a no-op rewrites nothing)
@@ -25,17 +27,9 @@ def write_setup_scripts(ws: Workspace, merged: bool, underlay: PreparedUnderlay,
     """Write install/setup.* and local_setup.* for every package installed so far; when no
     package was installed in this run and the chained underlays are the ones they were
     written for, they are current already and nothing is read or written."""
-    from wsbuild.prefix import (
-        ChainedUnderlay,
-        underlays_from_environment,
-        write_workspace_scripts,
-    )
-
     # chain what was sourced before the venv was applied, then the venv itself
     underlays = underlays_from_environment(os.environ, ws.install_base)
     if underlay.venv is not None:
-        from wsbuild.underlay.environment import BOOTSTRAP_GUARD_VAR
-
         # with the library path set, the wheels' bootstrapper need not re-execute every Python
         underlays.append(ChainedUnderlay(prefix=underlay.venv, script_dir=None,
                                          prepend=venv_prepends(underlay.venv),
@@ -65,8 +59,6 @@ def venv_prepends(venv: Path) -> tuple[tuple[str, str], ...]:
 
     Computed against an empty environment: wsbuild's own environment already holds what the
     wheels' bootstrapper added when it re-executed wsbuild."""
-    from wsbuild.underlay.environment import build_environment
-
     full = build_environment(venv, {})
     result: list[tuple[str, str]] = []
     for var in ("AMENT_PREFIX_PATH", "CMAKE_PREFIX_PATH", "LD_LIBRARY_PATH", "PATH"):
@@ -78,8 +70,6 @@ def venv_prepends(venv: Path) -> tuple[tuple[str, str], ...]:
 
 def name_lint_stand_ins(ws: Workspace, results: Sequence[JobResult], emit: Emit) -> None:
     """One line naming the linters stood in for (not installed) in the packages built now."""
-    from wsbuild.underlay.lint import stand_ins_used
-
     built = [ws.build_base / r.package for r in results if r.outcome is Outcome.FINISHED]
     used = stand_ins_used(built)
     if used:

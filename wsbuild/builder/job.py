@@ -13,7 +13,10 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from wsbuild.builder.plan import BUILDING_MARKER, PackagePlan
+from wsbuild.builder.records import dependency_keys
 from wsbuild.engine.logs import append_command_log
+from wsbuild.files import private_directory
+from wsbuild.prefix.stage import MERGED_RECORD
 
 if TYPE_CHECKING:
     from wsbuild.build_types import BuildOptions
@@ -78,20 +81,14 @@ class PackageJob:
 
     @property
     def merged_record(self) -> Path | None:
-        from wsbuild.prefix.stage import MERGED_RECORD
-
         return self.build_dir / MERGED_RECORD if self.run.session.merged else None
 
     def dependency_keys(self) -> dict[str, str]:
         """The keys of the package's dependencies as this run left them (builder/records.py)."""
-        from wsbuild.builder.records import dependency_keys
-
         return dependency_keys(self.planned, self.run.selection.workspace.build_base)
 
     def mark_unfinished(self) -> None:
         """Until the package's new record is written, its last build counts as unfinished."""
-        from wsbuild.files import private_directory
-
         marker = self.build_dir / BUILDING_MARKER
         private_directory(marker.parent)
         marker.touch(mode=0o600)

@@ -20,21 +20,27 @@ from wsbuild.build_types import (
     StepFailed,
     get_build_type,
 )
-from wsbuild.builder.context import RUN_JOBSERVER
+from wsbuild.builder.context import RUN_JOBSERVER, make_context
 from wsbuild.observe.steps import StepObservations
-from wsbuild.builder.observing import reproducible
+from wsbuild.builder.observing import not_inputs, observations_of, reproducible
 from wsbuild.builder.oracles.step_trace import StepTraces
 from wsbuild.builder.bookkeeping import (
     ADVANCE_TIMES, COMMIT, REGISTER, START_COMPILER_CACHE, BuilderStep)
 from wsbuild.builder.job import PackageJob
 from wsbuild.builder.plan import BUILDING_MARKER, FAILED_MARK
-from wsbuild.builder.failure import exit_text, interesting
+from wsbuild.builder.failure import exit_text, failed_result, interesting
+from wsbuild.builder.resources.compiler_cache import COMPILER_VARIABLES
+from wsbuild.builder.records import built_record
 from wsbuild.engine.jobs import JobResult, Outcome, StepStarted
 from wsbuild.engine.process import env_delta, format_command, run_command
 from wsbuild.errors import WsbuildError
+from wsbuild.events import Notice
+from wsbuild.prefix import register_package_files, write_package_environment
+from wsbuild.prefix import stage as staging
 from wsbuild.record.installed import Installed
-from wsbuild.record.model import PackageRecord
-from wsbuild.record.undeclared import undeclared_lines
+from wsbuild.record.model import PackageRecord, write_record
+from wsbuild.record.observed import Where
+from wsbuild.record.undeclared import installs_read, undeclared_lines
 from wsbuild.workspace.model import DepCategory
 
 @dataclass(slots=True)
@@ -101,9 +107,7 @@ class PackageBuild(PackageJob):
     def stage(self) -> None:
         """Mark the build unfinished, make a fresh stage and the package's context (the one
         the plan decided its steps from, with the run's own resources: builder/context.py)."""
-        from wsbuild.builder.context import make_context
-        from wsbuild.builder.times import redo_for_backdated
-        from wsbuild.prefix import stage as staging
+        from wsbuild.builder.times import redo_for_backdated  # lazy: off builds that only restore
 
         self.mark_unfinished()
         self.stage_prefix = staging.new_stage(self.run.selection.workspace.install_base,
@@ -132,14 +136,10 @@ class PackageBuild(PackageJob):
 
     def _observations(self, run_environ: Mapping[str, str]) -> StepObservations:
         """A fresh record of what this build's steps read (builder/observing.py)."""
-        from wsbuild.builder.observing import observations_of
-
         return observations_of(self.run, self.build_dir, self.traces, run_environ)
 
     def _not_inputs(self) -> tuple[Path, ...]:
         """What the build-step oracle does not hold to the record (builder/observing.py)."""
-        from wsbuild.builder.observing import not_inputs
-
         return not_inputs(self.run)
 
     def _work_left(self) -> str:
@@ -227,7 +227,8 @@ class PackageBuild(PackageJob):
     def _advance_changed_files(self) -> None:
         """Files whose content changed while their time did not advance get the current time
         (builder/times.py), so make and Ninja see what the record sees."""
-        from wsbuild.builder.times import advance_changed_files
+        from wsbuild.builder.times import (
+            advance_changed_files)  # lazy: off builds that only restore
 
         self.touched.update(advance_changed_files(
             self.planned, self.build_dir, self.run.selection.workspace.root,
@@ -235,8 +236,8 @@ class PackageBuild(PackageJob):
 
     def register(self) -> None:
         """package.xml, the index marker and the environment hooks, into the stage."""
-        from wsbuild.build_types.pybuild.paths import site_packages_relpath
-        from wsbuild.prefix import register_package_files, write_package_environment
+        from wsbuild.build_types.pybuild.paths import (
+            site_packages_relpath)  # lazy: off builds that only restore
 
         ctx = self._ctx()
         assert self.stage_prefix is not None
@@ -249,8 +250,6 @@ class PackageBuild(PackageJob):
 
     def commit(self) -> list[Installed]:
         """The stage replaces the package's prefix; returns the installed files."""
-        from wsbuild.prefix import stage as staging
-
         assert self.stage_prefix is not None
         install_base = self.run.selection.workspace.install_base
         record = self.merged_record
@@ -265,11 +264,6 @@ class PackageBuild(PackageJob):
     def write_record(self, installed: list[Installed]) -> PackageRecord:
         """What this build's steps were observed to read, for the next run's plan
         (builder/records.py); the build is finished."""
-        from wsbuild.builder.resources.compiler_cache import COMPILER_VARIABLES
-        from wsbuild.builder.records import built_record
-        from wsbuild.record.model import write_record
-        from wsbuild.record.observed import Where
-
         # its build directory and what it installs are its outputs (in a merged install the
         # prefix is every package's: only the stage is its own)
         ctx = self._ctx()
@@ -305,8 +299,6 @@ class PackageBuild(PackageJob):
 
     def _installs_read(self, record: PackageRecord) -> dict[str, str]:
         """The workspace packages whose install the record's steps read (but its own)."""
-        from wsbuild.record.undeclared import installs_read
-
         selection = self.run.selection
         return installs_read(record, selection.workspace.install_base, selection.packages,
                              merged=self.run.session.merged, but=self.name)
@@ -323,8 +315,6 @@ class PackageBuild(PackageJob):
 
     def discard(self) -> None:
         """After a failure: the stage goes; an install parked by an install step goes back."""
-        from wsbuild.prefix import stage as staging
-
         if self.stage_prefix is not None:
             staging.recover_direct_install(self.prefix, self.stage_prefix)
             staging.discard_stage(self.stage_prefix)
@@ -333,8 +323,6 @@ class PackageBuild(PackageJob):
 
     def _note(self, text: str) -> None:
         """Information a step gives (not a warning): in command.log, and one plain line."""
-        from wsbuild.events import Notice
-
         self._log(text)
         self.run.emit(Notice(text, package=self.name))
 
@@ -383,8 +371,6 @@ class PackageBuild(PackageJob):
             )
 
     def _failed(self, failure: StepFailed) -> JobResult:
-        from wsbuild.builder.failure import failed_result
-
         return failed_result(self.name, failure, self.build_dir, self.log_dir, self._seconds())
 
 

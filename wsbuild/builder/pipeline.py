@@ -31,16 +31,19 @@ from typing import TYPE_CHECKING
 from wsbuild.build_types import get_build_type
 from wsbuild.builder.plan import BuildPlan, Decision, make_plan
 from wsbuild.builder.request import BuildRequest
+from wsbuild.builder.overrides import override_warning
 from wsbuild.engine.jobs import JobFinished, JobResult, JobStarted, Outcome
 from wsbuild.engine.schedule import FailurePolicy, RunInterrupted
 from wsbuild.engine.timings import CompileJobs, cpu_times, record_durations
 from wsbuild.errors import BuildFailed, Interrupted
 from wsbuild.events import Emit, NoOpFinished, Notice, PlanMade, RunFinished
+from wsbuild.record.model import write_record
 from wsbuild.session import Session, SessionOptions, open_session
 from wsbuild.workspace.selection import Selection
 from wsbuild.words import plural
 
 from wsbuild.runreport.package_run import PackageRun
+from wsbuild.runreport.report_json import RunFacts
 
 if TYPE_CHECKING:  # what only packages to build need: a no-op imports none of it
     from wsbuild.build_types import BuildType
@@ -64,7 +67,8 @@ def _shard_and_plan(selection: Selection, request: BuildRequest, session: Sessio
     need, ranked by their work in the whole split (builder/shards/run.py)."""
     if request.shard is None:
         return selection, None, make_plan(selection, request, session)
-    from wsbuild.builder.shards.run import shard_selection, with_waits
+    from wsbuild.builder.shards.run import (
+        shard_selection, with_waits)  # lazy: off the full no-op build
 
     selection, shard = shard_selection(selection, request.shard, request.run.workers, session)
     return selection, shard, with_waits(make_plan(selection, request, session,
@@ -81,7 +85,7 @@ def plan_build(selection: Selection, request: BuildRequest, emit: Emit) -> Build
 def dry_run(selection: Selection, request: BuildRequest, emit: Emit
             ) -> tuple[BuildPlan, PlannedCommands]:
     """`build --dry-run`: the plan, and the commands of each package it would build."""
-    from wsbuild.builder.plan_text import planned_commands
+    from wsbuild.builder.plan_text import planned_commands  # lazy: off the full no-op build
 
     with open_session(selection.workspace, session_options(request, dry_run=True),
                       emit) as session:
@@ -96,7 +100,8 @@ def run_build(selection: Selection, request: BuildRequest, emit: Emit) -> list[J
     cpu_before = cpu_times()
     with open_session(selection.workspace, session_options(request), emit) as session:
         if request.compiler_cache not in ("auto", "none"):  # a tool named must be there,
-            from wsbuild.builder.resources.compiler_cache import choose_tool  # also when nothing builds
+            from wsbuild.builder.resources.compiler_cache import (
+                choose_tool)  # lazy: off the full no-op build
 
             choose_tool(request.compiler_cache, session.environ,
                         distributing=request.distribute is not None)
@@ -110,7 +115,8 @@ def run_build(selection: Selection, request: BuildRequest, emit: Emit) -> list[J
             raise plan.refusal.error
         _warn(plan, emit, selection, session)
         if request.assemble is not None:  # every package built and tested by a shard
-            from wsbuild.builder.shards.cover import check_assembly
+            from wsbuild.builder.shards.cover import (
+                check_assembly)  # lazy: off the full no-op build
 
             building = [p.name for p in plan.packages if p.decision is Decision.BUILD]
             for line in check_assembly(building, selection, request.assemble,
@@ -118,7 +124,7 @@ def run_build(selection: Selection, request: BuildRequest, emit: Emit) -> list[J
                 emit(Notice(line))
         assert session.run_log is not None
         if shard is not None:  # its note for the other shards (builder/shards/run.py)
-            from wsbuild.builder.shards import run as shard_run
+            from wsbuild.builder.shards import run as shard_run  # lazy: off the full no-op build
 
             shard_run.start(plan, shard, session, emit)
         run = PackageRun(selection, session.run_log, plan.jobs, report=request.report,
@@ -161,7 +167,7 @@ def execute(plan: BuildPlan, selection: Selection, request: BuildRequest, sessio
         merge_compile_commands,
         name_lint_stand_ins,
         write_setup_scripts,
-    )
+    )  # lazy: off `build --dry-run` and `test`
 
     ws = selection.workspace
     assert session.run_log is not None
@@ -176,7 +182,8 @@ def execute(plan: BuildPlan, selection: Selection, request: BuildRequest, sessio
         for build_type in build_types:
             build_type.open_run(session.environ)
         if any(p.decision is Decision.BUILD for p in plan.packages):
-            from wsbuild.builder.resources.compiler_cache import open_compiler_cache
+            from wsbuild.builder.resources.compiler_cache import (
+                open_compiler_cache)  # lazy: off the full no-op build
 
             compilers = open_compiler_cache(request.compiler_cache, session.environ,
                                             session.run_log / "sccache.log",
@@ -227,8 +234,6 @@ def _settle_up_to_date(plan: BuildPlan, session: Session, emit: Emit) -> dict[st
             emit(JobStarted(planned.name))
             result = JobResult(planned.name, Outcome.UP_TO_DATE, message=planned.note)
             if planned.cut_off is not None:  # its record with its dependencies' new keys
-                from wsbuild.record.model import write_record
-
                 write_record(session.workspace.build_base / planned.name, planned.cut_off)
             emit(JobFinished(result))
             results[planned.name] = result
@@ -249,8 +254,8 @@ def _run_packages(plan: BuildPlan, selection: Selection, request: BuildRequest,
     jobs = plan.jobs_to_do()
     if not jobs.order:
         return []
-    from wsbuild.builder.execute import execute
-    from wsbuild.builder.job import RunResources
+    from wsbuild.builder.execute import execute  # lazy: off the full no-op build
+    from wsbuild.builder.job import RunResources  # lazy: off the full no-op build
 
     assert session.run_log is not None
     options = plan.options
@@ -263,7 +268,7 @@ def _run_packages(plan: BuildPlan, selection: Selection, request: BuildRequest,
     jobserver = session.jobserver(options.jobs)
     if distribution is not None:
         distribution.watch(jobserver)
-    from wsbuild.builder.resources.memory import open_governor
+    from wsbuild.builder.resources.memory import open_governor  # lazy: off `test`
 
     restoring = [p.name for p in plan.to_do() if p.decision is Decision.RESTORE]
     run.memory = open_governor(request.memory, restoring, selection.workspace.build_base,
@@ -282,7 +287,7 @@ def _run_packages(plan: BuildPlan, selection: Selection, request: BuildRequest,
     job: Callable[[str], JobResult] = lambda name: execute(planned[name], resources)
     waiting: frozenset[str] = frozenset()
     if shard is not None:  # other shards' packages are waited for (builder/shards/run.py)
-        from wsbuild.builder.shards.run import shard_jobs
+        from wsbuild.builder.shards.run import shard_jobs  # lazy: off the full no-op build
 
         job, waiting = shard_jobs(shard, planned,
                                   lambda p: execute(p, resources), session,
@@ -296,7 +301,7 @@ def _open_distribution(request: BuildRequest, session: Session,
     """distcc for the run when --distribute asks for it and a host answers (else one warning)."""
     if request.distribute is None:
         return None
-    from wsbuild.builder.resources.distcc import open_distribution
+    from wsbuild.builder.resources.distcc import open_distribution  # lazy: off `test`
 
     assert session.run_log is not None
     return open_distribution(request.distribute, session.environ, cores=request.build.jobs,
@@ -307,7 +312,7 @@ def _open_distribution(request: BuildRequest, session: Session,
 def _after_packages(session: Session, compilers: CompilerCache | None,
                     distribution: Distribution | None, build_types: Sequence[BuildType]
                     ) -> None:
-    from wsbuild.prefix.stage import recover_all
+    from wsbuild.prefix.stage import recover_all  # lazy: off `build --dry-run` and `test`
 
     for build_type in build_types:  # the Python types' warm setup.py helpers
         build_type.close_run()
@@ -321,8 +326,7 @@ def _after_packages(session: Session, compilers: CompilerCache | None,
 
 def _warn(plan: BuildPlan, emit: Emit, selection: Selection, session: Session) -> None:
     """The plan's warnings, once for the run: unresolved build dependencies, overrides."""
-    from wsbuild.builder.failure import known_names
-    from wsbuild.builder.overrides import override_warning
+    from wsbuild.builder.failure import known_names  # lazy: off `build --dry-run` and `test`
 
     if plan.unresolved:
         emit(Notice(unresolved_warning(plan.unresolved, known_names(selection, session),
@@ -336,7 +340,7 @@ def unresolved_warning(missing: Mapping[str, Sequence[str]], known: Collection[s
                        pip_underlay: bool = False) -> str:
     """The warning block: each package, each of its unresolved dependencies, the likely fix
     (`known`: the names a misspelt one may have meant)."""
-    from wsbuild.underlay.wheels import install_hint
+    from wsbuild.underlay.wheels import install_hint  # lazy: off the full no-op build
 
     lines = [("build dependencies not found in the workspace, an underlay's ament index, "
               "CMAKE_PREFIX_PATH, the Python distributions, PATH or pkg-config (building "
@@ -399,8 +403,7 @@ def _finish(run: PackageRun, request: BuildRequest, session: Session,
     durations and memory recorded for the next run; the summary's lines: packages cut off,
     the compiler cache's counts, the memory budget and peaks, with --timings the table and
     the report's path."""
-    from wsbuild.builder.resources.memory import finish_memory
-    from wsbuild.runreport.report_json import RunFacts
+    from wsbuild.builder.resources.memory import finish_memory  # lazy: off `test`
 
     lines = _cut_off_line(results)
     compiler = None

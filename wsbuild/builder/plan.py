@@ -19,7 +19,7 @@ from typing import TYPE_CHECKING
 from wsbuild.build_types import BuildOptions, Step, get_build_type
 from wsbuild.builder import bookkeeping
 from wsbuild.builder.bookkeeping import BuilderStep
-from wsbuild.builder.overrides import Override
+from wsbuild.builder.overrides import Override, overrides_to_warn
 from wsbuild.builder.request import BuildRequest, PackageOptions
 from wsbuild.engine.ready_queue import JobGraph, start_order
 from wsbuild.errors import DependencyError
@@ -30,7 +30,9 @@ from wsbuild.record.outside import OutsideReads, own_entries, refreshed
 from wsbuild.record.own_files import OwnFiles, own_files
 from wsbuild.session import Session
 from wsbuild.workspace.selection import Selection
+from wsbuild import __version__
 from wsbuild import inputs as declared
+from wsbuild.prefix.layout import is_installed, package_prefix
 
 if TYPE_CHECKING:
     from wsbuild.cache.key import CacheKey
@@ -214,8 +216,7 @@ def make_plan(selection: Selection, request: BuildRequest, session: Session, *,
     """What `wsbuild build` will do with `selection`, package by package, and why.
     `priorities`: the weights the scheduler ranks packages by, when not their own recorded
     times (a shard's: each package's work in the whole split, builder/shards/run.py)."""
-    from wsbuild.builder.overrides import overrides_to_warn
-    from wsbuild.builder.weights import package_weights
+    from wsbuild.builder.weights import package_weights  # lazy: off `test` and `test --shard`
 
     ws = selection.workspace
     # the arguments the underlay needs (its Python, libpython's link flags, the linters'
@@ -348,10 +349,11 @@ def _steps(planning: _Planning, name: str, prefix: Path, own_options: PackageOpt
     """The steps of a package to build (or to restore: a refused entry builds it), decided as
     the build decides them (builder/context.py), with the compiler launcher the build will
     use; and the environment they start from."""
-    from wsbuild.builder.context import planned_steps
+    from wsbuild.builder.context import planned_steps  # lazy: off the full no-op build
 
     if planning.launcher is None:
-        from wsbuild.builder.resources.compiler_cache import planned_launcher
+        from wsbuild.builder.resources.compiler_cache import (
+            planned_launcher)  # lazy: off the full no-op build
 
         planning.launcher = planned_launcher(planning.request.compiler_cache,
                                              planning.session.environ,
@@ -389,8 +391,6 @@ def _backdated(old: PackageRecord | None, own: OwnFiles) -> tuple[str, ...]:
 
 
 def _prefix(selection: Selection, session: Session, name: str) -> Path:
-    from wsbuild.prefix.layout import package_prefix
-
     return package_prefix(selection.workspace.install_base, name, merged=session.merged)
 
 
@@ -402,8 +402,6 @@ def package_settings(build_type: str, options: BuildOptions, prefix: Path,
     build, as its record holds it (JSON values). The build type says which options count
     (worked out once per build type and options with `memo`); `underlay` is
     `underlay_paths()` of the run."""
-    from wsbuild import __version__
-
     memo = {} if memo is None else memo
     key_options = memo.get((build_type, options))
     if key_options is None:  # as JSON keeps them: tuples become lists
@@ -433,8 +431,6 @@ def underlay_paths(own: str, environ: Mapping[str, str]) -> dict[str, list[str]]
 def unbuilt_dependencies(selection: Selection, merged: bool) -> dict[str, list[str]]:
     """Workspace packages that selected ones need but that are neither selected nor installed:
     dependency -> the selected packages needing it, sorted by name."""
-    from wsbuild.prefix.layout import is_installed
-
     selected = set(selection.selected)
     install_base = selection.workspace.install_base
     not_built: dict[str, list[str]] = {}
@@ -451,8 +447,8 @@ def _unresolved(selection: Selection, request: BuildRequest,
     while the environment holds (builder/unresolved.py)."""
     if request.skip_dependency_check:
         return {}
-    from wsbuild.builder.unresolved import unresolved
-    from wsbuild.workspace.resolve import Resolver
+    from wsbuild.builder.unresolved import unresolved  # lazy: off `test` and `test --shard`
+    from wsbuild.workspace.resolve import Resolver  # lazy: off `test` and `test --shard`
 
     resolver = Resolver.from_environment(
         session.environ, session.underlay_prefixes,

@@ -7,22 +7,22 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING
 
+from wsbuild.builder.context import make_context
 from wsbuild.builder.plan import BUILDING_MARKER
+from wsbuild.builder.records import cut_off_record, restored_record
 from wsbuild.engine.jobs import JobResult, Outcome
 from wsbuild.events import CacheRestored
+from wsbuild.record.dirty import Environment, cutoff_note
+from wsbuild.record.model import write_record
 
 if TYPE_CHECKING:
     from wsbuild.builder.job import PackageJob
-    from wsbuild.record.dirty import Environment
 
 
 def restore(build: PackageJob) -> JobResult | None:
     """Install the build cache's entry the plan found, once this machine proves it again
     with its dependencies as this run left them; None when it is refused (the package is
     then built). The package's record becomes the entry's (builder/records.py)."""
-    from wsbuild.builder.records import restored_record
-    from wsbuild.record.model import write_record
-
     planned = build.planned
     assert planned.cache_key is not None and planned.cache_entry is not None
     session = build.run.session
@@ -48,10 +48,6 @@ def restore(build: PackageJob) -> JobResult | None:
 def cut_off(build: PackageJob) -> JobResult | None:
     """A package planned to build only if what it read of its dependencies (built before
     it in this run) changed: up to date when nothing did, its record refreshed."""
-    from wsbuild.builder.records import cut_off_record
-    from wsbuild.record.dirty import cutoff_note
-    from wsbuild.record.model import write_record
-
     planned = build.planned
     if planned.reason is None or not planned.reason.cutoff or planned.previous is None:
         return None
@@ -70,9 +66,6 @@ def cut_off(build: PackageJob) -> JobResult | None:
 def environment_now(build: PackageJob) -> Environment:
     """What the package's steps would see now, its dependencies (built before it in this
     run) applied: a dependency's hook may set what a step reads."""
-    from wsbuild.builder.context import make_context
-    from wsbuild.record.dirty import Environment
-
     session = build.run.session
     ctx = make_context(build.run.selection, session, build.name, prefix=build.prefix,
                        options=build.planned.options.applied_to(build.run.options))

@@ -17,6 +17,7 @@ from wsbuild.record.model import digest_of
 from wsbuild.workspace.model import Package
 from wsbuild.workspace.resolve import Resolver, unresolved_build_dependencies
 from wsbuild import inputs
+from wsbuild.files import atomic_write
 
 MEMO = Path(".wsbuild") / "unresolved.json"
 
@@ -66,8 +67,6 @@ def _read(path: Path, environment: str) -> dict[str, tuple[str, tuple[str, ...]]
 def _write(path: Path, environment: str,
            memo: Mapping[str, tuple[str, tuple[str, ...]]]) -> None:
     """Best effort: a build that cannot write its memo looks again next time."""
-    from wsbuild.files import atomic_write
-
     data = {"environment": environment,
             "packages": {name: [q, list(deps)] for name, (q, deps) in sorted(memo.items())}}
     try:

@@ -7,6 +7,7 @@ import os
 from collections.abc import Iterable, Mapping
 from pathlib import Path
 
+from wsbuild.build_types import get_build_type
 from wsbuild.engine.timings import read_durations
 from wsbuild.workspace.model import Package
 
@@ -21,8 +22,6 @@ _SKIP_DIRS = {"build", "install", "log", "test", "tests", "__pycache__"}
 
 def estimate_seconds(package: Package) -> float:
     """A guess at a package's build time from its interface and source files."""
-    from wsbuild.build_types import get_build_type
-
     total = get_build_type(package.build_type).estimate_base
     for _root, dirs, files in os.walk(package.path):
         dirs[:] = [d for d in dirs if not d.startswith(".") and d not in _SKIP_DIRS]

@@ -78,7 +78,7 @@ class BuildCache:
                            settings.max_bytes)
         remote = None
         if settings.url:
-            from wsbuild.cache.http import HttpCache  # only with a server: http.client costs
+            from wsbuild.cache.http import HttpCache  # lazy: off builds with no server
 
             remote = HttpCache(settings.url, environ=environ, timeout=settings.timeout)
         return cls(local, remote, read_only=settings.read_only, warn=warn)
@@ -113,7 +113,7 @@ class BuildCache:
         remote = self.remote
         from_local = data is not None
         if data is None and remote is not None:
-            from wsbuild.cache.http import CacheUnavailable
+            from wsbuild.cache.http import CacheUnavailable  # lazy: off builds with no server
 
             try:
                 data = remote.get_action(address)
@@ -135,7 +135,7 @@ class BuildCache:
         found = variant_list(self.local.get_action(key.variants_address))
         remote = self.remote
         if remote is not None:
-            from wsbuild.cache.http import CacheUnavailable
+            from wsbuild.cache.http import CacheUnavailable  # lazy: off builds with no server
 
             try:
                 more = variant_list(remote.get_action(key.variants_address))
@@ -161,7 +161,8 @@ class BuildCache:
                 data = None
         remote = self.remote
         if data is None and remote is not None:
-            from wsbuild.cache.http import CacheUnavailable, TruncatedDownload
+            from wsbuild.cache.http import (
+                CacheUnavailable, TruncatedDownload)  # lazy: off builds with no server
 
             buffer = io.BytesIO()
             try:
@@ -234,7 +235,8 @@ class BuildCache:
         self.local.put_blob(record.record_digest, temp)
 
     def _download(self, key: CacheKey, record: ActionResult, remote: HttpCache) -> Path | None:
-        from wsbuild.cache.http import CacheUnavailable, TruncatedDownload
+        from wsbuild.cache.http import (
+            CacheUnavailable, TruncatedDownload)  # lazy: off builds with no server
 
         temp = self.local.temp_file()
         try:
@@ -337,7 +339,8 @@ class BuildCache:
 
     def _upload(self, blobs: list[tuple[str, Path]], addresses: tuple[str, ...],
                 record: bytes, key: CacheKey, variables: tuple[str, ...]) -> None:
-        from wsbuild.cache.http import CacheRejected, CacheUnavailable
+        from wsbuild.cache.http import (
+            CacheRejected, CacheUnavailable)  # lazy: off builds with no server
 
         remote = self.remote
         if remote is None or not self._uploads_on:

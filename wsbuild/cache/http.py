@@ -20,6 +20,7 @@ from pathlib import Path
 from typing import BinaryIO
 
 from wsbuild.cache.settings import DEFAULT_TIMEOUT, check_cache_url, redact
+from wsbuild.redaction import remember
 
 _MAX_RECORD = 1 << 20
 _CHUNK = 1 << 16
@@ -39,8 +40,6 @@ class TruncatedDownload(Exception):
 
 def _authorization(parsed: urllib.parse.SplitResult, environ: Mapping[str, str],
                    netrc_file: Path | None) -> str | None:
-    from wsbuild.redaction import remember
-
     token = environ.get("WSBUILD_CACHE_TOKEN", "").strip()
     if token:
         remember([token])

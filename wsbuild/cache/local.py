@@ -13,6 +13,7 @@ import time
 from dataclasses import dataclass
 from pathlib import Path
 
+from wsbuild.cache.action_result import parse_action_result
 from wsbuild.cache.archive import file_digest
 from wsbuild.cache.key import is_digest, parse_variants
 from wsbuild.cache.settings import DEFAULT_MAX_BYTES
@@ -110,8 +111,6 @@ class LocalCache:
     def stats(self) -> CacheStats:
         """What the cache holds: its entries (each stored build once, though it is found
         under its key and its variant) and blobs."""
-        from wsbuild.cache.action_result import parse_action_result
-
         blobs = list(_files(self.cas))
         entries = {(record.digest, record.record_digest) for path, _, _ in _files(self.ac)
                    if (record := parse_action_result(_read(path))) is not None}
@@ -146,8 +145,6 @@ class LocalCache:
         return Pruned(blobs=removed, entries=entries, bytes=freed)
 
     def _drop_dangling_records(self) -> int:
-        from wsbuild.cache.action_result import parse_action_result
-
         dropped = 0
         for path, _, _ in _files(self.ac):
             record = parse_action_result(_read(path))
@@ -163,8 +160,6 @@ class LocalCache:
     def verify(self) -> list[str]:
         """Check every blob against its name and every record against its blob; remove and
         list what is bad."""
-        from wsbuild.cache.action_result import parse_action_result
-
         problems: list[str] = []
         for path, size, _ in _files(self.cas):
             try:

@@ -22,8 +22,12 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+from wsbuild import __version__
 from wsbuild.cache.settings import CacheSettings
 from wsbuild.events import Emit, Notice
+from wsbuild.record.model import decode, encode
+from wsbuild.redaction import redact
+from wsbuild.words import plural
 from wsbuild.workspace.root import Workspace
 
 if TYPE_CHECKING:
@@ -71,8 +75,7 @@ def disproof(found: Found, inputs_key: str, dependencies: Mapping[str, str], dig
     compared: its build in this run decides, and the restore asks again); `waiting`: some
     dependency is yet to be built or restored in this run, so what the entry read in the
     install base is compared at the restore only; `environment`: the variables here."""
-    from wsbuild.record.dirty import Dirty, changed_read
-    from wsbuild.record.model import decode
+    from wsbuild.record.dirty import Dirty, changed_read  # lazy: off `info`
 
     if found.package_record is None:
         return Disproof(NO_RECORD)
@@ -135,7 +138,7 @@ class RunCache:
     def _open(self) -> BuildCache:
         with self._lock:
             if self._cache is None:
-                from wsbuild.cache.client import BuildCache
+                from wsbuild.cache.client import BuildCache  # lazy: off the full no-op build
 
                 assert self.settings is not None
                 self._cache = BuildCache.open(self.settings, warn=self._warn)
@@ -157,8 +160,6 @@ class RunCache:
         """One warning naming a server that answered with entries no wsbuild could use."""
         if not self._unusable or self.settings is None:
             return
-        from wsbuild.redaction import redact
-        from wsbuild.words import plural
 
         count = len(self._unusable)
         self._warn(f"cache server {redact(self.settings.url or '')} answered "
@@ -171,8 +172,7 @@ class RunCache:
         if self.settings is None:
             return None
         started = time.perf_counter()
-        from wsbuild import __version__
-        from wsbuild.cache.key import cache_key
+        from wsbuild.cache.key import cache_key  # lazy: off the full no-op build and `info`
 
         key = cache_key(package=name, inputs_key=inputs_key, build_type=build_type,
                         version=__version__)
@@ -256,7 +256,7 @@ class RunCache:
         machine proves it again with its dependencies' keys as this run left them; the entry's
         package record and the installed files. Else why it was refused (the package is then
         built)."""
-        from wsbuild.prefix import stage as staging
+        from wsbuild.prefix import stage as staging  # lazy: off `info` and `build --dry-run`
 
         started = time.perf_counter()
         entry_record = disproof(found, inputs_key, dependencies, digests,
@@ -297,8 +297,6 @@ class RunCache:
         and that cannot happen in this run. A merged prefix is shared, so it is packed at
         once."""
         import json
-
-        from wsbuild.record.model import encode
 
         if not package_record.complete or package_record.volatile:
             return ("not cached: its steps were not all observed" if not package_record.complete

@@ -10,6 +10,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from wsbuild.errors import WsbuildError
+from wsbuild.files import wsbuild_cache_dir
 
 DEFAULT_MAX_BYTES = 5 * 1024**3
 DEFAULT_TIMEOUT = 3.0
@@ -31,8 +32,6 @@ class CacheSettings:
 
 def default_cache_dir(environ: Mapping[str, str]) -> Path:
     """WSBUILD_CACHE_DIR, else $XDG_CACHE_HOME/wsbuild, else ~/.cache/wsbuild."""
-    from wsbuild.files import wsbuild_cache_dir  # (files imports inputs: not on a replay)
-
     return wsbuild_cache_dir(environ)
 
 

@@ -12,6 +12,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from wsbuild.create.validation import CONTROL_CHARACTER, EMAIL
+from wsbuild.workspace.root import find_workspace_root
 
 
 @dataclass(frozen=True, slots=True)
@@ -26,8 +27,6 @@ def default_destination(cwd: Path) -> Path:
     """Where a new package goes: the workspace's src/, or the current directory when that is
     already inside src/ (beside the package when it is inside one); without a workspace, the
     current directory."""
-    from wsbuild.workspace.root import find_workspace_root
-
     cwd = Path(os.path.abspath(cwd))
     root = find_workspace_root(cwd)
     src = root / "src"

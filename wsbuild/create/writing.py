@@ -14,7 +14,9 @@ from pathlib import Path, PurePosixPath
 from wsbuild.create.templates import render_package
 from wsbuild.create.validation import PackageCreateError, PackageRequest
 from wsbuild.errors import ManifestError, TemplateError
+from wsbuild.workspace.discover import find_package_dirs
 from wsbuild.workspace.manifest import parse_manifest
+from wsbuild.workspace.root import Workspace, find_workspace_root
 
 
 @dataclass(frozen=True, slots=True)
@@ -89,9 +91,6 @@ _MANIFEST_NAME = re.compile(rb"<name>\s*([^<\s]+)\s*</name>")
 def _workspace_packages(destination: Path) -> dict[str, Path]:
     """Package name → directory of the ROS packages under the workspace's src/, if
     `destination` is in one (names read cheaply; broken manifests are skipped)."""
-    from wsbuild.workspace.discover import find_package_dirs
-    from wsbuild.workspace.root import Workspace, find_workspace_root
-
     workspace = Workspace.at(find_workspace_root(destination))
     root = workspace.root
     src = root / "src"

@@ -17,7 +17,7 @@ from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from wsbuild.files import atomic_write
+from wsbuild.files import atomic_write, wsbuild_cache_dir
 
 from wsbuild.deps.names import invalid_name, valid_pip_requirement
 
@@ -105,8 +105,6 @@ class AnswerMemory:
 
     @classmethod
     def for_index(cls, python: Path, environ: Mapping[str, str]) -> AnswerMemory:
-        from wsbuild.files import wsbuild_cache_dir
-
         settings = [str(python), *(f"{k}={environ.get(k, '')}" for k in _INDEX_SETTINGS)]
         scope = hashlib.sha256("\n".join(settings).encode()).hexdigest()[:16]
         return cls(wsbuild_cache_dir(environ) / "deps" / "index-answers.json", scope)

@@ -27,6 +27,7 @@ from wsbuild.errors import UnderlayError
 from wsbuild.underlay.detect import ros_distro, venv_python
 from wsbuild.underlay.environment import prepare_underlay
 from wsbuild.underlay.wheels import JAZZY_WHEELS, wheel_name as jazzy_wheel_name
+from wsbuild.underlay.lint import LINTERS
 from wsbuild.workspace.model import DepKind, Package
 from wsbuild.workspace.resolve import Resolver, ament_index, normalize_distribution
 from wsbuild.workspace.resolve import python_distributions
@@ -138,9 +139,6 @@ def _provided_by_wsbuild(underlay: PreparedUnderlay) -> frozenset[str]:
     """Keys wsbuild answers itself: the linter CMake packages it stands in for or writes for
     an installed program, and the ament linters' Python modules that have no wheel
     (`wsbuild test` reports their tests as not installed, not run)."""
-    from wsbuild.underlay.lint import LINTERS
-    from wsbuild.underlay.wheels import JAZZY_WHEELS
-
     no_wheel = [module for module in LINTERS.values() if module not in JAZZY_WHEELS]
     return frozenset((*underlay.lint_stand_ins, *underlay.lint_driven, *no_wheel))
 

@@ -82,7 +82,7 @@ def _stopped(registry: ProcessRegistry | None) -> bool:
         registry = process.REGISTRY
     if not registry.cancelled.is_set():
         return False
-    from wsbuild.engine.process import living_descendants
+    from wsbuild.engine.process import living_descendants  # lazy: off the replayed no-op
 
     if living_descendants():
         registry.terminate_all()

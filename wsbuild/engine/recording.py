@@ -55,6 +55,7 @@ from wsbuild.engine.replay import (
     recording_path,
     signature,
 )
+from wsbuild.files import atomic_write, private_directory
 
 #: a path changed this recently (ns) before the run started may have changed unseen
 RACY_NS = 1_000_000_000
@@ -257,7 +258,6 @@ class ReplayRecorder:
         recording = {"key": self.key, "build_base": outcome["build_base"], "paths": inputs[0],
                   "digest": inputs[1], "stdout": stdout, "stderr": stderr, "shown": shown,
                   "log": log}
-        from wsbuild.files import atomic_write, private_directory
 
         try:
             private_directory(RECORDINGS.parent)
@@ -271,8 +271,6 @@ class ReplayRecorder:
     def _say_why_not(self, why: str) -> None:
         """Why this run left no recording (the next is a full one too), beside the recordings, for
         whoever wonders why a no-op was not replayed: a path, never a value."""
-        from wsbuild.files import atomic_write, private_directory
-
         try:
             private_directory(RECORDINGS.parent)
             private_directory(RECORDINGS)

@@ -26,6 +26,7 @@ import sys
 import time
 from pathlib import Path
 
+from wsbuild import __version__
 from wsbuild.record.environment import environment_digests, environment_reason
 from wsbuild.signature import stat_signature
 from wsbuild.terminal import is_per_tab
@@ -112,8 +113,6 @@ def digest(paths: list[list[Any]]) -> int:
 
 def key_of(argv: Sequence[str]) -> dict[str, object]:
     """Everything besides files that a build's plan and its console output depend on."""
-    from wsbuild import __version__
-
     tty = [sys.stdout.isatty(), sys.stderr.isatty()]
     columns = os.get_terminal_size(sys.stdout.fileno()).columns if tty[0] else 0
     return {
@@ -168,8 +167,8 @@ def replay(argv: Sequence[str], drawing: Callable[[], Drawing]) -> int | None:
             return None
         _print(recording)
         return 0
-    from wsbuild.engine.lock import workspace_lock
-    from wsbuild.errors import WorkspaceError
+    from wsbuild.engine.lock import workspace_lock  # lazy: off a replayed `list` and `list`
+    from wsbuild.errors import WorkspaceError  # lazy: off a replayed `list`
 
     shown = recording["shown"]
     try:
@@ -256,14 +255,14 @@ def _read_recording(argv: Sequence[str]) -> dict[str, Any] | None:
 
 def _write_log(log: dict[str, Any], started: float) -> Path:
     """The run's log directory, as the recorded run wrote it, with this run's times."""
-    from wsbuild.engine.logs import new_run_log
+    from wsbuild.engine.logs import new_run_log  # lazy: off a replayed `list` and `list`
     from wsbuild.engine.timing_files import (
         cpu_seconds,
         started_at,
         summary_line,
         totals_json,
         write_timing_files,
-    )
+    )  # lazy: off a replayed `list` and `list`
 
     run_log = new_run_log(Path(log["log_base"]), "build")
     if log["up_to_date"]:

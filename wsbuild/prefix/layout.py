@@ -132,7 +132,7 @@ def order_packages(packages: Mapping[str, Iterable[str]]) -> list[str]:
 
     Dependencies that are not among `packages` are ignored.
     """
-    from wsbuild.workspace.graph import toposort
+    from wsbuild.workspace.graph import toposort  # lazy: off Tab completion and `--help`
 
     ordered, stuck = toposort(packages)
     if stuck:

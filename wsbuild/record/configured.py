@@ -15,7 +15,8 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from wsbuild.record.dirty import Dirty, Reason
+from wsbuild.files import atomic_write, private_directory
+from wsbuild.record.reason import Dirty, Reason
 
 #: what the last configure used (the CMake build types write and read it)
 CONFIGURED_FILE = Path(".wsbuild") / "cmake_configure.json"
@@ -61,8 +62,6 @@ def read_configured(build_dir: Path) -> Configured | None:
 def write_configured(build_dir: Path, configured: Configured) -> None:
     """Keep what the configure that just finished in `build_dir` used (private to the user:
     it holds digests, never values)."""
-    from wsbuild.files import atomic_write, private_directory  # lazy: only a configure writes
-
     path = build_dir / CONFIGURED_FILE
     private_directory(path.parent)
     atomic_write(path, json.dumps(configured.encode(), indent=1) + "\n", mode=0o600)

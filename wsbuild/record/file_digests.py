@@ -19,6 +19,9 @@ import os
 import threading
 from pathlib import Path
 
+from wsbuild import inputs
+from wsbuild.files import atomic_write, private_directory
+
 #: a digest taken within this many nanoseconds after the file's last change is not kept
 RACY_NS = 2_000_000_000
 #: the most digests kept (the most recently taken ones)
@@ -67,7 +70,6 @@ class FileDigests:
             newest = sorted(merged.items(), key=lambda item: item[1][2])[-MAX_ENTRIES:]
             merged = dict(newest)
         data = marshal.dumps([_VERSION, {p: [list(s), d, t] for p, (s, d, t) in merged.items()}])
-        from wsbuild.files import atomic_write, private_directory
 
         try:
             private_directory(self.path.parent)
@@ -79,8 +81,6 @@ class FileDigests:
 
 
 def _read(path: Path) -> dict[str, tuple[tuple[int, ...], str, int]]:
-    from wsbuild import inputs
-
     inputs.declare_memo(path)
     try:
         with open(path, "rb") as handle:

@@ -14,6 +14,8 @@ import threading
 from collections.abc import Collection
 from pathlib import Path
 
+from wsbuild import inputs
+
 _lock = threading.Lock()
 #: install base -> (build base, the file list's path under build/<pkg>)
 _layouts: dict[str, tuple[Path, str]] = {}
@@ -45,7 +47,6 @@ def others_in(install_base: str, rel: str, package: str, keep: Collection[str]
         layout = _layouts.get(install_base.rstrip(os.sep))
     if layout is None or not package:
         return frozenset()
-    from wsbuild import inputs
 
     build_base, file_list = layout
     prefix = rel + os.sep if rel else ""
@@ -64,8 +65,6 @@ def others_in(install_base: str, rel: str, package: str, keep: Collection[str]
 
 
 def _files(path: Path) -> tuple[str, ...]:
-    from wsbuild import inputs
-
     try:
         info = inputs.stat(path)
     except OSError:

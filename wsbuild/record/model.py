@@ -133,7 +133,7 @@ def record_path(build_dir: Path) -> Path:
 def read_record(build_dir: Path) -> PackageRecord | None:
     """The package's record; None when there is none, or one this version cannot read. Taken
     from the build base's memo while its file is the one the memo holds (record/memo.py)."""
-    from wsbuild.record.memo import memo_of
+    from wsbuild.record.memo import memo_of  # lazy: off `list` and `graph`
 
     path = build_dir / RECORD_FILE
     signature = inputs.signature(path)
@@ -260,7 +260,7 @@ def decode(data: object, *, sealed: bool = True,
 
 def write_record(build_dir: Path, record: PackageRecord) -> None:
     """Write the record, its keys computed (its directory 0700, the file 0600)."""
-    from wsbuild.record.memo import memo_of
+    from wsbuild.record.memo import memo_of  # lazy: off `list` and `graph`
 
     record = record.sealed()
     directory = private_directory(build_dir / RECORD_FILE.parent)

@@ -49,7 +49,7 @@ def own_entries(install_base: str, installed: Collection[Sequence[object]], *,
     directory: what a listing of that directory leaves out; in a merged install also what
     the workspace's packages but `package` and its dependencies (`keep`) put there
     (record/merged_owners.py)."""
-    from wsbuild.record.merged_owners import others_in
+    from wsbuild.record.merged_owners import others_in  # lazy: off `list` and `graph`
 
     base = install_base.rstrip(os.sep) + os.sep
     files = [str(entry[0]) for entry in installed]
@@ -315,7 +315,7 @@ def take(files: Iterable[str], listings: Iterable[str], digests: Digests, *,
     still, and a file as wsbuild left it when it set its time (`Digests.advanced`); nor a
     listing in a merged install base (what changes there during a build is what its listing
     leaves out: record/merged_owners.py)."""
-    from wsbuild.record.merged_owners import in_merged_install
+    from wsbuild.record.merged_owners import in_merged_install  # lazy: off `list` and `graph`
 
     files, listings = sorted(set(files)), sorted(set(listings))
 

@@ -23,6 +23,7 @@ from wsbuild.engine.timings import (
     cpu_times,
     write_timings,
 )
+from wsbuild.runreport import write
 from wsbuild.runreport.report_json import RunFacts
 from wsbuild.runreport.write import start_sampler
 
@@ -91,8 +92,6 @@ class PackageRun:
         """timings.json/txt (always), then unless `facts` turn the report off report.json and
         report.html; a build where every package was up to date draws its page only when
         asked (--timings, or later `wsbuild report`): a no-op stays quick."""
-        from wsbuild.runreport import write
-
         self.sampler.stop()
         timings = RunTimings(time.monotonic() - self.started, cpu_times() - self.cpu_before,
                              facts.cores, tuple(self.recorder.rows()),

@@ -20,7 +20,7 @@ from wsbuild.engine.cpu_sampler import CpuSample
 from wsbuild.engine.jobs import JobResult, Outcome
 from wsbuild.engine.ready_queue import JobGraph
 from wsbuild.engine.timing_files import started_at
-from wsbuild import inputs
+from wsbuild import __version__, inputs
 from wsbuild.redaction import redact
 
 if TYPE_CHECKING:
@@ -64,7 +64,7 @@ def artifact_cache_text(settings: CacheSettings | None, symlink_install: bool = 
         return "off (--symlink-install builds are not cached)"
     if settings is None:
         return "off"
-    from wsbuild.cache.settings import redact
+    from wsbuild.cache.settings import redact  # lazy: off `report`
 
     where = "local" + (f" + {redact(settings.url)}" if settings.url else "")
     return where + (" (read-only)" if settings.read_only else "")
@@ -119,8 +119,6 @@ def report_data(selection: Selection, facts: RunFacts, run_log: Path, jobs: JobG
     """report.json of a run: each package with its dependencies among the run's `jobs` and its
     result; `extra` adds to or replaces a package's fields (a test run's counts and failing
     tests). A build also names its CMake generator and its build cache."""
-    from wsbuild import __version__
-
     building = facts.verb == "build"
     packages = []
     for result in sorted(results, key=lambda r: r.package):

@@ -37,7 +37,7 @@ def write_run_report(selection: Selection, facts: RunFacts, run_log: Path, jobs:
                                          sampler.origin, extra))
         if not page:
             return None
-        from wsbuild.runreport.page import write_report
+        from wsbuild.runreport.page import write_report  # lazy: off the full no-op build
 
         return write_report(run_log)
     except OSError as exc:

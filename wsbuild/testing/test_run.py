@@ -33,7 +33,7 @@ from wsbuild import inputs
 from wsbuild.engine.jobs import JobResult, Outcome
 from wsbuild.errors import WorkspaceError
 from wsbuild.events import Emit, Event, JobFinished, Notice
-from wsbuild.prefix.layout import package_prefix
+from wsbuild.prefix.layout import package_prefix, resolve_layout
 from wsbuild.testing.closure import check_built, closure_under_test
 from wsbuild.testing.results import (
     PackageStatus,
@@ -43,9 +43,17 @@ from wsbuild.testing.results import (
     problem_text,
 )
 from wsbuild.engine.ready_queue import JobGraph
+from wsbuild.engine.timings import cpu_count, cpu_times
+from wsbuild.engine.schedule import FailurePolicy, RunInterrupted
 from wsbuild.testing.request import TestRequest
 from wsbuild.testing.tester import PackageTester
 from wsbuild.words import plural
+from wsbuild.underlay.environment import prepare_underlay
+from wsbuild.session import LINT_SHIM, SessionOptions, open_session
+from wsbuild.runreport.report_json import RunFacts, path_in_log
+from wsbuild.runreport.package_run import PackageRun
+from wsbuild.observe.step_environment import step_base
+from wsbuild.build_types.junit import read_junit
 
 if TYPE_CHECKING:
     from wsbuild.record.dirty import Reason
@@ -64,13 +72,6 @@ def run_tests(selection: Selection, request: TestRequest, emit: Emit) -> TestRun
     """Test the selected packages in one run as a build's (runreport/package_run.py: the same
     session, scheduler, timings and report). Test failures are results, not exceptions; a run
     cut short by Ctrl-C comes back with `interrupted` set."""
-    from wsbuild.engine.schedule import FailurePolicy, RunInterrupted
-    from wsbuild.engine.timings import cpu_count, cpu_times
-    from wsbuild.prefix.layout import resolve_layout
-    from wsbuild.runreport.package_run import PackageRun
-    from wsbuild.runreport.report_json import RunFacts
-    from wsbuild.session import SessionOptions, open_session
-
     started = time.monotonic()
     cpu_before = cpu_times()
     ws = selection.workspace
@@ -121,8 +122,6 @@ def run_tests(selection: Selection, request: TestRequest, emit: Emit) -> TestRun
 def _report_fields(report: PackageTests, run_log: Path) -> dict[str, object]:
     """A package's fields in the run's report.json: its status, counts and failing tests,
     each named with the JUnit file that holds it."""
-    from wsbuild.runreport.report_json import path_in_log
-
     return {"outcome": report.status.value, "seconds": round(report.seconds, 3),
             "message": report.message, "reproduce": "",
             "log_dir": path_in_log(report.log_dir, run_log),
@@ -134,9 +133,6 @@ def _report_fields(report: PackageTests, run_log: Path) -> dict[str, object]:
 
 def _failing(report: PackageTests, run_log: Path) -> list[dict[str, str | None]]:
     """Each failing test's name, headline and the result file holding it."""
-    from wsbuild.build_types.junit import read_junit
-    from wsbuild.runreport.report_json import path_in_log
-
     holder: dict[tuple[str, str], Path] = {}
     for path in report.result_files:
         try:
@@ -159,11 +155,6 @@ def test_plan(selection: Selection, request: TestRequest) -> list[tuple[str, Rea
     """Each selected package with tests, and why its tests would run (record/tested.py's
     `Reason`; None: its last passing result is reused), as `run_tests` decides it now
     (`wsbuild test --dry-run`). Takes no lock, writes nothing."""
-    from wsbuild.prefix.layout import resolve_layout
-    from wsbuild.observe.step_environment import step_base
-    from wsbuild.session import LINT_SHIM
-    from wsbuild.underlay.environment import prepare_underlay
-
     ws = selection.workspace
     try:
         merged = resolve_layout(ws.install_base, request.merge_install, verb="test")

@@ -20,6 +20,7 @@ from wsbuild.engine.process import REGISTRY, Completed, env_delta, format_comman
 from wsbuild.observe.steps import OBSERVE_TEST_DIR, StepObservations
 from wsbuild.events import Emit, StepStarted
 from wsbuild.prefix.layout import package_prefix
+from wsbuild.prefix import environment_for
 from wsbuild.testing.cached_result import (
     CachedResult,
     file_stamps,
@@ -35,7 +36,9 @@ from wsbuild.testing.tooling import tooling_failures
 from wsbuild.underlay.lint_programs import missing_program
 from wsbuild.engine.logs import append_command_log
 
-from wsbuild.record.tested import TestKey
+from wsbuild.record.tested import TestKey, rerun_reason
+from wsbuild.record.outside import Digests
+from wsbuild.record.environment import variable_digests
 
 if TYPE_CHECKING:
     from wsbuild.observe.library import Observer
@@ -114,8 +117,6 @@ class PackageTester:
                 ) -> tuple[CachedResult | None, Reason | None]:
         """The package's last passing result, and why its tests run again rather than reuse
         it (record/tested.py; None: it holds)."""
-        from wsbuild.record.tested import rerun_reason
-
         cached = read_cached_result(self.selection.workspace.build_base / name) \
             if key is not None and self.request.reuse_results else None
         return cached, rerun_reason(
@@ -125,8 +126,6 @@ class PackageTester:
 
     def environment(self, name: str) -> dict[str, str]:
         """The package's install last, after its test closure in dependency order."""
-        from wsbuild.prefix import environment_for
-
         closure = closure_under_test(self.selection.graph, name)
         install_base = self.selection.workspace.install_base
         prefixes = [(package_prefix(install_base, dep, merged=self.merged), dep)
@@ -179,9 +178,7 @@ class PackageTester:
         package's build directory and its install, which its keys hold, left out), and the
         variables it read, by their values in the package's test environment (what the
         runner's command sets on top of it derives from the test options, in the key)."""
-        from wsbuild.record.environment import variable_digests
-        from wsbuild.record.observed import Where, observed_reads
-        from wsbuild.record.outside import Digests
+        from wsbuild.record.observed import Where, observed_reads  # lazy: off `test`
 
         ws = self.selection.workspace
         prefix = package_prefix(ws.install_base, name, merged=self.merged)

@@ -10,6 +10,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+from wsbuild.errors import WsbuildError
 from wsbuild.workspace.root import BUILD_BASE, INSTALL_BASE, LOG_BASE, Workspace
 
 if TYPE_CHECKING:  # imported when a verb runs, not to parse its arguments
@@ -190,7 +191,7 @@ def selection_from_args(args: argparse.Namespace) -> SelectionOptions:
     """The --packages-* options of `args` (absent ones: not given)."""
     from dataclasses import fields
 
-    from wsbuild.workspace.selection import SelectionOptions
+    from wsbuild.workspace.selection import SelectionOptions  # lazy: off `pkg create`
 
     values = {}
     for field in fields(SelectionOptions):
@@ -252,8 +253,6 @@ def env_ignore_from_args(args: argparse.Namespace) -> tuple[str, ...]:
     """The --env-ignore names and patterns, checked: letters, digits, _ and *."""
     import re
 
-    from wsbuild.errors import WsbuildError
-
     names = tuple(getattr(args, "env_ignore", None) or ())
     for name in names:
         if not re.fullmatch(r"[A-Za-z_*][A-Za-z0-9_*]*", name):
@@ -265,7 +264,7 @@ def env_ignore_from_args(args: argparse.Namespace) -> tuple[str, ...]:
 def terminal_from_args(args: argparse.Namespace) -> Terminal:
     """Where the verb's words go: the terminal cli.py made for this run (through the replay's
     recorder when the run is recorded), else the process's streams."""
-    from wsbuild.reporter import Terminal
+    from wsbuild.reporter import Terminal  # lazy: off `build --help` and `pkg create --help`
 
     terminal = getattr(args, "terminal", None)
     return terminal if isinstance(terminal, Terminal) else Terminal.of(None)

@@ -10,14 +10,21 @@ import sys
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
+from wsbuild.build_types import BuildOptions, declared_options
 from wsbuild.errors import WsbuildError
+from wsbuild.verbs import metas
 from wsbuild.verbs.arguments import (
     add_base_arguments,
     add_env_ignore_argument,
     add_scheduling_arguments,
     env_ignore_from_args,
     secondary,
+    terminal_from_args,
 )
+from wsbuild.verbs.cache_selection import cache_selection_from_args
+from wsbuild.verbs.colcon import console_from_args
+from wsbuild.verbs.metas import metadata_from_args
+from wsbuild.words import plural
 
 if TYPE_CHECKING:  # the modules of the work are imported when the verb runs, not to parse
     from wsbuild.build_types import TypeOption
@@ -89,8 +96,6 @@ def add_type_arguments(parser: argparse.ArgumentParser, *, plugins: bool) -> Non
     order they come (an option two types share is in the first one's): the built-in types',
     and (`plugins`) those of the installed third-party types, whose scan costs; the parse
     asks for them when the command line, --help or a defaults file needs them (cli.py)."""
-    from wsbuild.build_types import declared_options
-
     added: set[str] = set()
     chosen: list[TypeOption] = []
     for name, options in declared_options(plugins=plugins):
@@ -176,10 +181,10 @@ def type_values_from_args(args: argparse.Namespace) -> dict[str, object]:
 
 def request_from_args(args: argparse.Namespace) -> BuildRequest:
     """The BuildRequest the options of `args` ask for (checked)."""
-    from wsbuild.build_types import BuildOptions
-    from wsbuild.builder.resources.distcc import distribute_spec
-    from wsbuild.builder.request import BuildRequest, RunOptions, cpu_count
-    from wsbuild.engine.memory_budget import parse_memory_limit
+    from wsbuild.builder.resources.distcc import distribute_spec  # lazy: off Tab completion
+    from wsbuild.builder.request import (
+        BuildRequest, RunOptions, cpu_count)  # lazy: off Tab completion
+    from wsbuild.engine.memory_budget import parse_memory_limit  # lazy: off Tab completion
 
     workers = args.parallel_workers if args.parallel_workers is not None else cpu_count()
     if workers < 1:
@@ -218,7 +223,8 @@ def _shard_from_args(args: argparse.Namespace) -> ShardSpec | None:
     cache on a server the jobs share."""
     if args.shard is None:
         return None
-    from wsbuild.builder.shards.split import parse_shard, shard_run_id
+    from wsbuild.builder.shards.split import (
+        parse_shard, shard_run_id)  # lazy: off the full no-op build
 
     spec = parse_shard(args.shard, run=shard_run_id(os.environ))
     settings = _cache_settings_from_args(args)
@@ -235,8 +241,9 @@ def _assembly_from_args(args: argparse.Namespace) -> Assembly | None:
     server the shards shared."""
     if getattr(args, "assemble", None) is None:
         return None
-    from wsbuild.builder.shards.split import Assembly
-    from wsbuild.builder.shards.split import parse_shard_count, shard_run_id
+    from wsbuild.builder.shards.split import Assembly  # lazy: off the full no-op build
+    from wsbuild.builder.shards.split import (
+        parse_shard_count, shard_run_id)  # lazy: off the full no-op build
 
     count = parse_shard_count(args.assemble, option="--assemble")
     if args.shard is not None:
@@ -253,7 +260,7 @@ def _assembly_from_args(args: argparse.Namespace) -> Assembly | None:
 
 def _cache_settings_from_args(args: argparse.Namespace) -> CacheSettings | None:
     """--cache URL / --no-cache / --cache-read-only over WSBUILD_CACHE; None when off."""
-    from wsbuild.cache.settings import settings_from_environment
+    from wsbuild.cache.settings import settings_from_environment  # lazy: off Tab completion
 
     settings = settings_from_environment(os.environ, url=args.cache, no_cache=args.no_cache,
                                          read_only=args.cache_read_only)
@@ -279,10 +286,7 @@ class BuildVerbRequest:
 
 
 def build_verb_request_from_args(args: argparse.Namespace) -> BuildVerbRequest:
-    from wsbuild.verbs.cache_selection import cache_selection_from_args
-    from wsbuild.verbs.colcon import console_from_args
-    from wsbuild.verbs.load import load_request_from_args
-    from wsbuild.verbs.metas import metadata_from_args
+    from wsbuild.verbs.load import load_request_from_args  # lazy: off Tab completion and `--help`
 
     build = request_from_args(args)
     dry_run = args.dry_run
@@ -300,13 +304,11 @@ def build_verb_request_from_args(args: argparse.Namespace) -> BuildVerbRequest:
 
 def run_build_verb(args: argparse.Namespace) -> int:
     """Build the selected packages."""
-    from wsbuild.builder.pipeline import run_build
-    from wsbuild.reporter import Reporter
-    from wsbuild.runreport.write import progress_of
-    from wsbuild.verbs import metas
-    from wsbuild.verbs.arguments import terminal_from_args
-    from wsbuild.verbs.load import load
-    from wsbuild.workspace.selection import Selection
+    from wsbuild.builder.pipeline import run_build  # lazy: off Tab completion and `--help`
+    from wsbuild.reporter import Reporter  # lazy: off `build --help`
+    from wsbuild.runreport.write import progress_of  # lazy: off Tab completion and `--help`
+    from wsbuild.verbs.load import load  # lazy: off Tab completion and `--help`
+    from wsbuild.workspace.selection import Selection  # lazy: off Tab completion and `--help`
 
     verb = build_verb_request_from_args(args)
     terminal = terminal_from_args(args)
@@ -320,7 +322,7 @@ def run_build_verb(args: argparse.Namespace) -> int:
     if verb.dry_run:
         return _dry_run(selection, request, json_output=verb.json, commands=verb.commands)
     if verb.install_deps:
-        from wsbuild.verbs.deps import install_for_build
+        from wsbuild.verbs.deps import install_for_build  # lazy: off the full no-op build
 
         install_for_build(loaded)
     reporter = Reporter(console=verb.console, log_base=loaded.workspace.log_base,
@@ -340,11 +342,11 @@ def _dry_run(selection: Selection, request: BuildRequest, *, json_output: bool,
     """Print what the build would do; exit 2 when it would refuse to start."""
     import json
 
-    from wsbuild.builder.resources.memory import budget_json, budget_line
-    from wsbuild.builder.pipeline import dry_run
-    from wsbuild.builder.plan_text import plan_json, plan_lines
-    from wsbuild.words import plural
-    from wsbuild.reporter import Reporter
+    from wsbuild.builder.resources.memory import (
+        budget_json, budget_line)  # lazy: off Tab completion
+    from wsbuild.builder.pipeline import dry_run  # lazy: off Tab completion and `--help`
+    from wsbuild.builder.plan_text import plan_json, plan_lines  # lazy: off the full no-op build
+    from wsbuild.reporter import Reporter  # lazy: off `build --help`
 
     # the plan goes to stdout (JSON for tools): a cache's warnings go to stderr
     build_plan, steps = dry_run(selection, request, Reporter(sys.stderr))

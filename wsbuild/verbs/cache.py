@@ -36,8 +36,8 @@ def _size(count: int) -> str:
 
 
 def _local() -> tuple[LocalCache, str | None]:
-    from wsbuild.cache.local import LocalCache
-    from wsbuild.cache.settings import settings_from_environment
+    from wsbuild.cache.local import LocalCache  # lazy: off Tab completion and `--help`
+    from wsbuild.cache.settings import settings_from_environment  # lazy: off Tab completion
 
     settings = settings_from_environment(os.environ)
     assert settings.directory is not None
@@ -53,7 +53,7 @@ def run_stats(args: argparse.Namespace) -> int:
           f"{_size(stats.bytes)} "
           f"of {_size(stats.max_bytes)} (WSBUILD_CACHE_MAX_SIZE)")
     if url:
-        from wsbuild.cache.settings import redact
+        from wsbuild.cache.settings import redact  # lazy: off Tab completion and `--help`
 
         print(f"remote cache: {redact(url)} (WSBUILD_CACHE)")
     return 0
@@ -62,7 +62,7 @@ def run_stats(args: argparse.Namespace) -> int:
 def run_prune(args: argparse.Namespace) -> int:
     """Evict the least recently used entries until the local cache fits its size limit."""
     local, _ = _local()
-    from wsbuild.cache.settings import parse_size
+    from wsbuild.cache.settings import parse_size  # lazy: off Tab completion and `--help`
 
     limit = parse_size(args.max_size) if args.max_size is not None else local.max_bytes
     pruned = local.prune(limit)

@@ -19,7 +19,9 @@ import sys
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
+from wsbuild import inputs
 from wsbuild.verbs.arguments import secondary
+from wsbuild.verbs.metas import metadata_from_args, with_build_arguments, with_test_arguments
 
 if TYPE_CHECKING:  # imported when the options are given, not to parse them
     from wsbuild.builder.request import BuildRequest
@@ -64,8 +66,7 @@ def cache_selection_from_args(args: argparse.Namespace, *, build: BuildRequest |
     if not (getattr(args, "packages_select_cache_invalid", False)
             or getattr(args, "packages_skip_cache_valid", False)):
         return None
-    from wsbuild.testing.request import TestRequest
-    from wsbuild.verbs.metas import metadata_from_args
+    from wsbuild.testing.request import TestRequest  # lazy: off the full no-op build and `list`
 
     key = getattr(args, "packages_select_cache_key", None) or ("test" if test else "build")
     return CacheSelection(key=key, build=build or _plain_build(), test=test or TestRequest(),
@@ -77,11 +78,9 @@ def select_by_cache(selection_by: CacheSelection, selection: Selection) -> list[
     the same packages, since wsbuild keeps no reference lockfile that could be missing."""
     from dataclasses import replace
 
-    from wsbuild.builder.pipeline import plan_build
-    from wsbuild.builder.plan import Decision
-    from wsbuild import inputs
-    from wsbuild.testing.test_run import reusable_results
-    from wsbuild.verbs.metas import with_build_arguments, with_test_arguments
+    from wsbuild.builder.pipeline import plan_build  # lazy: off `list` and `graph`
+    from wsbuild.builder.plan import Decision  # lazy: off `list` and `graph`
+    from wsbuild.testing.test_run import reusable_results  # lazy: off the full no-op build
 
     # the answer depends on the whole plan, more than a replay's record describes
     inputs.declare_unrecorded("a selection by the caches' validity")
@@ -102,8 +101,8 @@ def select_by_cache(selection_by: CacheSelection, selection: Selection) -> list[
 
 def _plain_build() -> BuildRequest:
     """What a plain `wsbuild build` asks for."""
-    from wsbuild.build_types import BuildOptions
-    from wsbuild.builder.request import BuildRequest, RunOptions, cpu_count
+    from wsbuild.build_types import BuildOptions  # lazy: off `mixin list` and `plan --help`
+    from wsbuild.builder.request import BuildRequest, RunOptions, cpu_count  # lazy: off `list`
 
     return BuildRequest(
         build=BuildOptions(jobs=cpu_count(), python_executable=sys.executable),

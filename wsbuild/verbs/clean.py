@@ -13,6 +13,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from wsbuild.errors import WorkspaceError
+from wsbuild.prefix.layout import MERGED, PACKAGE_INDEX, read_install_layout
 from wsbuild.reporter import print_warnings
 from wsbuild.verbs.arguments import add_base_arguments
 from wsbuild.words import plural
@@ -116,8 +117,6 @@ def plan_clean(root: Path, bases: dict[str, Path], kinds: Sequence[str],
                packages: Sequence[str] | None, sources: Sequence[Path]) -> CleanPlan:
     """What `clean` deletes from the `kinds` of `bases`: whole bases (`packages` None) or the
     packages' entries. Raises before anything is touched when an entry is not safe to delete."""
-    from wsbuild.prefix.layout import MERGED, read_install_layout
-
     chosen = {kind: bases[kind] for kind in kinds}
     for base in chosen.values():
         check_base(base, root, sources)
@@ -143,8 +142,7 @@ def plan_clean(root: Path, bases: dict[str, Path], kinds: Sequence[str],
 
 def _install_entries(install: Path, build: Path, packages: Sequence[str],
                      merged: bool) -> list[Removal]:
-    from wsbuild.prefix.layout import PACKAGE_INDEX
-    from wsbuild.prefix.stage import MERGED_RECORD
+    from wsbuild.prefix.stage import MERGED_RECORD  # lazy: off `clean` and Tab completion
 
     if not merged:
         return [Removal(install / name, install) for name in packages
@@ -210,7 +208,7 @@ def _remove_empty_parents(directory: Path, stop: Path) -> None:
 def rewrite_setup_scripts(install: Path, merged: bool) -> None:
     """install/local_setup.* for the packages that remain; setup.* (the underlay chain the
     build wrote) stays as it is."""
-    from wsbuild.prefix import write_workspace_scripts
+    from wsbuild.prefix import write_workspace_scripts  # lazy: off `clean` and Tab completion
 
     write_workspace_scripts(install, merged=merged, underlays=None)
 
@@ -249,9 +247,10 @@ def deletion_confirmed(yes_option: str) -> bool:
 
 def run_clean(args: argparse.Namespace) -> int:
     """Remove build/, install/ and log/ entries of the selected packages (default: all)."""
-    from wsbuild.engine.lock import workspace_lock
-    from wsbuild.verbs.load import load, load_request_from_args, workspace_root
-    from wsbuild.workspace.selection import SelectionOptions
+    from wsbuild.engine.lock import workspace_lock  # lazy: off Tab completion and `--help`
+    from wsbuild.verbs.load import (
+        load, load_request_from_args, workspace_root)  # lazy: off Tab completion
+    from wsbuild.workspace.selection import SelectionOptions  # lazy: off Tab completion
 
     request = load_request_from_args(args)
     kinds = [k for k in (BUILD, INSTALL, LOG) if getattr(args, k)] or [BUILD, INSTALL, LOG]

@@ -10,6 +10,7 @@ from typing import TYPE_CHECKING
 
 from wsbuild.verbs.arguments import secondary
 from wsbuild.verbs.mixin import add_mixin_arguments
+from wsbuild.workspace.root import BUILD_BASE, LOG_BASE
 
 if TYPE_CHECKING:
     from wsbuild.reporter import Console
@@ -52,7 +53,7 @@ def event_handler_switch(value: str) -> str:
 
 def console_from_args(args: argparse.Namespace) -> Console:
     """What the reporter shows, from `--event-handlers a+ b- …` (later ones win)."""
-    from wsbuild.reporter import Console
+    from wsbuild.reporter import Console  # lazy: off `build --help` and `pkg create --help`
 
     switches = {value[:-1]: value.endswith("+") for value in getattr(args, "event_handlers",
                                                                       None) or ()}
@@ -76,8 +77,6 @@ def add_event_handler_argument(parser: argparse._ActionsContainer) -> None:
 
 def add_results_base_argument(parser: argparse._ActionsContainer) -> None:
     """--build-base for the verbs that only read it (the result-based selections)."""
-    from wsbuild.workspace.root import BUILD_BASE
-
     secondary(parser.add_argument(
         "--build-base", default=BUILD_BASE, metavar="DIR",
         help=f"where the previous results are, for --packages-*-build-*/-test-* "
@@ -95,8 +94,6 @@ def add_global_arguments(parser: argparse.ArgumentParser) -> None:
 def apply_global_arguments(args: argparse.Namespace) -> None:
     """While parsing: colcon's `--log-base` given before the verb becomes the verb's (the
     verb's own --log-base wins)."""
-    from wsbuild.workspace.root import LOG_BASE
-
     given = getattr(args, "global_log_base", None)
     if given and getattr(args, "log_base", LOG_BASE) == LOG_BASE:
         args.log_base = given

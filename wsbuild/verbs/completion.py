@@ -8,6 +8,10 @@ import re
 from collections.abc import Callable, Iterable
 from pathlib import Path
 
+from wsbuild.verbs.colcon import EVENT_HANDLERS
+from wsbuild.verbs.mixin import known_mixins
+from wsbuild.workspace.root import INSTALL_BASE, Workspace, find_workspace_root
+
 COMPLETION_DOC = """Print shell code: Tab then completes verbs, options and package names.
 
 Add the line for your shell to its rc file (~/.bashrc or ~/.zshrc), then open a new shell:
@@ -39,8 +43,7 @@ def run_completion(args: argparse.Namespace) -> int:
 def workspace_package_names(root: Path, base_paths: Iterable[Path] | None = None) -> list[str]:
     """The names of the packages under `root`/src (or `base_paths`), from a crawl that reads
     only each package.xml's <name> (no parsing, no graph): instant also on 1,000 packages."""
-    from wsbuild.workspace.discover import find_package_dirs
-    from wsbuild.workspace.root import Workspace
+    from wsbuild.workspace.discover import find_package_dirs  # lazy: off `completion`
 
     workspace = Workspace.at(root)
     bases = list(base_paths) if base_paths else workspace.default_base_paths()
@@ -60,8 +63,6 @@ def workspace_package_names(root: Path, base_paths: Iterable[Path] | None = None
 
 def _package_completer(prefix: str, parsed_args: argparse.Namespace,
                        **_kwargs: object) -> list[str]:
-    from wsbuild.workspace.root import find_workspace_root
-
     given = getattr(parsed_args, "workspace_dir", None)
     root = Path(given).absolute() if given else find_workspace_root(Path.cwd())
     bases = [Path(p).absolute() for p in getattr(parsed_args, "base_paths", None) or []]
@@ -71,8 +72,6 @@ def _package_completer(prefix: str, parsed_args: argparse.Namespace,
 def _executable_completer(prefix: str, parsed_args: argparse.Namespace,
                           **_kwargs: object) -> list[str]:
     """`wsbuild run PKG <Tab>`: the executables in install/PKG/lib/PKG/ (or a merged install)."""
-    from wsbuild.workspace.root import INSTALL_BASE, find_workspace_root
-
     package = getattr(parsed_args, "package_name", None)
     if not package:
         return []
@@ -119,8 +118,6 @@ def _cmake_args_completer(prefix: str, **_kwargs: object) -> list[str]:
 def _mixin_completer(prefix: str, parsed_args: argparse.Namespace,
                      **_kwargs: object) -> list[str]:
     """`--mixin <Tab>`: the mixins of the verb from the mixin files (colcon-mixin's)."""
-    from wsbuild.verbs.mixin import known_mixins
-
     verb = getattr(parsed_args, "verb", None) or "build"
     try:
         names = known_mixins(os.environ).get(verb, {})
@@ -131,15 +128,13 @@ def _mixin_completer(prefix: str, parsed_args: argparse.Namespace,
 
 def _event_handler_completer(prefix: str, **_kwargs: object) -> list[str]:
     """`--event-handlers <Tab>`: each handler, on (+) and off (-)."""
-    from wsbuild.verbs.colcon import EVENT_HANDLERS
-
     return [f"{name}{sign}" for name in sorted(EVENT_HANDLERS) for sign in "+-"
             if f"{name}{sign}".startswith(prefix)]
 
 
 def _build_type_completer(prefix: str, **_kwargs: object) -> list[str]:
     """`pkg create --build-type <Tab>`: the build types wsbuild knows."""
-    from wsbuild.build_types import KnownBuildTypes
+    from wsbuild.build_types import KnownBuildTypes  # lazy: off `completion`
 
     return sorted(n for n in KnownBuildTypes() if n.startswith(prefix))
 

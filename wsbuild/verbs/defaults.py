@@ -29,6 +29,7 @@ from pathlib import Path
 
 from wsbuild.errors import WsbuildError
 from wsbuild import inputs
+from wsbuild.workspace.root import find_workspace_root
 
 #: the workspace's own defaults file, at its root
 WORKSPACE_FILE = "wsbuild.yaml"
@@ -404,8 +405,6 @@ def workspace_option(argv: Sequence[str]) -> str | None:
 
 
 def _root_for(workspace: str | None, cwd: Path) -> Path:
-    from wsbuild.workspace.root import find_workspace_root
-
     return (cwd / workspace).absolute() if workspace else find_workspace_root(cwd)
 
 

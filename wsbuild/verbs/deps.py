@@ -12,6 +12,12 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+from wsbuild.errors import WsbuildError
+from wsbuild.files import atomic_write
+from wsbuild.reporter import print_warnings
+from wsbuild.verbs.metas import META_FILE
+from wsbuild.workspace.model import DepKind
+
 if TYPE_CHECKING:
     from wsbuild.deps.install import InstallReport
     from wsbuild.deps.needs import Need
@@ -95,8 +101,7 @@ def deps_request_from_args(args: argparse.Namespace) -> DepsRequest:
 
 def run_deps(args: argparse.Namespace) -> int:
     """Check, plan or install the selected packages' missing dependencies."""
-    from wsbuild.reporter import print_warnings
-    from wsbuild.verbs.load import load, load_request_from_args
+    from wsbuild.verbs.load import load, load_request_from_args  # lazy: off Tab completion
 
     request, load_request = deps_request_from_args(args), load_request_from_args(args)
     loaded = load(load_request, warn=print_warnings)
@@ -132,9 +137,8 @@ def _fetch_sources(request: DepsRequest, load_request: LoadRequest, loaded: Load
         import_repositories,
         keep_only_needed,
         write_repos_file,
-    )
-    from wsbuild.reporter import print_warnings
-    from wsbuild.verbs.load import load
+    )  # lazy: off Tab completion and `--help`
+    from wsbuild.verbs.load import load  # lazy: off Tab completion and `--help`
 
     root = loaded.workspace.root
     repos_file, src = root / REPOS_FILE, root / "src"
@@ -187,9 +191,6 @@ def tests_off(root: Path, names: Sequence[str]) -> None:
     A package the file already names keeps what it says."""
     import json
 
-    from wsbuild.files import atomic_write
-    from wsbuild.verbs.metas import META_FILE
-
     if not names:
         return
     path = root / META_FILE
@@ -215,7 +216,7 @@ def _left_out_note(left: list[str]) -> None:
     marker in each), so that a plain `wsbuild build` builds only what is needed and an
     installed wheel is not shadowed by a source copy."""
     if left:
-        from wsbuild.deps.from_source import LEFT_OUT
+        from wsbuild.deps.from_source import LEFT_OUT  # lazy: off Tab completion and `--help`
 
         print(f"from source: left out of the build, as nothing here needs them (a {LEFT_OUT} "
               f"in each; remove it to build one): {', '.join(left)}")
@@ -243,7 +244,7 @@ def install_for_build(loaded: Loaded) -> None:
 
 def _constraint(request: DepsRequest, found: Survey) -> Path | None:
     """The pip constraints file: --constraint's, else the one shipped for the distro."""
-    from wsbuild.underlay.constraints import distro_constraints
+    from wsbuild.underlay.constraints import distro_constraints  # lazy: off Tab completion
 
     if request.constraint is not None:
         return request.constraint.absolute()
@@ -254,17 +255,14 @@ def _survey(request: DepsRequest, loaded: Loaded, names: list[str] | None = None
             fetched: frozenset[str] = frozenset()) -> Survey:
     import os
 
-    from wsbuild.deps.needs import parse_types
-    from wsbuild.deps.survey import survey
-    from wsbuild.errors import WsbuildError
+    from wsbuild.deps.needs import parse_types  # lazy: off Tab completion and `--help`
+    from wsbuild.deps.survey import survey  # lazy: off Tab completion and `--help`
 
     if request.constraint is not None and not request.constraint.is_file():
         raise WsbuildError("the constraints file does not exist", path=request.constraint,
                            hint="give an existing pip constraints file, or leave --constraint "
                                 "out to use the one wsbuild ships for the underlay's ROS distro")
     from dataclasses import replace
-
-    from wsbuild.workspace.model import DepKind
 
     packages = [loaded.packages[name]
                 for name in (loaded.selected if names is None else names)]
@@ -283,7 +281,7 @@ def _fetched(loaded: Loaded) -> frozenset[str]:
     workspace's from-source.repos, each in src/<repository>)."""
     import yaml
 
-    from wsbuild.deps.from_source import REPOS_FILE
+    from wsbuild.deps.from_source import REPOS_FILE  # lazy: off Tab completion and `--help`
 
     root = loaded.workspace.root
     try:
@@ -299,8 +297,8 @@ def _install(request: DepsRequest, loaded: Loaded, found: Survey,
              names: list[str] | None = None) -> int:
     import os
 
-    from wsbuild.deps.install import install
-    from wsbuild.underlay.repair import repair_underlay
+    from wsbuild.deps.install import install  # lazy: off `deps` and Tab completion
+    from wsbuild.underlay.repair import repair_underlay  # lazy: off Tab completion and `--help`
 
     report = install(found.plan, venv=found.venv, python=found.python,
                      constraint=_constraint(request, found), assume_yes=request.assume_yes,
@@ -362,8 +360,8 @@ def check_lines(found: Survey) -> list[str]:
 
 def plan_lines(found: Survey, *, constraint: Path | None, dry_run: bool) -> list[str]:
     """The plan grouped by installer, one copy-pasteable command per installer."""
-    from wsbuild.deps.install import apt_privilege, installer_command
-    from wsbuild.deps.plan import Installer
+    from wsbuild.deps.install import apt_privilege, installer_command  # lazy: off `deps`
+    from wsbuild.deps.plan import Installer  # lazy: off Tab completion and `--help`
 
     plan = found.plan
     lines = _header(found)
@@ -381,7 +379,7 @@ def plan_lines(found: Survey, *, constraint: Path | None, dry_run: bool) -> list
                                     constraint=constraint, apt_prefix=prefix)
         lines.append(f"  $ {shlex.join(command)}")
     if plan.test_tools:
-        from wsbuild.deps.test_tools import ros_pytest_command
+        from wsbuild.deps.test_tools import ros_pytest_command  # lazy: off Tab completion
 
         lines.append(f"{plan.test_tools[0].source.value} (into {_ros_pytest_dir(found)}, "
                      "where wsbuild test looks for it):")
@@ -389,7 +387,7 @@ def plan_lines(found: Survey, *, constraint: Path | None, dry_run: bool) -> list
                   for s in plan.test_tools]
         lines.append(f"  $ {shlex.join(ros_pytest_command(found.python))}")
     if plan.from_source:
-        from wsbuild.deps.from_source import REPOS_FILE
+        from wsbuild.deps.from_source import REPOS_FILE  # lazy: off Tab completion and `--help`
 
         repositories = {f.repository.name: f.repository for f in plan.from_source}
         lines.append(f"from source (with --from-source: cloned into src/, listed in "
@@ -404,7 +402,7 @@ def plan_lines(found: Survey, *, constraint: Path | None, dry_run: bool) -> list
 
 
 def _ros_pytest_dir(found: Survey) -> Path:
-    from wsbuild.build_types.ros_pytest import ros_pytest_dir
+    from wsbuild.build_types.ros_pytest import ros_pytest_dir  # lazy: off Tab completion
 
     return ros_pytest_dir(str(found.python))
 

@@ -8,9 +8,10 @@ import os
 from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
-
 from typing import TYPE_CHECKING
 
+from wsbuild.errors import SelectionError
+from wsbuild.verbs.arguments import terminal_from_args
 
 if TYPE_CHECKING:  # the modules of the work are imported when a verb runs, not to parse
     from wsbuild.reporter import Terminal
@@ -90,8 +91,7 @@ def _read_only(terminal: Terminal, loaded: Loaded) -> None:
 
 def run_list(args: argparse.Namespace) -> int:
     """List the selected packages."""
-    from wsbuild.verbs.arguments import terminal_from_args
-    from wsbuild.verbs.load import load, load_request_from_args
+    from wsbuild.verbs.load import load, load_request_from_args  # lazy: off `mixin list`
 
     terminal = terminal_from_args(args)
     loaded = load(load_request_from_args(args), warn=terminal.warnings, remember=True)
@@ -159,11 +159,11 @@ class Lookup:
 def _lookup(build_base: Path) -> Lookup:
     import sys
 
-    from wsbuild.session import LINT_SHIM
-    from wsbuild.underlay.environment import prepare_underlay
-    from wsbuild.underlay.lint import LINTERS
-    from wsbuild.underlay.wheels import JAZZY_WHEELS
-    from wsbuild.workspace.resolve import Resolver
+    from wsbuild.session import LINT_SHIM  # lazy: off `list` and `graph`
+    from wsbuild.underlay.environment import prepare_underlay  # lazy: off `list` and `graph`
+    from wsbuild.underlay.lint import LINTERS  # lazy: off `list` and `graph`
+    from wsbuild.underlay.wheels import JAZZY_WHEELS  # lazy: off `list` and `graph`
+    from wsbuild.workspace.resolve import Resolver  # lazy: off `list` and `graph`
 
     shim = build_base / LINT_SHIM
     underlay = prepare_underlay(os.environ, executable=sys.executable, repair=False,
@@ -179,8 +179,8 @@ def _lookup(build_base: Path) -> Lookup:
 
 def _dependency_rows(package: Package, workspace: dict[str, Package],
                      lookup: Lookup) -> list[dict[str, object]]:
-    from wsbuild.workspace.model import Resolution
-    from wsbuild.workspace.resolve import resolve_dependencies
+    from wsbuild.workspace.model import Resolution  # lazy: off `mixin list`
+    from wsbuild.workspace.resolve import resolve_dependencies  # lazy: off `list` and `graph`
 
     rows: list[dict[str, object]] = []
     for dep in resolve_dependencies(package, workspace, lookup.resolver):
@@ -198,7 +198,7 @@ _MERMAID_ARROW = {"build": "-->", "run": "-.->", "test": "..->"}
 
 
 def format_graph(graph: Graph, names: list[str], style: str) -> str:
-    from wsbuild.workspace.graph import ALL_CATEGORIES
+    from wsbuild.workspace.graph import ALL_CATEGORIES  # lazy: off `mixin list` and Tab completion
 
     selected = set(names)
     edges = [
@@ -233,8 +233,7 @@ def format_graph(graph: Graph, names: list[str], style: str) -> str:
 
 def run_graph(args: argparse.Namespace) -> int:
     """Print the dependency graph of the selected packages."""
-    from wsbuild.verbs.arguments import terminal_from_args
-    from wsbuild.verbs.load import load, load_request_from_args
+    from wsbuild.verbs.load import load, load_request_from_args  # lazy: off `mixin list`
 
     terminal = terminal_from_args(args)
     loaded = load(load_request_from_args(args), warn=terminal.warnings, remember=True)
@@ -248,9 +247,7 @@ def run_graph(args: argparse.Namespace) -> int:
 
 def run_info(args: argparse.Namespace) -> int:
     """Describe packages in detail."""
-    from wsbuild.errors import SelectionError
-    from wsbuild.verbs.arguments import terminal_from_args
-    from wsbuild.verbs.load import load, load_request_from_args
+    from wsbuild.verbs.load import load, load_request_from_args  # lazy: off `mixin list`
 
     terminal = terminal_from_args(args)
     loaded = load(load_request_from_args(args), warn=terminal.warnings, remember=True)

@@ -13,15 +13,16 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from wsbuild.build_types import KnownBuildTypes
+from wsbuild.build_types import KnownBuildTypes, get_build_type
 from wsbuild.build_types.plugins import package_identifiers
-from wsbuild.errors import ManifestError, WsbuildError
+from wsbuild.errors import ManifestError, WorkspaceError, WsbuildError
 from wsbuild.verbs.arguments import Bases, bases_from_args, selection_from_args
 from wsbuild.workspace.discover import discover_packages, expand_paths
 from wsbuild.workspace.graph import Graph, build_graph
 from wsbuild.workspace.model import Package
-from wsbuild.workspace.root import Workspace, why_workspace_root
+from wsbuild.workspace.root import Workspace, find_workspace_root, why_workspace_root
 from wsbuild.workspace.selection import (
+    Selection,
     SelectionOptions,
     ignored_packages,
     select_packages,
@@ -68,8 +69,8 @@ def load_request_from_args(args: argparse.Namespace, *,
                            cache: CacheSelection | None = None) -> LoadRequest:
     """The LoadRequest of a verb's options (`cache`: the verb's own cache-based selection,
     judged by its build or test request; else one judged as a plain build and test would)."""
-    from wsbuild.verbs.cache_selection import cache_selection_from_args
-    from wsbuild.verbs.results import result_selection_from_args
+    from wsbuild.verbs.cache_selection import cache_selection_from_args  # lazy: off `test-result`
+    from wsbuild.verbs.results import result_selection_from_args  # lazy: off `test-result`
 
     base_paths, paths = getattr(args, "base_paths", None), getattr(args, "paths", None)
     return LoadRequest(
@@ -85,13 +86,9 @@ def load_request_from_args(args: argparse.Namespace, *,
 
 def workspace_root(workspace_dir: str | None) -> Path:
     """The workspace root: `-C/--workspace` if given, else found from the current directory."""
-    from wsbuild.workspace.root import find_workspace_root
-
     if workspace_dir:
         root = Path(workspace_dir).absolute()
         if not root.is_dir():
-            from wsbuild.errors import WorkspaceError
-
             raise WorkspaceError("workspace directory does not exist", path=root,
                                  hint="check the -C/--workspace argument")
         return root
@@ -132,7 +129,7 @@ def load(request: LoadRequest, *, select: bool = True,
     packages = discovery.packages
     if need_packages and not packages:
         _no_packages(workspace, paths or base_paths)
-    from wsbuild.workspace.versions import check_version_constraints
+    from wsbuild.workspace.versions import check_version_constraints  # lazy: off `test-result`
 
     warnings = (*discovery.warnings, *check_version_constraints(packages))
     if warn is not None and not strict:
@@ -153,8 +150,6 @@ def load(request: LoadRequest, *, select: bool = True,
 def _no_packages(workspace: Workspace, searched: Sequence[Path]) -> None:
     """The error of a build or test that found no package: where it looked, and how to
     point it at one."""
-    from wsbuild.errors import WorkspaceError
-
     where = ", ".join(str(path) for path in searched)
     missing = [str(path) for path in searched if not path.exists()]
     hint = (f"{' and '.join(missing)} does not exist; " if missing else "") + (
@@ -169,8 +164,6 @@ def refuse_manifests(packages: Mapping[str, Package], selected: Sequence[str]) -
     """The first manifest problem of a selected package that its build type's package.xml
     reader refuses (`BuildType.manifest_reader`: ament_cmake's catkin_pkg), as the error
     naming the file and line and the fix."""
-    from wsbuild.build_types import get_build_type
-
     for name in selected:
         package = packages[name]
         if not package.refused:
@@ -193,12 +186,11 @@ def _selected(request: LoadRequest, workspace: Workspace, packages: dict[str, Pa
     if select:
         selected = select_packages(options, graph)
         if request.results is not None:
-            from wsbuild.verbs.results import select_by_results
+            from wsbuild.verbs.results import select_by_results  # lazy: off `test-result`
 
             selected = select_by_results(request.results, workspace.build_base, selected)
         if request.cache is not None:
-            from wsbuild.verbs.cache_selection import select_by_cache
-            from wsbuild.workspace.selection import Selection
+            from wsbuild.verbs.cache_selection import select_by_cache  # lazy: off `test-result`
 
             selected = select_by_cache(request.cache,
                                        Selection(workspace, packages, graph, selected))

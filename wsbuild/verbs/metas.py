@@ -16,6 +16,8 @@ from typing import TYPE_CHECKING
 
 from wsbuild.errors import WsbuildError
 from wsbuild import inputs
+from wsbuild.verbs.mixin import config_home
+from wsbuild.verbs.arguments import secondary
 
 if TYPE_CHECKING:  # imported when a verb applies the metadata
     from wsbuild.builder.request import BuildRequest
@@ -75,8 +77,6 @@ class MetadataRequest:
 
 def add_metadata_arguments(group: argparse._ActionsContainer) -> None:
     """colcon-metadata's options."""
-    from wsbuild.verbs.arguments import secondary
-
     secondary(group.add_argument(
         "--metas", nargs="*", metavar="PATH",
         help="colcon.meta files, or directories holding them (default: ./colcon.meta)"))
@@ -93,8 +93,6 @@ def metadata_from_args(args: argparse.Namespace) -> MetadataRequest:
 def metadata_files(request: MetadataRequest, environ: Mapping[str, str],
                    cwd: Path) -> list[Path]:
     """The metadata files that apply, in colcon-metadata's order: the user's, then --metas."""
-    from wsbuild.verbs.mixin import config_home
-
     files: list[Path] = []
     if not request.ignore_user_meta:
         user = config_home(environ) / USER_DIR
@@ -187,7 +185,7 @@ def with_build_arguments(request: BuildRequest, metadata: MetadataRequest,
     what is not applied."""
     from dataclasses import replace
 
-    from wsbuild.builder.request import PackageOptions
+    from wsbuild.builder.request import PackageOptions  # lazy: off `list` and `graph`
 
     found = read_metadata(metadata_files(metadata, os.environ, Path.cwd()))
     wanted = package_arguments(found, _paths(packages), selected, BUILD_KEYS)

@@ -13,6 +13,7 @@ from pathlib import Path
 from wsbuild.errors import WsbuildError
 from wsbuild.files import atomic_write
 from wsbuild import inputs
+from wsbuild.verbs.arguments import secondary
 
 MIXIN_DOC = """Manage colcon-mixin's named option sets (`--mixin NAME` of build, test, …).
 
@@ -163,8 +164,6 @@ def application_order(mixins: Mapping[str, Mixin], requested: str) -> list[str]:
 
 def add_mixin_arguments(parser: argparse._ActionsContainer) -> None:
     """--mixin and --mixin-files (apply_mixins reads them)."""
-    from wsbuild.verbs.arguments import secondary
-
     secondary(parser.add_argument(
         "--mixin", nargs="*", metavar="NAME",
         help="colcon-mixin's named option sets, e.g. release ccache (wsbuild mixin show)"))
@@ -194,7 +193,8 @@ def apply_mixins(parser: argparse.ArgumentParser, verb: str, args: argparse.Name
 
 
 def _apply(parser: argparse.ArgumentParser, mixin: Mixin, args: argparse.Namespace) -> None:
-    from wsbuild.verbs.defaults import FileEntry, check_value, settable_options
+    from wsbuild.verbs.defaults import (
+        FileEntry, check_value, settable_options)  # lazy: off Tab completion
 
     options = settable_options(parser)
     for key, value in mixin.options.items():

@@ -8,6 +8,8 @@ import re
 import sys
 from pathlib import Path
 
+from wsbuild.errors import WsbuildError
+
 CREATE_DOC = """Create a new package from templates (`ros2 pkg create`'s options, plus --launch).
 
 The package goes into the workspace's src/ (or the current directory when that is inside
@@ -29,10 +31,10 @@ examples:
 
 def add_pkg_create_arguments(parser: argparse.ArgumentParser) -> None:
     """The arguments of `pkg create` (those of `ros2 pkg create`, plus --launch)."""
-    from wsbuild.create.licenses import NO_LICENSE
-    from wsbuild.create.templates import available_build_types
-    from wsbuild.create.validation import DEFAULT_BUILD_TYPE, DEFAULT_DESCRIPTION, PACKAGE_FORMATS
-    from wsbuild.errors import WsbuildError
+    from wsbuild.create.licenses import NO_LICENSE  # lazy: off Tab completion and `--help`
+    from wsbuild.create.templates import available_build_types  # lazy: off Tab completion
+    from wsbuild.create.validation import (
+        DEFAULT_BUILD_TYPE, DEFAULT_DESCRIPTION, PACKAGE_FORMATS)  # lazy: off Tab completion
 
     try:
         build_types = ", ".join(available_build_types())
@@ -67,11 +69,11 @@ def add_pkg_create_arguments(parser: argparse.ArgumentParser) -> None:
 
 def run_pkg_create(args: argparse.Namespace) -> int:
     """Create a new package."""
-    from wsbuild.create.licenses import LICENSES
-    from wsbuild.create.defaults import default_destination, default_maintainer
-    from wsbuild.create.validation import PackageRequest
-    from wsbuild.create.writing import create_package
-    from wsbuild.errors import WsbuildError
+    from wsbuild.create.licenses import LICENSES  # lazy: off Tab completion and `--help`
+    from wsbuild.create.defaults import (
+        default_destination, default_maintainer)  # lazy: off Tab completion
+    from wsbuild.create.validation import PackageRequest  # lazy: off Tab completion and `--help`
+    from wsbuild.create.writing import create_package  # lazy: off Tab completion and `--help`
 
     if args.license == "?":
         width = max(len(entry.spdx) for entry in LICENSES)
@@ -132,9 +134,9 @@ def _without_wheel(package: Path, src: Path) -> list[str]:
     """A note for each dependency of the new package that has no wheel and that neither the
     underlays' ament index nor the workspace's sources hold (rclcpp on a pip-only machine):
     what building it then takes."""
-    from wsbuild.underlay.detect import find_venv_underlay
-    from wsbuild.underlay.wheels import NO_WHEEL, no_wheel_advice
-    from wsbuild.workspace.resolve import ament_index
+    from wsbuild.underlay.detect import find_venv_underlay  # lazy: off Tab completion and `--help`
+    from wsbuild.underlay.wheels import NO_WHEEL, no_wheel_advice  # lazy: off Tab completion
+    from wsbuild.workspace.resolve import ament_index  # lazy: off Tab completion and `--help`
 
     text = (package / "package.xml").read_text()
     declared = re.findall(r"<(?:\w+_)?depend(?: [^>]*)?>\s*([\w-]+)\s*</", text)

@@ -10,7 +10,8 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 from wsbuild.errors import WsbuildError
-from wsbuild.reporter import print_warnings
+from wsbuild.reporter import print_notes, print_warnings
+from wsbuild.words import plural
 
 if TYPE_CHECKING:  # imported when the verb runs, not to parse
     from wsbuild.builder.shards.split import Split
@@ -58,10 +59,10 @@ class PlanVerbRequest:
 
 
 def plan_verb_request_from_args(args: argparse.Namespace) -> PlanVerbRequest:
-    from wsbuild.builder.request import cpu_count
-    from wsbuild.builder.shards.split import parse_shard_count
-    from wsbuild.cache.settings import settings_from_environment
-    from wsbuild.verbs.load import load_request_from_args
+    from wsbuild.builder.request import cpu_count  # lazy: off Tab completion and `--help`
+    from wsbuild.builder.shards.split import parse_shard_count  # lazy: off Tab completion
+    from wsbuild.cache.settings import settings_from_environment  # lazy: off Tab completion
+    from wsbuild.verbs.load import load_request_from_args  # lazy: off Tab completion and `--help`
 
     workers = args.parallel_workers if args.parallel_workers is not None else cpu_count()
     if workers < 1:
@@ -74,13 +75,12 @@ def plan_verb_request_from_args(args: argparse.Namespace) -> PlanVerbRequest:
 
 def run_plan_verb(args: argparse.Namespace) -> int:
     """Print how the build splits across the jobs of a CI matrix."""
-    from wsbuild.builder.shards.cover import run_of
-    from wsbuild.builder.shards.run import split_of
-    from wsbuild.builder.shards.split import shard_run_id
-    from wsbuild.cache.documents import SharedDocuments
-    from wsbuild.reporter import print_notes
-    from wsbuild.verbs.load import load
-    from wsbuild.workspace.selection import Selection
+    from wsbuild.builder.shards.cover import run_of  # lazy: off Tab completion and `--help`
+    from wsbuild.builder.shards.run import split_of  # lazy: off Tab completion and `--help`
+    from wsbuild.builder.shards.split import shard_run_id  # lazy: off Tab completion and `--help`
+    from wsbuild.cache.documents import SharedDocuments  # lazy: off Tab completion and `--help`
+    from wsbuild.verbs.load import load  # lazy: off Tab completion and `--help`
+    from wsbuild.workspace.selection import Selection  # lazy: off Tab completion and `--help`
 
     verb = plan_verb_request_from_args(args)
     loaded = load(verb.load, warn=print_warnings)
@@ -106,8 +106,6 @@ def run_plan_verb(args: argparse.Namespace) -> int:
 
 def plan_lines(split: Split) -> list[str]:
     """The split as text: each shard's packages and predicted time, then the figures."""
-    from wsbuild.words import plural
-
     count = len(split.assignment)
     known = count - len(split.estimated)
     lines = [f"{plural(count, 'package')} in {plural(split.count, 'shard')} of "

@@ -15,6 +15,7 @@ from dataclasses import dataclass
 from enum import Enum
 from pathlib import Path
 from wsbuild import inputs
+from wsbuild.verbs.arguments import secondary
 
 
 class Previous(Enum):
@@ -38,8 +39,8 @@ RESULT_OPTIONS = {
 
 def previous_build(build_dir: Path) -> Previous | None:
     """The last build's result of the package whose build directory is `build_dir`."""
-    from wsbuild.record.model import RECORD_FILE
-    from wsbuild.builder.plan import BUILDING_MARKER
+    from wsbuild.record.model import RECORD_FILE  # lazy: off `mixin list` and `plan --help`
+    from wsbuild.builder.plan import BUILDING_MARKER  # lazy: off `list` and `graph`
 
     if inputs.exists(build_dir / BUILDING_MARKER):
         return Previous.FAILED
@@ -51,7 +52,7 @@ def previous_build(build_dir: Path) -> Previous | None:
 def previous_test(build_dir: Path) -> Previous | None:
     """The last test run's result: failed when a result file under `build_dir` has failures
     or errors, finished when there are results without any."""
-    from wsbuild.testing.junit import collect_results
+    from wsbuild.testing.junit import collect_results  # lazy: off the full no-op build and `list`
 
     if build_dir.is_dir():
         collected = collect_results(build_dir)
@@ -80,8 +81,6 @@ class ResultSelection:
 
 def add_result_selection_arguments(group: argparse._ActionsContainer) -> None:
     """colcon-package-selection's selections by the previous build or test run (one of them)."""
-    from wsbuild.verbs.arguments import secondary
-
     group = group.add_mutually_exclusive_group()
     for option, text in (
         ("--packages-select-build-failed", "only packages whose last build failed"),

@@ -37,7 +37,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def _package_prefixes(environ: Mapping[str, str], install_base: Path) -> dict[str, Path]:
     """package -> prefix: AMENT_PREFIX_PATH first (what the user sourced), then this workspace."""
-    from wsbuild.workspace.resolve import ament_index
+    from wsbuild.workspace.resolve import ament_index  # lazy: off Tab completion and `--help`
 
     sourced = [Path(p) for p in environ.get("AMENT_PREFIX_PATH", "").split(os.pathsep) if p]
     if _is_merged(install_base):
@@ -49,7 +49,7 @@ def _package_prefixes(environ: Mapping[str, str], install_base: Path) -> dict[st
 
 
 def _is_merged(install_base: Path) -> bool:
-    from wsbuild.prefix.layout import MERGED, read_install_layout
+    from wsbuild.prefix.layout import MERGED, read_install_layout  # lazy: off `run --help`
 
     return read_install_layout(install_base) == MERGED
 
@@ -70,7 +70,7 @@ def _suggest(name: str, choices: list[str]) -> str:
 
 def run_executable(args: argparse.Namespace) -> int:
     """Run an executable of an installed package."""
-    from wsbuild.verbs.load import workspace_root
+    from wsbuild.verbs.load import workspace_root  # lazy: off Tab completion and `--help`
 
     root = workspace_root(args.workspace_dir)
     install_base = root / (args.install_base or INSTALL_BASE)
@@ -179,7 +179,7 @@ def _needs_workspace_environment(environ: Mapping[str, str], prefix: Path,
 
 def _workspace_environment(install_base: Path, environ: dict[str, str]) -> dict[str, str]:
     """What `source install/setup.sh` would give, computed without a shell."""
-    from wsbuild.prefix import environment_for, installed_order
+    from wsbuild.prefix import environment_for, installed_order  # lazy: off Tab completion
 
     merged = _is_merged(install_base)
     pairs = [(install_base if merged else install_base / name, name)

@@ -32,10 +32,11 @@ def add_report_arguments(parser: argparse.ArgumentParser) -> None:
 
 def run_report(args: argparse.Namespace) -> int:
     """Print an earlier run's summary and the path of its (rewritten) report."""
-    from wsbuild.runreport.model import NoReport, load_run, summary_lines
-    from wsbuild.runreport.page import render_page
-    from wsbuild.runreport.report_json import REPORT_HTML
-    from wsbuild.verbs.load import workspace_root
+    from wsbuild.runreport.model import (
+        NoReport, load_run, summary_lines)  # lazy: off Tab completion
+    from wsbuild.runreport.page import render_page  # lazy: off Tab completion and `--help`
+    from wsbuild.runreport.report_json import REPORT_HTML  # lazy: off Tab completion and `--help`
+    from wsbuild.verbs.load import workspace_root  # lazy: off Tab completion and `--help`
 
     log_base = workspace_root(args.workspace_dir) / args.log_base
     run_dir = log_base / args.run

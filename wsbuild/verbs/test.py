@@ -10,8 +10,10 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+from wsbuild.build_types import get_build_type
 from wsbuild.errors import Interrupted, WorkspaceError, WsbuildError
-from wsbuild.reporter import print_warnings
+from wsbuild.events import Notice, Summary
+from wsbuild.reporter import Reporter, print_notes, print_warnings
 from wsbuild.verbs.arguments import (
     add_base_arguments,
     add_env_ignore_argument,
@@ -20,11 +22,12 @@ from wsbuild.verbs.arguments import (
     add_workspace_option,
     secondary,
 )
+from wsbuild.verbs.colcon import console_from_args
 from wsbuild.workspace.root import BUILD_BASE
 
 if TYPE_CHECKING:  # the modules of the work are imported when the verb runs, not to parse
     from wsbuild.builder.shards.split import ShardSpec
-    from wsbuild.reporter import Console, Reporter
+    from wsbuild.reporter import Console
     from wsbuild.workspace.selection import Selection
     from wsbuild.testing.request import TestRequest
     from wsbuild.verbs.load import Loaded, LoadRequest
@@ -122,8 +125,8 @@ def add_result_arguments(parser: argparse.ArgumentParser) -> None:
 
 def request_from_args(args: argparse.Namespace, root: Path) -> TestRequest:
     """Validate the options of `wsbuild test`; relative paths are relative to the workspace."""
-    from wsbuild.builder.request import cpu_count
-    from wsbuild.testing.request import TestRequest
+    from wsbuild.builder.request import cpu_count  # lazy: off `test-result` and Tab completion
+    from wsbuild.testing.request import TestRequest  # lazy: off `test-result` and Tab completion
 
     workers = args.parallel_workers
     workers = cpu_count() if workers is None else workers
@@ -182,15 +185,16 @@ class TestVerbRequest:
 
 
 def test_verb_request_from_args(args: argparse.Namespace) -> TestVerbRequest:
-    from wsbuild.verbs.cache_selection import cache_selection_from_args
-    from wsbuild.verbs.colcon import console_from_args
-    from wsbuild.verbs.load import load_request_from_args, workspace_root
-    from wsbuild.verbs.metas import metadata_from_args
+    from wsbuild.verbs.cache_selection import cache_selection_from_args  # lazy: off `test-result`
+    from wsbuild.verbs.load import (
+        load_request_from_args, workspace_root)  # lazy: off Tab completion
+    from wsbuild.verbs.metas import metadata_from_args  # lazy: off `test-result`
 
     test = request_from_args(args, workspace_root(args.workspace_dir))
     shard = None
     if args.shard is not None:
-        from wsbuild.builder.shards.split import parse_shard, shard_run_id
+        from wsbuild.builder.shards.split import (
+            parse_shard, shard_run_id)  # lazy: off `test-result`
 
         shard = parse_shard(args.shard, run=shard_run_id(os.environ))
     return TestVerbRequest(
@@ -201,15 +205,12 @@ def test_verb_request_from_args(args: argparse.Namespace) -> TestVerbRequest:
 
 def run_test_verb(args: argparse.Namespace) -> int:
     """Run the tests of the selected packages; 1 when any test fails or errors."""
-    from wsbuild.events import Notice, Summary
-    from wsbuild.reporter import Reporter
-    from wsbuild.runreport.write import progress_of
-    from wsbuild.testing.results import summary_lines
-    from wsbuild.testing.test_run import run_tests
-    from wsbuild.reporter import print_notes
-    from wsbuild.verbs import metas
-    from wsbuild.verbs.load import load
-    from wsbuild.workspace.selection import Selection
+    from wsbuild.runreport.write import progress_of  # lazy: off `test-result` and Tab completion
+    from wsbuild.testing.results import summary_lines  # lazy: off `test-result` and Tab completion
+    from wsbuild.testing.test_run import run_tests  # lazy: off `test-result` and Tab completion
+    from wsbuild.verbs import metas  # lazy: off `test-result`
+    from wsbuild.verbs.load import load  # lazy: off Tab completion and `--help`
+    from wsbuild.workspace.selection import Selection  # lazy: off Tab completion and `--help`
 
     verb = test_verb_request_from_args(args)
     loaded = load(verb.load, warn=print_warnings, need_packages=True)
@@ -220,16 +221,16 @@ def run_test_verb(args: argparse.Namespace) -> int:
     selection = Selection(loaded.workspace, loaded.packages, loaded.graph, loaded.selected)
     shard_run = ""
     if verb.shard is not None:  # the packages `build --shard` built here
-        from wsbuild.builder.shards.cover import run_of
-        from wsbuild.builder.shards.run import test_selection
-        from wsbuild.cache.settings import settings_from_environment
+        from wsbuild.builder.shards.cover import run_of  # lazy: off `test-result` and `test`
+        from wsbuild.builder.shards.run import test_selection  # lazy: off `test-result` and `test`
+        from wsbuild.cache.settings import settings_from_environment  # lazy: off `test-result`
 
         shard_run = run_of(selection, verb.shard.run)
         selection, line = test_selection(selection, verb.shard, request.workers,
                                          settings_from_environment(os.environ))
         print_notes([line])
     if verb.dry_run:
-        from wsbuild.testing.test_run import test_plan, test_plan_lines
+        from wsbuild.testing.test_run import test_plan, test_plan_lines  # lazy: off `test-result`
 
         print("\n".join(test_plan_lines(test_plan(selection, request))))
         return 0
@@ -259,8 +260,8 @@ def run_test_verb(args: argparse.Namespace) -> int:
 
 
 def _note_tested(shard: ShardSpec, run: str, selection: Selection) -> None:
-    from wsbuild.builder.shards.cover import note_tested
-    from wsbuild.cache.settings import settings_from_environment
+    from wsbuild.builder.shards.cover import note_tested  # lazy: off `test-result` and `test`
+    from wsbuild.cache.settings import settings_from_environment  # lazy: off `test-result`
 
     settings = settings_from_environment(os.environ)
     problems = note_tested(settings if settings.enabled else None, run, shard.count,
@@ -272,7 +273,7 @@ def _note_tested(shard: ShardSpec, run: str, selection: Selection) -> None:
 def _changed_since_built(selection: Selection, build_first: bool) -> list[str]:
     """The selected packages whose sources changed since they were built: with --build, to
     build first; else one line each saying so (their tests run what was built)."""
-    from wsbuild.builder.changed_since import sources_changed
+    from wsbuild.builder.changed_since import sources_changed  # lazy: off `test-result`
 
     changed = sources_changed(selection, selection.selected)
     if build_first:
@@ -288,11 +289,11 @@ def _build_changed(selection: Selection, names: list[str], request: TestRequest,
     """--build: the changed packages built as they were last built (their records' options)."""
     import json
 
-    from wsbuild.builder.pipeline import run_build
-    from wsbuild.builder.request import BuildRequest, RunOptions, options_of_record
-    from wsbuild.events import Notice
-    from wsbuild.record.model import read_record
-    from wsbuild.workspace.selection import Selection as Selected
+    from wsbuild.builder.pipeline import run_build  # lazy: off `test-result` and Tab completion
+    from wsbuild.builder.request import (
+        BuildRequest, RunOptions, options_of_record)  # lazy: off `test-result`
+    from wsbuild.record.model import read_record  # lazy: off `test-result`
+    from wsbuild.workspace.selection import Selection as Selected  # lazy: off Tab completion
 
     groups: dict[str, list[str]] = {}
     for name in names:
@@ -315,12 +316,11 @@ def _build_test_trees(selection: Selection, request: TestRequest, reporter: Repo
     built first (configure, build, install), with the options their records hold."""
     import json
 
-    from wsbuild.build_types import get_build_type
-    from wsbuild.builder.pipeline import run_build
-    from wsbuild.builder.request import BuildRequest, RunOptions, options_of_record
-    from wsbuild.events import Notice
-    from wsbuild.record.model import read_record
-    from wsbuild.workspace.selection import Selection
+    from wsbuild.builder.pipeline import run_build  # lazy: off `test-result` and Tab completion
+    from wsbuild.builder.request import (
+        BuildRequest, RunOptions, options_of_record)  # lazy: off `test-result`
+    from wsbuild.record.model import read_record  # lazy: off `test-result`
+    from wsbuild.workspace.selection import Selection  # lazy: off Tab completion and `--help`
 
     groups: dict[str, list[str]] = {}
     for name in selection.selected:
@@ -346,10 +346,11 @@ def _build_test_trees(selection: Selection, request: TestRequest, reporter: Repo
 def _missing_ros_pytest(loaded: Loaded, python_executable: str) -> str:
     """One line when a selected package has pytest tests and the pytest the distro's plugins
     need is not where `wsbuild test` looks ("" otherwise)."""
-    from wsbuild.build_types import get_build_type
-    from wsbuild.build_types.pybuild.tests import PYTEST
-    from wsbuild.testing.pytest_env import ROS_PYTEST_VERSION, install_hint
-    from wsbuild.build_types.ros_pytest import ros_pytest_dir, ros_pytest_installed
+    from wsbuild.build_types.pybuild.tests import PYTEST  # lazy: off `test-result`
+    from wsbuild.testing.pytest_env import (
+        ROS_PYTEST_VERSION, install_hint)  # lazy: off `test-result`
+    from wsbuild.build_types.ros_pytest import (
+        ros_pytest_dir, ros_pytest_installed)  # lazy: off `test-result`
 
     if ros_pytest_installed(python_executable) or not any(
             get_build_type(loaded.packages[n].build_type).test_runner is PYTEST
@@ -362,8 +363,8 @@ def _missing_ros_pytest(loaded: Loaded, python_executable: str) -> str:
 
 def run_test_result_verb(args: argparse.Namespace) -> int:
     """Show the results of earlier test runs (wsbuild's or colcon's); 1 when any failed."""
-    from wsbuild.testing.junit import collect_results, report_lines
-    from wsbuild.verbs.load import workspace_root
+    from wsbuild.testing.junit import collect_results, report_lines  # lazy: off Tab completion
+    from wsbuild.verbs.load import workspace_root  # lazy: off Tab completion and `--help`
 
     root = workspace_root(args.workspace_dir)
     base = root / (getattr(args, "test_result_base", None) or getattr(args, "build_base", None)
@@ -385,7 +386,7 @@ def run_test_result_verb(args: argparse.Namespace) -> int:
 
 def _delete_results(paths: list[Path], *, ask: bool) -> int:
     """colcon test-result --delete (asks first) / --delete-yes: remove the result files."""
-    from wsbuild.verbs.clean import deletion_confirmed
+    from wsbuild.verbs.clean import deletion_confirmed  # lazy: off `test-result` and `test`
 
     if not paths:
         print("no result files to delete")

@@ -7,6 +7,7 @@ import os
 import sys
 
 from wsbuild.errors import UnderlayError
+from wsbuild.words import plural
 
 UNDERLAY_DOC = """Check or repair a ROS 2 underlay installed from PyPI wheels into the virtualenv.
 
@@ -30,7 +31,7 @@ def add_check_arguments(check: argparse.ArgumentParser) -> None:
 
 
 def _venv() -> "os.PathLike[str]":
-    from wsbuild.underlay.detect import find_venv_underlay
+    from wsbuild.underlay.detect import find_venv_underlay  # lazy: off Tab completion and `--help`
 
     venv = find_venv_underlay(os.environ, sys.executable)
     if venv is None:
@@ -44,9 +45,8 @@ def _venv() -> "os.PathLike[str]":
 def run_check(args: argparse.Namespace) -> int:
     """Report what `repair` would change, and ROS packages the wheels forgot to depend on:
     a summary, or every line with --verbose. Exit 0: nothing to do; NEEDS_WORK otherwise."""
-    from wsbuild.underlay.missing import missing_packages
-    from wsbuild.underlay.repair import scan_underlay
-    from wsbuild.words import plural
+    from wsbuild.underlay.missing import missing_packages  # lazy: off Tab completion and `--help`
+    from wsbuild.underlay.repair import scan_underlay  # lazy: off Tab completion and `--help`
 
     venv = _venv()
     problems = scan_underlay(venv, use_cache=False)
@@ -80,7 +80,7 @@ def run_check(args: argparse.Namespace) -> int:
 
 def run_repair(args: argparse.Namespace) -> int:
     """Rewrite the wheels' broken CMake files inside the virtualenv (idempotent)."""
-    from wsbuild.underlay.repair import repair_underlay
+    from wsbuild.underlay.repair import repair_underlay  # lazy: off Tab completion and `--help`
 
     venv = _venv()
     changed = repair_underlay(venv)

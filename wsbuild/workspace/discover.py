@@ -150,7 +150,7 @@ def identify_package(
         if remembered is not None and remembered[0].build_type in known_build_types:
             warnings.extend(remembered[1])
             return remembered[0]
-        from wsbuild.workspace.manifest import parse_manifest
+        from wsbuild.workspace.manifest import parse_manifest  # lazy: off the full no-op build
 
         own: list[str] = []
         package = parse_manifest(

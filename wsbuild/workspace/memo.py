@@ -14,6 +14,7 @@ from pathlib import Path
 
 from wsbuild.workspace.model import Dependency, DepKind, Package, Person, VersionConstraint
 from wsbuild import inputs
+from wsbuild.files import atomic_write, private_directory
 
 #: bump when the remembered form of a package changes
 FORMAT = 2
@@ -74,7 +75,6 @@ class ManifestMemo:
         """Best effort, and only when something changed (a no-op writes nothing)."""
         if self.path is None or self._seen == self._known:
             return
-        from wsbuild.files import atomic_write, private_directory
 
         try:
             private_directory(self.path.parent)

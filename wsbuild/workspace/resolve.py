@@ -31,6 +31,8 @@ from pathlib import Path
 
 from wsbuild.workspace.model import DepKind, Package, Resolution, ResolvedDependency
 from wsbuild import inputs
+from wsbuild.signature import stat_signature
+from wsbuild.files import atomic_write, private_directory
 
 #: rosdep keys whose Python module name is not the key minus "python3-"
 _PYTHON_MODULES = {
@@ -319,8 +321,6 @@ def _pkg_config_default_path(tool: str, memo: Path | None, *, write: bool = True
             return entry[-1]
     found = _ask_pkg_config_default_path(tool)
     if memo is not None and write:
-        from wsbuild.files import atomic_write, private_directory
-
         try:
             private_directory(memo.parent)
             atomic_write(memo, json.dumps({**known, tool: [*signature, found]}, sort_keys=True))
@@ -345,8 +345,6 @@ def _ask_pkg_config_default_path(tool: str) -> str:
 
 def _mtime(directory: str) -> list[int]:
     """A directory's stat signature (0s when it does not exist)."""
-    from wsbuild.signature import stat_signature
-
     try:
         st = inputs.stat(directory)
     except OSError:

@@ -17,6 +17,8 @@ from collections.abc import Mapping, Sequence
 from pathlib import Path
 
 from wsbuild.build_types import PackageContext, BuildOptions, Command, Problems, StepFailed
+from wsbuild.build_types import get_build_type, package_context
+from wsbuild.workspace.model import Package
 from wsbuild.workspace.names import is_valid_dependency_name
 
 MODULE = "wsbuild.build_types.pybuild.by_hand"
@@ -85,9 +87,6 @@ def _context(values: Mapping[str, str], symlink: bool, warnings: list[str]) -> P
     into the prefix."""
     import os
 
-    from wsbuild.build_types import get_build_type, package_context
-    from wsbuild.workspace.model import Package
-
     source = Path(values["source"]).absolute()
     build = Path(values["build"]).absolute()
     prefix = Path(values["prefix"]).absolute()
@@ -104,8 +103,8 @@ def _context(values: Mapping[str, str], symlink: bool, warnings: list[str]) -> P
 
 def run_step(step: str, ctx: PackageContext) -> None:
     """One step of the recipe, into `ctx.stage_prefix`."""
-    from wsbuild.build_types.pybuild import recipe
-    from wsbuild.build_types.pybuild.index import register
+    from wsbuild.build_types.pybuild import recipe  # lazy: off `build --dry-run`
+    from wsbuild.build_types.pybuild.index import register  # lazy: off `build --dry-run`
 
     if step == "configure":
         recipe.configure(ctx)
@@ -128,7 +127,8 @@ def main(argv: Sequence[str]) -> int:
         sys.stderr.write("".join(f"warning: {w}\n" for w in warnings) + f"error: {exc}\n")
         return 1
     finally:
-        from wsbuild.build_types.pybuild.setup_py import shutdown_helpers
+        from wsbuild.build_types.pybuild.setup_py import (
+            shutdown_helpers)  # lazy: off `build --dry-run`
 
         shutdown_helpers()
     sys.stderr.write("".join(f"warning: {w}\n" for w in warnings))

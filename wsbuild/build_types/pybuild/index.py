@@ -7,15 +7,14 @@ from __future__ import annotations
 from pathlib import PurePosixPath
 
 from wsbuild.build_types import PackageContext, StepFailed
+from wsbuild.build_types.pybuild.install import StageWriter
+from wsbuild.build_types.pybuild.recipe import origin_file
 
 INDEX_DIR = PurePosixPath("share/ament_index/resource_index/packages")
 
 
 def register(ctx: PackageContext) -> None:
     """Install the ament index marker and package.xml if setup.py did not."""
-    from wsbuild.build_types.pybuild.install import StageWriter
-    from wsbuild.build_types.pybuild.recipe import origin_file
-
     name = ctx.package.name
     writer = StageWriter(ctx.stage_prefix)
     origin = origin_file(ctx.source_dir).name

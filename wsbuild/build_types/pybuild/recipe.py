@@ -177,7 +177,8 @@ def _install_built_wheel(ctx: PackageContext, plan: PythonBuildPlan, target: Ins
                          origin: Path) -> list[Path]:
     from installer.utils import parse_wheel_filename
 
-    from wsbuild.build_types.pybuild.pep517 import build_wheel
+    from wsbuild.build_types.pybuild.pep517 import (
+        build_wheel)  # lazy: off builds with no wheel to make
 
     # a plan learnt from setup.py knows whether setup_requires is set
     known = plan.setup is not None and bool(plan.setup.name) \

@@ -37,7 +37,7 @@ class PytestRunner(TestRunnerBase):
         return frozenset({"pytest.exit_code", "pytest.missing_result", "pytest.result"})
 
     def environment(self, env: Mapping[str, str], python_executable: str) -> dict[str, str]:
-        from wsbuild.build_types.ros_pytest import with_ros_pytest
+        from wsbuild.build_types.ros_pytest import with_ros_pytest  # lazy: off a Python-only build
 
         return with_ros_pytest(env, python_executable)
 

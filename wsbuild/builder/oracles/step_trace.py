@@ -28,6 +28,7 @@ from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from wsbuild.files import private_directory
 from wsbuild.record.model import PackageRecord
 
 #: the environment variable naming the oracle's file
@@ -148,7 +149,6 @@ class StepTraces:
         directory; the observer's library loaded into the traced program, not into strace)."""
         if self.file is None:
             return argv, env
-        from wsbuild.files import private_directory
 
         directory = private_directory(build_dir / ".wsbuild" / "trace")
         output = directory / f"{len(self.traces) + 1:02d}-{step or 'step'}.strace"

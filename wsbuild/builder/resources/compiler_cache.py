@@ -48,6 +48,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from wsbuild.errors import WsbuildError
+from wsbuild.files import user_cache_dir
 from wsbuild.words import plural
 
 CHOICES = ("auto", "sccache", "ccache", "none")
@@ -276,7 +277,6 @@ def _storage(tool: str, executable: Path, environ: Mapping[str, str]) -> tuple[P
         return (Path(found),) if done.returncode == 0 and found.startswith("/") else ()
     if environ.get("SCCACHE_DIR"):
         return (Path(environ["SCCACHE_DIR"]),)
-    from wsbuild.files import user_cache_dir
 
     return (user_cache_dir(environ, "sccache"),)
 

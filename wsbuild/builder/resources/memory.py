@@ -51,8 +51,8 @@ def open_governor(limit: MemoryLimit, restoring: Sequence[str], build_base: Path
     budget = budget_of(limit)
     if budget is None:
         return None
-    from wsbuild.engine.memory import MemoryGovernor
-    from wsbuild.engine.memory_records import read_memory
+    from wsbuild.engine.memory import MemoryGovernor  # lazy: off the full no-op build
+    from wsbuild.engine.memory_records import read_memory  # lazy: off the full no-op build
 
     predictions = {**(shared or {}), **read_memory(build_base)}
     return MemoryGovernor(budget, jobserver, predictions, warn=warn, light=list(restoring),
@@ -65,7 +65,7 @@ def finish_memory(governor: MemoryGovernor | None, build_base: Path,
     needed in the run."""
     if governor is None:
         return None
-    from wsbuild.engine.memory_records import record_memory
+    from wsbuild.engine.memory_records import record_memory  # lazy: off the full no-op build
 
     use = governor.stop()
     built = set(building)
@@ -86,7 +86,7 @@ def shared_memory(documents: SharedDocuments | None) -> dict[str, PackageMemoryR
     """What the jobs of a CI matrix recorded each package to need (empty: none yet)."""
     if documents is None:
         return {}
-    from wsbuild.engine.memory_records import records_from_json
+    from wsbuild.engine.memory_records import records_from_json  # lazy: off the full no-op build
 
     value = documents.get(MEMORY_DOCUMENT)
     return records_from_json(value.get("memory")) if value is not None else {}
@@ -96,8 +96,8 @@ def publish_memory(settings: CacheSettings | None, names: Collection[str],
                    build_base: Path) -> list[str]:
     """Merge what the packages `names` (built here) needed, as this workspace recorded it,
     into the server's shared document. Returns what could not be done."""
-    from wsbuild.cache.documents import SharedDocuments
-    from wsbuild.engine.memory_records import merged, read_memory
+    from wsbuild.cache.documents import SharedDocuments  # lazy: off the full no-op build
+    from wsbuild.engine.memory_records import merged, read_memory  # lazy: off the full no-op build
 
     local = read_memory(build_base)
     ours = {name: local[name] for name in names if name in local}

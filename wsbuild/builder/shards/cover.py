@@ -20,12 +20,14 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from wsbuild.builder.shards.split import digest
+from wsbuild.cache.documents import SharedDocuments
 from wsbuild.errors import BuildFailed
+from wsbuild.record.model import read_record
+from wsbuild.record.own_files import own_files
 from wsbuild.words import plural
 
 if TYPE_CHECKING:
     from wsbuild.builder.shards.split import Assembly
-    from wsbuild.cache.documents import SharedDocuments
     from wsbuild.cache.settings import CacheSettings
     from wsbuild.workspace.selection import Selection
 
@@ -53,9 +55,6 @@ def workspace_digest(selection: Selection) -> str:
     """The selected packages, their dependencies among them and their files' contents: what
     every job that checked out one commit shares. A package's record spares hashing the
     files whose stat signature it already holds."""
-    from wsbuild.record.model import read_record
-    from wsbuild.record.own_files import own_files
-
     ws = selection.workspace
     outputs = tuple(str(base) for base in (ws.build_base, ws.install_base, ws.log_base))
     selected = set(selection.selected)
@@ -98,8 +97,6 @@ def note_tested(settings: CacheSettings | None, run: str, count: int, index: int
                 tested: Sequence[str], scratch: Path) -> list[str]:
     """Write which packages shard `index` tested, for the assembling job. Returns what could
     not be written."""
-    from wsbuild.cache.documents import SharedDocuments
-
     documents = SharedDocuments.open(settings)
     if documents is None:
         return []
@@ -117,8 +114,6 @@ def check_assembly(building: Sequence[str], selection: Selection, assembly: Asse
     (`building`: the plan would build them, with no entry this job can restore, nor an
     install here) or tested (no shard's note names them). Returns the lines to say when all
     is covered."""
-    from wsbuild.cache.documents import SharedDocuments
-
     count, run = assembly.count, run_of(selection, assembly.run)
     unbuilt = sorted(building)
     tested: set[str] = set()

@@ -34,6 +34,7 @@ from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+from wsbuild import inputs
 from wsbuild.builder.shards.cover import TIMES, run_of, run_times, shared_times
 from wsbuild.builder.shards.split import (
     ShardSpec,
@@ -42,19 +43,21 @@ from wsbuild.builder.shards.split import (
     graph_digest,
     split_packages,
 )
+from wsbuild.cache.documents import SharedDocuments
 from wsbuild.engine.jobs import JobResult, Outcome
 from wsbuild.engine.logs import append_command_log
 from wsbuild.engine.ready_queue import JobGraph
+from wsbuild.engine.timings import read_durations
 from wsbuild.events import Emit, Notice
+from wsbuild.files import atomic_write
 from wsbuild.words import plural
+from wsbuild.workspace.selection import Selection
 
 if TYPE_CHECKING:
     from wsbuild.builder.plan import BuildPlan, PackagePlan
-    from wsbuild.cache.documents import SharedDocuments
     from wsbuild.cache.settings import CacheSettings
     from wsbuild.engine.memory_records import PackageMemoryRecord
     from wsbuild.session import Session
-    from wsbuild.workspace.selection import Selection
 
 #: under the build base: the split this workspace's last `build --shard` ran (`test --shard`
 #: tests the same packages)
@@ -117,7 +120,6 @@ def recorded_times(documents: SharedDocuments | None, build_base: Path, run: str
             else shared_times(documents)
         if times is not None:
             return times
-    from wsbuild.engine.timings import read_durations
 
     return read_durations(build_base)
 
@@ -126,7 +128,7 @@ def split_of(selection: Selection, count: int, workers: int,
              documents: SharedDocuments | None, run: str = "", *, fix: bool = False) -> Split:
     """The split of the selection into `count` shards of `workers` workers, balanced on the
     recorded times (`recorded_times`: those fixed for `run` when there is a server)."""
-    from wsbuild.builder.weights import estimate_seconds
+    from wsbuild.builder.weights import estimate_seconds  # lazy: off `test --shard`
 
     jobs = selection_jobs(selection)
     times = recorded_times(documents, selection.workspace.build_base, run, fix=fix)
@@ -150,10 +152,7 @@ def shard_selection(selection: Selection, spec: ShardSpec, workers: int,
                     session: Session) -> tuple[Selection, ShardPlan]:
     """This shard's selection (its packages and those of other shards they need) and its
     part of the plan."""
-    from wsbuild.cache.documents import SharedDocuments
-    from wsbuild.workspace.selection import Selection as Selected
-
-    from wsbuild.builder.resources.memory import shared_memory
+    from wsbuild.builder.resources.memory import shared_memory  # lazy: off `test --shard`
 
     spec = replace(spec, run=run_of(selection, spec.run))
     documents = SharedDocuments.open(session.cache.settings)
@@ -178,7 +177,7 @@ def shard_selection(selection: Selection, spec: ShardSpec, workers: int,
     notices.insert(0, (_plan_line(spec, split, own, waits), False))
     shard = ShardPlan(spec, split, own, waits, split.priorities(needed), workspace,
                       frozenset(strangers), tuple(notices), memory=memory)
-    return Selected(selection.workspace, selection.packages, selection.graph,
+    return Selection(selection.workspace, selection.packages, selection.graph,
                     list(needed)), shard
 
 
@@ -252,9 +251,6 @@ def announce(shard: ShardPlan, packages: Sequence[PackagePlan], session: Session
     """Write what this shard planned: its note for the run's other shards (when the run is
     known) and the split for `test --shard` (build/.wsbuild/shard.json). Returns what could
     not be written."""
-    from wsbuild.cache.documents import SharedDocuments
-    from wsbuild.files import atomic_write
-
     spec, split = shard.spec, shard.split
     body = {"run": spec.run, "shard": spec.index, "shards": spec.count,
             "workers": split.workers, "workspace": shard.workspace, "split": split.digest,
@@ -290,7 +286,7 @@ def finish(plan: BuildPlan, shard: ShardPlan, results: Sequence[JobResult], sess
            emit: Emit) -> tuple[str, ...]:
     """After the packages: the times of what the shard built into the shared document, and
     the summary's line on what it waited for."""
-    from wsbuild.builder.resources.memory import publish_memory
+    from wsbuild.builder.resources.memory import publish_memory  # lazy: off `test --shard`
 
     times = built_times(shard, {p.name: p for p in plan.packages}, results)
     for problem in publish_times(session.cache.settings, times,
@@ -328,8 +324,6 @@ class _Peers:
         return ""
 
     def _note(self, peer: int) -> Mapping[str, object] | None:
-        from wsbuild.cache.documents import SharedDocuments
-
         with self.lock:
             if peer in self.notes:
                 return self.notes[peer]
@@ -354,7 +348,7 @@ def with_waits(plan: BuildPlan, shard: ShardPlan) -> BuildPlan:
     """The plan of a shard: each package it would build that another shard builds (and whose
     entry the plan did not find) is waited for first (`PackagePlan.wait`), as `--dry-run`
     says."""
-    from wsbuild.builder.plan import Decision, ShardWait
+    from wsbuild.builder.plan import Decision, ShardWait  # lazy: off `plan`
 
     count = shard.spec.count
     return replace(plan, packages=tuple(
@@ -387,9 +381,9 @@ def shard_jobs(shard: ShardPlan, planned: Mapping[str, PackagePlan],
 def _wait_then_build(shard: ShardPlan, planned: PackagePlan,
                      build: Callable[[PackagePlan], JobResult], session: Session, emit: Emit,
                      until: float, peers: _Peers) -> JobResult:
-    from wsbuild.builder.plan import Decision
-    from wsbuild.builder.records import dependency_keys
-    from wsbuild.cache.waiting import wait_for_entry
+    from wsbuild.builder.plan import Decision  # lazy: off `plan`
+    from wsbuild.builder.records import dependency_keys  # lazy: off `test --shard` and `plan`
+    from wsbuild.cache.waiting import wait_for_entry  # lazy: off `build --shard` and `test --shard`
 
     name = planned.name
     assert planned.cache_key is not None
@@ -446,7 +440,7 @@ def built_times(shard: ShardPlan, planned: Mapping[str, PackagePlan],
                 results: Sequence[JobResult]) -> dict[str, float]:
     """The build times of the packages this shard built (not restored): its own packages
     the plan built, and those of other shards it built after their wait."""
-    from wsbuild.builder.plan import Decision
+    from wsbuild.builder.plan import Decision  # lazy: off `plan`
 
     times = {}
     own = set(shard.own)
@@ -465,8 +459,6 @@ def publish_times(settings: CacheSettings | None, times: Mapping[str, float],
                   scratch: Path) -> list[str]:
     """Merge `times` into the server's shared document; once more when another shard wrote
     it meanwhile and ours are not in it. Returns what could not be done."""
-    from wsbuild.cache.documents import SharedDocuments
-
     documents = SharedDocuments.open(settings)
     if documents is None or not times:
         return []
@@ -495,10 +487,6 @@ def test_selection(selection: Selection, spec: ShardSpec, workers: int,
     """`test --shard K/N`: shard K's packages of the split the last `build --shard` here ran
     (build/.wsbuild/shard.json), when it is of this selection and N; else of the split that
     build would make. Returns the selection and a line saying which."""
-    from wsbuild import inputs
-    from wsbuild.cache.documents import SharedDocuments
-    from wsbuild.workspace.selection import Selection as Selected
-
     jobs = selection_jobs(selection)
     assignment: Mapping[str, int] | None = None
     try:
@@ -522,4 +510,4 @@ def test_selection(selection: Selection, spec: ShardSpec, workers: int,
     own = [name for name in selection.selected if assignment.get(name) == spec.index]
     line = (f"shard {spec.label}: testing {plural(len(own), 'package')} of "
             f"{len(selection.selected)}, by {source}")
-    return Selected(selection.workspace, selection.packages, selection.graph, own), line
+    return Selection(selection.workspace, selection.packages, selection.graph, own), line
