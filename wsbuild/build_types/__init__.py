@@ -380,7 +380,7 @@ class RunnerNamed:
     def __get__(self, instance: object, owner: type | None = None) -> TestRunner | None:
         if instance is None:  # asked of the class (the entry-point check): import nothing
             return self  # type: ignore[return-value]
-        return _load_entry_point(self.target)  # type: ignore[return-value]
+        return load_value(self.target)  # type: ignore[return-value]
 
 
 @dataclass(frozen=True, slots=True)
@@ -459,7 +459,7 @@ def get_build_type(name: str) -> BuildType:
         return _loaded[name]
     if name in BUILTIN:
         value = BUILTIN_ENTRY_POINTS[name]
-        loaded = _load_entry_point(value)
+        loaded = load_value(value)
     else:
         matches = [ep for ep in _entry_points() if ep.name == name]
         if not matches:
@@ -468,22 +468,17 @@ def get_build_type(name: str) -> BuildType:
                 hint="known build types: " + ", ".join(known_build_types()),
             )
         value = matches[0].value
-        loaded = _load_entry_point(value)
+        loaded = load_value(value)
     build_type = _checked(loaded, name, value)
     _loaded[name] = build_type
     return build_type
-
-
-def _load_entry_point(value: str) -> object:
-    """What `module:attribute` names (build_types/plugins.py: `load_value`)."""
-    return load_value(value)
 
 
 def declared_options(*, plugins: bool) -> list[tuple[str, tuple[TypeOption, ...]]]:
     """(build type, the options it declares) of each type that declares some: the built-in
     ones, and (`plugins`) those of every installed third-party type (which scanning the
     installed distributions costs). An option two types declare must be declared alike."""
-    declared = [(name, tuple(_load_entry_point(value)))  # type: ignore[call-overload]
+    declared = [(name, tuple(load_value(value)))  # type: ignore[call-overload]
                 for name, value in BUILTIN_OPTIONS.items()]
     if plugins:
         for entry in sorted(_entry_points(), key=lambda ep: ep.name):

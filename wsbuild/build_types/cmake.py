@@ -39,11 +39,12 @@ from wsbuild.build_types.cmake_facts import (
     user_generator,
 )
 from wsbuild.build_types.cmake_actions import (
-    empty, forget_cache, forget_configure_record, remove_cache, write_configure_record)
+    empty, forget_cache, forget_configure_record, remove_cache)
 from wsbuild.build_types.staging import staged_install_steps
 from wsbuild.build_types.cmake_options import CMAKE_OPTIONS, CMakeOptions
 from wsbuild.prefix.hooks import EnvironmentHooks
-from wsbuild.record.configured import CONFIGURED_FILE, Configured, reconfigure_reason
+from wsbuild.record.configured import (CONFIGURED_FILE, Configured, reconfigure_reason,
+                                       write_configured)
 from wsbuild.record.dirty import Reason
 from wsbuild.record.environment import UNSET, variable_digests
 
@@ -361,7 +362,7 @@ class CMakeBuildType:
 
     def record_configure(self, ctx: PackageContext) -> None:
         """What the configure that just ran used: its arguments, its compilers' digests."""
-        write_configure_record(ctx, configured=self.configured(ctx))
+        write_configured(ctx.build_dir, self.configured(ctx))
 
     def install_mode_switched(self, ctx: PackageContext) -> str:
         """How the build directory was built, when it was for another install mode, whose

@@ -1,6 +1,6 @@
 """What the CMake build types' steps that run in wsbuild do (each a `Step(label, action)` of
 cmake.py's recipe, shown by `--dry-run`): drop a cache (with or without CMake's files) or
-empty a build directory, forget and keep what the last configure used (record/configured.py).
+empty a build directory, forget what the last configure used (record/configured.py).
 (Staging the install: build_types/staging.py.)"""
 
 from __future__ import annotations
@@ -10,7 +10,7 @@ import shutil
 from pathlib import Path
 
 from wsbuild.build_types import PackageContext
-from wsbuild.record.configured import Configured, forget_configured, write_configured
+from wsbuild.record.configured import forget_configured
 
 #: what stays when a build directory is emptied: wsbuild's own records and markers
 KEPT_IN_BUILD_DIRECTORY = frozenset({".wsbuild", "COLCON_IGNORE", "AMENT_IGNORE"})
@@ -46,7 +46,3 @@ def empty(ctx: PackageContext, *, why: str) -> None:
 
 def forget_configure_record(ctx: PackageContext) -> None:
     forget_configured(ctx.build_dir)
-
-
-def write_configure_record(ctx: PackageContext, *, configured: Configured) -> None:
-    write_configured(ctx.build_dir, configured)

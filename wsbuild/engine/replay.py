@@ -27,7 +27,7 @@ import time
 from pathlib import Path
 
 from wsbuild import __version__
-from wsbuild.record.environment import environment_digests, environment_reason
+from wsbuild.record.environment import blake2b, environment_digests, environment_reason
 from wsbuild.signature import stat_signature
 from wsbuild.terminal import is_per_tab
 
@@ -137,17 +137,7 @@ def _environ() -> dict[str, str]:
 
 
 def _digest(text: str) -> str:
-    return _blake2b(text.encode("utf-8", "surrogateescape"), digest_size=32).hexdigest()
-
-
-def _blake2b(*args: Any, **kwargs: Any) -> Any:
-    """hashlib's blake2b from CPython's built-in module: importing hashlib loads OpenSSL
-    first (3 ms of a replay), for a function it does not take from there."""
-    try:
-        from _blake2 import blake2b
-    except ImportError:  # another Python
-        from hashlib import blake2b
-    return blake2b(*args, **kwargs)
+    return blake2b(text.encode("utf-8", "surrogateescape"), digest_size=32).hexdigest()
 
 
 def recording_path(verb: str) -> Path:

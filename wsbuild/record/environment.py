@@ -29,11 +29,12 @@ from collections.abc import Callable, Collection, Iterable, Mapping
 from wsbuild.record.reason import Dirty, Reason
 
 # hashlib's blake2b from CPython's built-in module: importing hashlib loads OpenSSL first (3 ms
-# of a replay, which asks this module), for a function it does not take from there
+# of a replay, which digests with it here and in engine/replay.py), for a function it does not
+# take from there
 try:
-    from _blake2 import blake2b as _blake2b
+    from _blake2 import blake2b
 except ImportError:  # another Python
-    from hashlib import blake2b as _blake2b
+    from hashlib import blake2b
 
 #: variables no record holds, whoever reads them (names, or fnmatch patterns with `*`)
 NEVER_HELD: tuple[str, ...] = ("WSBUILD_*", "WSOBSERVE_*")
@@ -54,7 +55,7 @@ def matches(name: str, patterns: Iterable[str]) -> bool:
 
 
 def _digest(value: str) -> str:
-    return _blake2b(value.encode("utf-8", "surrogateescape"), digest_size=8).hexdigest()
+    return blake2b(value.encode("utf-8", "surrogateescape"), digest_size=8).hexdigest()
 
 
 def is_path_list(name: str) -> bool:
