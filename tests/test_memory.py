@@ -8,7 +8,7 @@ import sys
 import threading
 from pathlib import Path
 
-from wsbuild.engine.jobs import JobResult, JobStarted, Outcome
+from wsbuild.engine.jobs import JobResult, JobStarted, Outcome, StepStarted
 from wsbuild.engine.jobserver import Jobserver
 from wsbuild.engine.memory import PLENTIFUL_JOB, MemoryGovernor
 from wsbuild.engine.memory_budget import MemoryBudget
@@ -165,3 +165,32 @@ def test_steps_waiting_for_room_start_in_the_schedulers_order_and_never_wait_for
     finally:
         governor.stop()
         jobserver.close()
+
+
+def test_a_step_starts_with_only_the_tokens_its_need_allows_still_out() -> None:
+    """Tokens handed out while a package configured (its compiler checks are small jobs) must
+    not reach the make or Ninja of its next step, which needs more: when a step is admitted,
+    the tokens out come back to what it allows before its process can take them (the first
+    compile of a build never measured runs alone; one measured at 300 MiB leaves room for
+    none beside it here)."""
+    from wsbuild.engine.memory_records import PackageMemoryRecord, StepMemory
+
+    here = sum(p.rss for p in read_tree(os.getpid()).values())
+    compile_step = {"configure": StepMemory(20 * M, 5 * M, 1),
+                    "build": StepMemory(330 * M, 300 * M, 4)}
+    for records in ({}, {"a": PackageMemoryRecord(330 * M, compile_step)}):
+        jobserver = Jobserver(3)
+        governor = MemoryGovernor(MemoryBudget(here + 500 * M, 0, "test", 8 * 1024 * M),
+                                  jobserver, records, warn=lambda text: None,
+                                  read_free=lambda: None, interval=3600).start()
+        try:
+            governor.hear(JobStarted("a"))
+            governor.wait_for_step("a", "configure", governor.hear)
+            governor.hear(StepStarted("a", "configure"))
+            # what a tick hands out while the configure's checks leave room: both tokens
+            assert jobserver.release(2) == 2 and jobserver.circulating == 2
+            governor.wait_for_step("a", "build", governor.hear)
+            assert jobserver.circulating == 0, records
+        finally:
+            governor.stop()
+            jobserver.close()

@@ -227,10 +227,17 @@ class MemoryGovernor:
                     self._pending.pop(name, None)
                     if not need.known and need.job is None:
                         self._measuring[name] = label  # until one of its jobs is measured
+                    if name in self._measured:  # its step is this one from now on
+                        self._measured[name].label = label
+                        self._measured[name].step(label)
                 else:
                     self._pending[name] = need
             elif not verdict.start:
                 self._refused.setdefault(name, time.monotonic())
+        if label is not None and verdict.start:
+            # the tokens out were handed out for what ran before (a configure's small jobs):
+            # before this step's make or Ninja can take them, only what it allows stays out
+            self._balance_tokens()
         self._flush()
         return verdict.start
 
@@ -386,6 +393,13 @@ class MemoryGovernor:
                           "until it recovers")
             self._low = low
             self._learn(seen)
+        self._balance_tokens(dt)
+        self._flush()
+
+    def _balance_tokens(self, dt: float = 0.0) -> None:
+        """Hand out or take back tokens as what runs now allows (`dt`: the seconds since the
+        last tick, for the tokens held back)."""
+        with self._lock:
             state = self._state()
             capacity = self.jobserver.tokens - self.jobserver.withheld
             wanted = tokens_wanted(state, capacity)
@@ -396,7 +410,6 @@ class MemoryGovernor:
             self.jobserver.release(wanted - out)
         elif wanted < out:
             self.jobserver.reclaim(out - wanted)
-        self._flush()
 
     def _learn(self, seen: TreeSnapshot) -> None:
         """Each running package's peak, its step's, and its jobs' (a job gone has ended)."""
