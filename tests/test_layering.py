@@ -14,7 +14,7 @@ PACKAGE = Path(__file__).resolve().parent.parent / "wsbuild"
 #: rank of each room: a module may import from its own rank or a lower one
 RANKS: dict[str, int] = {
     "errors": 0, "files": 0, "words": 0, "substitution": 0, "inputs": 0, "signature": 0, "redaction": 0,
-    "terminal": 0,
+    "terminal": 0, "dataclass_code": 0,
     "engine": 1, "workspace": 1, "events": 1, "record": 1, "observe": 1,
     "build_types": 2, "prefix": 2, "underlay": 2, "cache": 2,
     "session": 3, "deps": 3,

@@ -16,7 +16,7 @@ from wsbuild import inputs
 from wsbuild.record.dirty import Environment, PackageNow, dirty_reason
 from wsbuild.record.environment import UNSET, changed_names, variable_digests
 from wsbuild.record.installed import damaged_install, installed_entries
-from wsbuild.record.model import PackageRecord, read_record, write_record
+from wsbuild.record.model import PackageRecord, PackedReadBy, read_record, write_record
 from wsbuild.record.outside import Digests, first_change, own_entries, take
 from wsbuild.record.own_files import LEFT_OUT, own_files
 
@@ -187,7 +187,8 @@ def test_a_plan_reads_the_records_from_one_memo_while_each_file_is_the_one_it_ho
     records = {}
     for name in ("a", "b"):
         pkg = _write(tmp_path / name / "CMakeLists.txt").parent
-        records[name] = _record(pkg, outside=take([str(header)], [], Digests()))
+        records[name] = _record(pkg, outside=take([str(header)], [], Digests()),
+                                read_by={str(header): "configure,build"})
         write_record(base / name, records[name])
     memo.save_memos()
     path = base / memo.MEMO_FILE
@@ -198,6 +199,10 @@ def test_a_plan_reads_the_records_from_one_memo_while_each_file_is_the_one_it_ho
         held = loaded.get(name, inputs.signature(base / name / ".wsbuild" / "record.json"))
         assert held is not None and held[1] == record.outside
         assert read_record(base / name) == record
+        # which steps read a path is unpacked only when asked (a package that changed)
+        read_by = read_record(base / name).read_by  # type: ignore[union-attr]
+        assert isinstance(read_by, PackedReadBy)
+        assert read_by[str(header)] == "configure,build" and list(read_by) == [str(header)]
     first, second = (loaded.get(n, inputs.signature(base / n / ".wsbuild" / "record.json"))
                      for n in ("a", "b"))
     assert first is not None and second is not None

@@ -54,7 +54,9 @@ def matches(name: str, patterns: Iterable[str]) -> bool:
     return _pattern(tuple(patterns)).match(name) is not None
 
 
+@functools.lru_cache(maxsize=1024)
 def _digest(value: str) -> str:
+    # (cached: a plan asks of the same values for every package)
     return blake2b(value.encode("utf-8", "surrogateescape"), digest_size=8).hexdigest()
 
 
@@ -80,6 +82,12 @@ def normalized(name: str, value: str, own: str) -> str | None:
 
 def held(name: str, ignored: Collection[str] = ()) -> bool:
     """Whether a record holds the variable `name` when a step reads it."""
+    return _held(name, ignored if type(ignored) is tuple else tuple(ignored))
+
+
+@functools.lru_cache(maxsize=4096)
+def _held(name: str, ignored: tuple[str, ...]) -> bool:
+    # (cached: a plan asks of the same names for every package)
     return not matches(name, (*NEVER_HELD, *ignored))
 
 

@@ -28,7 +28,7 @@ from wsbuild.record.outside import Looked, OutsideReads, Seen
 #: under the build base
 MEMO_FILE = Path(".wsbuild") / "records.memo"
 #: bumped whenever the memo's shape changes
-_VERSION = 1
+_VERSION = 2
 _new = tuple.__new__
 _KINDS = ("files", "listings", "searches", "probes")
 
@@ -81,6 +81,8 @@ class RecordsMemo:
             outside: OutsideReads) -> None:
         """Note the record read from (or just written to) the file with `signature`."""
         kept = {k: v for k, v in values.items() if k != "outside"}
+        if isinstance(kept.get("read_by"), dict):  # unpacked only when asked (PackedReadBy)
+            kept["read_by"] = marshal.dumps(kept["read_by"])
         kinds = tuple(tuple(getattr(outside, kind).items()) for kind in _KINDS)
         with _lock:
             self._records[package] = (signature, kept, kinds)

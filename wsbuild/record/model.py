@@ -158,6 +158,44 @@ def read_record(build_dir: Path) -> PackageRecord | None:
 _new = tuple.__new__
 
 
+class PackedReadBy(Mapping[str, str]):
+    """A record's `read_by` as the memo keeps it (record/memo.py: marshal data), unpacked at
+    first use: only a package whose inputs changed asks which steps read them, and a no-op
+    plan of many packages would otherwise unpack every record's paths."""
+
+    __slots__ = ("_packed", "_read_by")
+
+    def __init__(self, packed: bytes) -> None:
+        self._packed = packed
+        self._read_by: dict[str, str] | None = None
+
+    def _unpacked(self) -> dict[str, str]:
+        if self._read_by is None:
+            import marshal
+
+            value = marshal.loads(self._packed)
+            self._read_by = {str(k): str(v) for k, v in value.items()}
+        return self._read_by
+
+    def __getitem__(self, path: str) -> str:
+        return self._unpacked()[path]
+
+    def __iter__(self):  # type: ignore[no-untyped-def]
+        return iter(self._unpacked())
+
+    def __len__(self) -> int:
+        return len(self._unpacked())
+
+    def __repr__(self) -> str:
+        return repr(self._unpacked())
+
+
+def _read_by(value: object) -> Mapping[str, str]:
+    if type(value) is bytes:  # the memo's (its shape checked when unpacked)
+        return PackedReadBy(value)
+    return {str(k): str(v) for k, v in value.items()}  # type: ignore[attr-defined]
+
+
 def _seen(value: object) -> Seen:
     signature, digest = value  # type: ignore[misc]
     if type(digest) is not str:
@@ -241,7 +279,7 @@ def decode(data: object, *, sealed: bool = True,
             dependencies={str(k): str(v) for k, v in data["dependencies"].items()},
             dependency_inputs={str(k): str(v) for k, v in data["dependency_inputs"].items()},
             outside=outside if outside is not None else decode_outside(data["outside"]),
-            read_by={str(k): str(v) for k, v in data["read_by"].items()},
+            read_by=_read_by(data["read_by"]),
             installs_read=tuple(str(name) for name in data["installs_read"]),
             complete=bool(data["complete"]),
             unobserved=tuple(str(why) for why in data["unobserved"]),

@@ -131,6 +131,10 @@ class Digests:
         self._looked: dict[tuple[str, str, tuple[int, ...], tuple[str, ...]], str] = {}
         #: the signatures taken while planning
         self._signatures: dict[str, tuple[int, ...]] = {}
+        #: while planning, each path found with the signature a record holds, and that
+        #: record's entry: records read from the memo share their entries (record/memo.py), so
+        #: the next record holding the same entry is answered by its identity
+        self.unchanged: dict[str, object] = {}
         #: the signatures of the files whose time wsbuild itself set forward in this run
         self._advanced: dict[str, tuple[int, ...]] = {}
         #: the digests taken by earlier runs (record/file_digests.py), when the run keeps them
@@ -367,12 +371,18 @@ def changed_paths(reads: OutsideReads, digests: Digests, *, planning: bool = Fal
     """Every path whose content, entries, matching entries or probed names differ from
     `reads` (`first`: stop at the first); see `first_change`."""
     found: list[str] = []
+    # (planning: signatures are taken once, so an entry found unchanged stays so)
+    unchanged: dict[str, object] = digests.unchanged if planning else {}
     for kind, seen_paths in (("file", reads.files), ("listing", reads.listings)):
         for path, seen in seen_paths.items():
+            if unchanged.get(path) is seen:
+                continue
             if skip and (path + os.sep).startswith(skip):
                 continue
             signature = digests.signature(path, planning=planning)
             if signature == seen.signature and seen.digest != RACY_DIGEST:
+                if planning:
+                    unchanged[path] = seen
                 continue
             now = digests.listing(path, signature, own(path)) if kind == "listing" \
                 else digests.file(path, signature)
@@ -381,11 +391,16 @@ def changed_paths(reads: OutsideReads, digests: Digests, *, planning: bool = Fal
                 if first:
                     return found
     for kind, looked in (("search", reads.searches), ("probe", reads.probes)):
-        for path, (names, seen) in looked.items():
+        for path, entry in looked.items():
+            if unchanged.get(path) is entry:
+                continue
             if skip and (path + os.sep).startswith(skip):
                 continue
+            names, seen = entry
             signature = digests.signature(path, planning=planning)
             if signature == seen.signature and seen.digest != RACY_DIGEST:
+                if planning:
+                    unchanged[path] = entry
                 continue
             if digests.looked(kind, path, signature, names) != seen.digest:
                 found.append(path)
