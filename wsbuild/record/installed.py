@@ -50,22 +50,22 @@ def damaged_install(install_base: str, installed: Collection[Installed]) -> str 
     """The first installed path that is missing, changed, or a symlink that no longer points
     where it did or no longer resolves; None when all are as installed. A file whose lstat
     signature is unchanged is not read."""
-    for rel, signature, digest in installed:
-        path = os.path.join(install_base, rel)
-        try:
-            st = inputs.lstat(path)
-        except OSError:
+    entries = list(installed)
+    paths = [os.path.join(install_base, rel) for rel, _, _ in entries]
+    for (rel, signature, digest), path, seen in zip(
+            entries, paths, inputs.signatures(paths, follow_symlinks=False)):
+        if seen == inputs.ABSENT:
             return rel
         if digest.startswith(LINK):
-            if not modes.S_ISLNK(st.st_mode) or _target(path) != digest[len(LINK):] \
+            if not modes.S_ISLNK(seen[0]) or _target(path) != digest[len(LINK):] \
                     or not inputs.exists(path):
                 return rel
             continue
-        if _signature(st) == tuple(signature):
+        if seen == tuple(signature):
             continue
         try:
             inputs.declare_file(path)
-            if modes.S_ISLNK(st.st_mode) or content_digest(path) != digest:
+            if modes.S_ISLNK(seen[0]) or content_digest(path) != digest:
                 return rel
         except OSError:
             return rel
