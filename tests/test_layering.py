@@ -14,7 +14,7 @@ PACKAGE = Path(__file__).resolve().parent.parent / "wsbuild"
 #: rank of each room: a module may import from its own rank or a lower one
 RANKS: dict[str, int] = {
     "errors": 0, "files": 0, "words": 0, "substitution": 0, "inputs": 0, "signature": 0, "redaction": 0,
-    "terminal": 0, "dataclass_code": 0,
+    "terminal": 0, "dataclass_code": 0, "hashes": 0,
     "engine": 1, "workspace": 1, "events": 1, "record": 1, "observe": 1,
     "build_types": 2, "prefix": 2, "underlay": 2, "cache": 2,
     "session": 3, "deps": 3,
@@ -27,6 +27,8 @@ RANKS: dict[str, int] = {
 
 #: the only imports between different rooms of one rank (from room, to room), each for a reason
 SIDEWAYS: dict[tuple[str, str], str] = {
+    ("dataclass_code", "hashes"): "a method's source is known by its digest, with the hash "
+                                  "taken without loading OpenSSL",
     ("events", "engine"): "the job events are the engine's; events.py adds the run's own",
     ("build_types", "prefix"): "a build type stages into a prefix and names its hooks",
     ("cache", "prefix"): "a restore commits into install/ exactly as a build commits its stage",

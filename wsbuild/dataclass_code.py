@@ -26,10 +26,7 @@ import os
 import sys
 from types import CodeType
 
-try:  # the hash without OpenSSL's load (as record/environment.py takes it)
-    from _blake2 import blake2b
-except ImportError:  # another interpreter than CPython
-    from hashlib import blake2b
+from wsbuild.hashes import blake2b
 
 #: at most this many entries are kept (those this process used first): the file stays small
 #: while wsbuild changes under a developer

@@ -27,7 +27,8 @@ import time
 from pathlib import Path
 
 from wsbuild import __version__
-from wsbuild.record.environment import blake2b, environment_digests, environment_reason
+from wsbuild.hashes import blake2b
+from wsbuild.record.environment import environment_digests, environment_reason
 from wsbuild.signature import stat_signature
 from wsbuild.terminal import is_per_tab
 

@@ -9,7 +9,6 @@ each time (its record says why), never taken for up to date on trust."""
 
 from __future__ import annotations
 
-import hashlib
 import os
 import shutil
 import subprocess
@@ -19,6 +18,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from wsbuild.files import private_directory, user_cache_dir
+from wsbuild.hashes import blake2b
 
 #: the sources, beside this module
 SOURCE = Path(__file__).with_name("interposer.c")
@@ -75,7 +75,7 @@ def _build(cache_dir: Path, environ: Mapping[str, str]) -> Observer | str:
         return "no C compiler (cc, gcc or clang) to build the step observer with"
     try:
         info = os.stat(compiler)
-        digest = hashlib.blake2b(digest_size=12)
+        digest = blake2b(digest_size=12)
         digest.update(SOURCE.read_bytes())
         digest.update(HOOK.read_bytes())
         digest.update(f"{compiler}\0{info.st_size}\0{info.st_mtime_ns}\0{os.uname().machine}"

@@ -26,15 +26,9 @@ import os
 import re
 from collections.abc import Callable, Collection, Iterable, Mapping
 
+from wsbuild.hashes import blake2b
 from wsbuild.record.reason import Dirty, Reason
 
-# hashlib's blake2b from CPython's built-in module: importing hashlib loads OpenSSL first (3 ms
-# of a replay, which digests with it here and in engine/replay.py), for a function it does not
-# take from there
-try:
-    from _blake2 import blake2b
-except ImportError:  # another Python
-    from hashlib import blake2b
 
 #: variables no record holds, whoever reads them (names, or fnmatch patterns with `*`)
 NEVER_HELD: tuple[str, ...] = ("WSBUILD_*", "WSOBSERVE_*")

@@ -36,13 +36,13 @@ are private to the user (0700, 0600)."""
 
 from __future__ import annotations
 
-import hashlib
 import json
 from collections.abc import Mapping
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 from wsbuild import inputs
+from wsbuild.hashes import blake2b
 from wsbuild.files import atomic_write, private_directory
 from wsbuild.record.installed import Installed
 from wsbuild.record.outside import Looked, OutsideReads, Seen
@@ -59,7 +59,7 @@ PENDING = "pending:"
 
 def digest_of(value: object) -> str:
     """A digest of a JSON value (keys sorted)."""
-    return hashlib.blake2b(json.dumps(value, sort_keys=True).encode(), digest_size=16).hexdigest()
+    return blake2b(json.dumps(value, sort_keys=True).encode(), digest_size=16).hexdigest()
 
 
 @dataclass(frozen=True, slots=True)

@@ -14,7 +14,6 @@ compiler's headers, CMake's modules, setuptools), and each is read once per run.
 from __future__ import annotations
 
 import functools
-import hashlib
 import os
 import stat as modes
 import threading
@@ -24,6 +23,7 @@ from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, NamedTuple
 
 from wsbuild import inputs
+from wsbuild.hashes import blake2b
 from wsbuild.files import STAGE_DIR, TEMP_SUFFIX
 from wsbuild.record.own_files import content_digest
 
@@ -95,7 +95,7 @@ class OutsideReads:
 
     def digest(self) -> str:
         """One digest of every path with its content's (or entries') digest."""
-        total = hashlib.blake2b(digest_size=16)
+        total = blake2b(digest_size=16)
         for kind, seen in (("f", self.files), ("l", self.listings)):
             for path in sorted(seen):
                 total.update(f"{kind}\0{path}\0{seen[path].digest}\n"
@@ -226,7 +226,7 @@ def search_digest(path: str, patterns: Collection[str]) -> str:
     except OSError as exc:
         return f"unlistable:{exc.errno}"
     matcher = _matcher(tuple(sorted(patterns)))
-    total = hashlib.blake2b(digest_size=16)
+    total = blake2b(digest_size=16)
     for entry in sorted(entries, key=lambda e: e.name):
         if matcher(entry.name):
             total.update(f"{entry.name}\0{_kind(entry)}\n".encode("utf-8", "surrogateescape"))
@@ -276,7 +276,7 @@ def path_kind(path: str) -> str:
 
 def probe_digest(directory: str, names: Collection[str]) -> str:
     """The digest of what is at each of `names` in `directory` (path_kind)."""
-    total = hashlib.blake2b(digest_size=16)
+    total = blake2b(digest_size=16)
     base = directory.rstrip("/")
     for name in sorted(names):
         total.update(f"{name}\0{path_kind(f'{base}/{name}')}\n"
@@ -293,7 +293,7 @@ def listing_digest(path: str, own: Collection[str] = ()) -> str:
         return "not a directory"
     except OSError as exc:
         return f"unlistable:{exc.errno}"
-    total = hashlib.blake2b(digest_size=16)
+    total = blake2b(digest_size=16)
     for entry in sorted(entries, key=lambda e: e.name):
         # wsbuild's own passing entries (a stage, a file being replaced) are no one's input
         if entry.name in own or entry.name == STAGE_DIR or entry.name.endswith(TEMP_SUFFIX):

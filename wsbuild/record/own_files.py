@@ -16,7 +16,6 @@ too (a change to either shows)."""
 
 from __future__ import annotations
 
-import hashlib
 import os
 from collections.abc import Iterable, Iterator, Mapping
 from dataclasses import dataclass, field
@@ -24,6 +23,7 @@ from pathlib import Path
 from typing import NamedTuple
 
 from wsbuild import inputs
+from wsbuild.hashes import blake2b, sha256_stream
 
 #: names never part of a package's own files, at any depth (the one rule)
 LEFT_OUT = frozenset({".git", ".hg", ".svn", ".bzr", "CVS", "__pycache__", ".pytest_cache"})
@@ -129,7 +129,7 @@ def _signatures(root: Path, outputs: Iterable[str]) -> Iterator[tuple[str, os.st
 def content_digest(path: str) -> str:
     """A file's content digest (raises OSError): SHA-256, which CPUs compute in hardware
     (twice BLAKE2's speed where they do), cut to 128 bits."""
-    digest = hashlib.sha256()
+    digest = sha256_stream()
     with open(path, "rb") as handle:
         for chunk in iter(lambda: handle.read(1 << 20), b""):
             digest.update(chunk)
@@ -174,7 +174,7 @@ def own_files(root: Path, previous: Mapping[str, OwnFile], outputs: Iterable[str
 
 def files_digest(files: Mapping[str, OwnFile]) -> str:
     """One digest of the files' paths and contents."""
-    total = hashlib.blake2b(digest_size=16)
+    total = blake2b(digest_size=16)
     for rel in sorted(files):
         total.update(f"{rel}\0{files[rel].digest}\n".encode("utf-8", "surrogateescape"))
     return total.hexdigest()
@@ -186,7 +186,7 @@ def stat_digest(root: Path, outputs: Iterable[str] = (), extra: Iterable[Path] =
     found = [(rel, inputs.signature(entry.path) if entry is not None else ())
              for rel, entry in package_files(root, outputs)]
     found += [(str(path), inputs.signature(path)) for path in extra]
-    total = hashlib.blake2b(digest_size=16)
+    total = blake2b(digest_size=16)
     for rel, signature in sorted(found):
         total.update(f"{rel}\0{signature}\n".encode("utf-8", "surrogateescape"))
     return total.hexdigest()

@@ -30,7 +30,6 @@ installed is used as it is.
 
 from __future__ import annotations
 
-import hashlib
 import os
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass
@@ -39,6 +38,7 @@ from pathlib import Path
 from wsbuild.errors import UnderlayError
 from wsbuild.underlay.repair import write_underlay_file
 from wsbuild import inputs
+from wsbuild.hashes import sha256
 
 #: Version written into the stand-ins (ament_lint's Jazzy version).
 LINT_AUTO_SHIM_VERSION = "0.17.3"
@@ -173,7 +173,7 @@ def prepare_lint(prefixes: Iterable[Path], path: str, directory: Path, *,
         else:
             lines.append(f"unset({name}_DIR CACHE)")
     text = "\n".join(lines) + "\n"
-    digest = hashlib.sha256(text.encode()).hexdigest()[:12]
+    digest = sha256(text.encode()).hexdigest()[:12]
     script = directory / f"lint-{digest}.cmake"
     if write:
         _write(script, text)

@@ -5,7 +5,6 @@ then parse only what changed."""
 
 from __future__ import annotations
 
-import hashlib
 import json
 import re
 from collections.abc import Mapping
@@ -14,6 +13,7 @@ from pathlib import Path
 
 from wsbuild.workspace.model import Dependency, DepKind, Package, Person, VersionConstraint
 from wsbuild import inputs
+from wsbuild.hashes import blake2b
 from wsbuild.files import atomic_write, private_directory
 
 #: bump when the remembered form of a package changes
@@ -47,7 +47,7 @@ class ManifestMemo:
             text = inputs.read_bytes(manifest)
         except OSError:
             return None
-        digest = hashlib.blake2b(text, digest_size=16)
+        digest = blake2b(text, digest_size=16)
         for name in sorted(set(_VARIABLE.findall(text))):
             value = environ.get(name.decode())
             digest.update(b"\0" + name + b"=" + (value.encode() if value is not None else b"\1"))
