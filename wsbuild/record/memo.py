@@ -19,6 +19,8 @@ import marshal
 import os
 import sys
 import threading
+import zlib
+from operator import itemgetter
 from pathlib import Path
 
 from wsbuild import inputs
@@ -28,9 +30,12 @@ from wsbuild.record.outside import Looked, OutsideReads, Seen
 #: under the build base
 MEMO_FILE = Path(".wsbuild") / "records.memo"
 #: bumped whenever the memo's shape changes
-_VERSION = 2
+_VERSION = 3
 _new = tuple.__new__
 _KINDS = ("files", "listings", "searches", "probes")
+#: a record's values that are often equal to another record's
+_SHARED_VALUES = ("environment", "environment_seen", "settings", "dependencies",
+                  "dependency_inputs", "unobserved", "installs_read")
 
 _lock = threading.Lock()
 _memos: dict[str, RecordsMemo] = {}
@@ -62,7 +67,7 @@ class RecordsMemo:
             shared = [_entry(*value) for value in data["entries"]]
             for name, (signature, values, ids) in data["records"].items():
                 self._records[name] = (tuple(signature), values, tuple(
-                    tuple(shared[i] for i in kind) for kind in ids))
+                    _gather(shared, kind) for kind in ids))
         except (KeyError, TypeError, ValueError, IndexError):
             self._records.clear()
 
@@ -82,7 +87,7 @@ class RecordsMemo:
         """Note the record read from (or just written to) the file with `signature`."""
         kept = {k: v for k, v in values.items() if k != "outside"}
         if isinstance(kept.get("read_by"), dict):  # unpacked only when asked (PackedReadBy)
-            kept["read_by"] = marshal.dumps(kept["read_by"])
+            kept["read_by"] = zlib.compress(marshal.dumps(kept["read_by"]), 1)
         kinds = tuple(tuple(getattr(outside, kind).items()) for kind in _KINDS)
         with _lock:
             self._records[package] = (signature, kept, kinds)
@@ -96,7 +101,14 @@ class RecordsMemo:
             index: dict[tuple[str, Seen | Looked], int] = {}
             entries: list[tuple[object, ...]] = []
             records = {}
+            # equal values of several records written once (marshal keeps one object and
+            # refers to it): most packages read the same variables
+            alike: dict[tuple[str, str], object] = {}
             for name, (signature, values, kinds) in sorted(self._records.items()):
+                values = dict(values)
+                for key in _SHARED_VALUES:
+                    if key in values:
+                        values[key] = alike.setdefault((key, repr(values[key])), values[key])
                 ids = []
                 for kind in kinds:
                     found = []
@@ -115,6 +127,14 @@ class RecordsMemo:
             atomic_write(self.path, data, mode=0o600)
         except OSError:
             pass  # a memo is never worth failing the run: the next plan reads the files
+
+
+def _gather(shared: list[tuple[str, Seen | Looked]], ids: list[int]
+            ) -> tuple[tuple[str, Seen | Looked], ...]:
+    """The entries `ids` of `shared` (in one call: a plan gathers tens of thousands)."""
+    if len(ids) > 1:
+        return itemgetter(*ids)(shared)  # type: ignore[no-any-return]
+    return tuple(shared[i] for i in ids)
 
 
 def _flat(path: str, seen: Seen | Looked) -> tuple[object, ...]:

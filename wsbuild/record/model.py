@@ -159,7 +159,7 @@ _new = tuple.__new__
 
 
 class PackedReadBy(Mapping[str, str]):
-    """A record's `read_by` as the memo keeps it (record/memo.py: marshal data), unpacked at
+    """A record's `read_by` as the memo keeps it (record/memo.py: marshal data, compressed), unpacked at
     first use: only a package whose inputs changed asks which steps read them, and a no-op
     plan of many packages would otherwise unpack every record's paths."""
 
@@ -172,8 +172,9 @@ class PackedReadBy(Mapping[str, str]):
     def _unpacked(self) -> dict[str, str]:
         if self._read_by is None:
             import marshal
+            import zlib
 
-            value = marshal.loads(self._packed)
+            value = marshal.loads(zlib.decompress(self._packed))
             self._read_by = {str(k): str(v) for k, v in value.items()}
         return self._read_by
 
