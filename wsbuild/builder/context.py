@@ -22,7 +22,6 @@ from wsbuild.build_types import (
     get_build_type,
     package_context,
 )
-from wsbuild.builder.resources.distcc import planned_environ
 from wsbuild.prefix import environment_for
 from wsbuild.prefix.layout import is_installed, package_prefix
 from wsbuild.prefix.stage import stage_path
@@ -73,6 +72,9 @@ def planned_steps(selection: Selection, session: Session, name: str, *, prefix: 
     decides again (builder/package.py: `steps`)."""
     run_environ = {}
     if distributing:
+        from wsbuild.builder.resources.distcc import (
+            planned_environ)  # lazy: off the full no-op build
+
         run_environ = planned_environ(selection.workspace.build_base)
     ctx = make_context(selection, session, name, prefix=prefix, options=options,
                        stage_prefix=stage_path(selection.workspace.install_base, name),

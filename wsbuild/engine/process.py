@@ -4,7 +4,6 @@ in turn."""
 
 from __future__ import annotations
 
-import ctypes
 import os
 import selectors
 import shlex
@@ -127,6 +126,8 @@ def adopt_orphans() -> bool:
     such thing; Ctrl-C then reaches only descendants whose parents are still alive."""
     if not sys.platform.startswith("linux"):
         return False
+    import ctypes  # (3 ms to import: only a run that starts processes needs it)
+
     try:
         libc = ctypes.CDLL(None, use_errno=True)
         return libc.prctl(_PR_SET_CHILD_SUBREAPER, 1, 0, 0, 0) == 0

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import configparser
 import glob
 import os
 import re
@@ -220,6 +219,8 @@ def _identify_python(path: Path) -> Package:
         name = _pyproject_name(pyproject)
     setup_cfg = path / "setup.cfg"
     if name is None and setup_cfg.exists():
+        import configparser  # (a package.xml-less Python package only: the memo holds the rest)
+
         parser = configparser.ConfigParser(interpolation=None)
         try:
             parser.read(setup_cfg)

@@ -45,7 +45,6 @@ import os
 import re
 import shutil
 import subprocess
-import tempfile
 import threading
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field, replace
@@ -253,6 +252,8 @@ def open_distribution(spec: str, environ: Mapping[str, str], *, cores: int, run_
                       build_base: Path, warn: Callable[[str], None]) -> Distribution | None:
     """Probe the hosts of `spec` and set up the run's distcc; None (after one warning) when no
     host can take a compile. Call `close()` when the run ends."""
+    import tempfile  # (with random: 2 ms of every build's options, which name this module)
+
     distcc = _find(environ, "distcc")
     if distcc is None:
         raise WsbuildError("--distribute: no 'distcc' executable on PATH",
