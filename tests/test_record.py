@@ -365,3 +365,49 @@ def test_a_cache_entry_whose_record_is_of_other_inputs_is_never_proven(tmp_path:
     assert not isinstance(proof(record.inputs_key), Disproof)
     refused = proof("the inputs key of another build")
     assert isinstance(refused, Disproof) and refused.why == OTHER_INPUTS
+
+
+def test_records_from_the_memo_find_what_changed_as_records_from_their_files_do(
+        tmp_path: Path) -> None:
+    """A plan looks at each entry the memo holds once, however many records hold it, and at a
+    record's entries again only where a signature changed: it finds the same changes as the
+    look at every entry of every record (a file's content, a probed name; not a file touched
+    with the same content, nor a probed directory that gained another name)."""
+    from dataclasses import replace
+
+    from wsbuild.record import memo
+
+    base = tmp_path / "build"
+    shared, only_b = _write(tmp_path / "ext" / "shared.h", "1"), _write(tmp_path / "b.h", "1")
+    probed = tmp_path / "probed"
+    probed.mkdir()
+    for name, files in (("a", [shared]), ("b", [shared, only_b]), ("c", [shared])):
+        pkg = _write(tmp_path / name / "CMakeLists.txt").parent
+        reads = take([str(f) for f in files], [], Digests(), probes={str(probed): ["x.cmake"]})
+        write_record(base / name, _record(pkg, outside=reads))
+    memo.save_memos()
+
+    def changes() -> dict[str, tuple[str | None, str | None]]:
+        """Per record: the first change as the memo's entries find it, and as every entry of
+        the record does."""
+        memo._memos.clear()  # a new process
+        held, plain = Digests(), Digests()
+        found = {}
+        for name in ("a", "b", "c"):
+            record = read_record(base / name)
+            assert record is not None and record.outside.held is not None
+            found[name] = (first_change(record.outside, held, planning=True),
+                           first_change(replace(record.outside, held=None), plain,
+                                        planning=True))
+        return found
+
+    assert changes() == {n: (None, None) for n in "abc"}
+    time.sleep(0.01)
+    shared.write_text("1")  # touched: another signature, the same content
+    (probed / "other.txt").write_text("")  # the probed directory changed, not the name probed
+    assert changes() == {n: (None, None) for n in "abc"}
+    only_b.write_text("2")
+    assert changes() == {"a": (None, None), "b": (str(only_b), str(only_b)), "c": (None, None)}
+    (probed / "x.cmake").write_text("")  # the probed name appears: every record
+    assert changes() == {"a": (str(probed),) * 2, "b": (str(only_b),) * 2,
+                         "c": (str(probed),) * 2}

@@ -25,7 +25,7 @@ from pathlib import Path
 
 from wsbuild import inputs
 from wsbuild.files import atomic_write, private_directory
-from wsbuild.record.outside import Looked, OutsideReads, Seen
+from wsbuild.record.outside import HeldEntries, Looked, OutsideReads, Seen, SharedEntries
 
 #: under the build base
 MEMO_FILE = Path(".wsbuild") / "records.memo"
@@ -48,9 +48,13 @@ class RecordsMemo:
         self.path = path
         self.header = [_VERSION, record_format, sys.version]
         #: package -> (record.json's signature, the record's JSON values but its outside
-        #: reads, those as (path, seen) pairs of each kind)
+        #: reads, those as (path, seen) pairs of each kind, and as entries of `table` when
+        #: loaded from the file)
         self._records: dict[str, tuple[tuple[int, ...], dict[str, object],
-                                       tuple[tuple[tuple[str, Seen | Looked], ...], ...]]] = {}
+                                       tuple[tuple[tuple[str, Seen | Looked], ...], ...],
+                                       HeldEntries | None]] = {}
+        #: the outside reads of the records loaded, each once
+        self.table = SharedEntries(())
         self.changed = False
         self._load()
 
@@ -65,9 +69,10 @@ class RecordsMemo:
             if not isinstance(data, dict) or data.get("format") != self.header:
                 return
             shared = [_entry(*value) for value in data["entries"]]
+            self.table = SharedEntries(shared)
             for name, (signature, values, ids) in data["records"].items():
                 self._records[name] = (tuple(signature), values, tuple(
-                    _gather(shared, kind) for kind in ids))
+                    _gather(shared, kind) for kind in ids), HeldEntries(self.table, tuple(ids)))
         except (KeyError, TypeError, ValueError, IndexError):
             self._records.clear()
 
@@ -79,8 +84,8 @@ class RecordsMemo:
             held = self._records.get(package)
         if held is None or held[0] != signature or signature == inputs.ABSENT:
             return None
-        _, values, kinds = held
-        return values, OutsideReads(*(dict(kind) for kind in kinds))
+        _, values, kinds, entries = held
+        return values, OutsideReads(*(dict(kind) for kind in kinds), held=entries)
 
     def put(self, package: str, signature: tuple[int, ...], values: dict[str, object],
             outside: OutsideReads) -> None:
@@ -90,7 +95,7 @@ class RecordsMemo:
             kept["read_by"] = zlib.compress(marshal.dumps(kept["read_by"]), 1)
         kinds = tuple(tuple(getattr(outside, kind).items()) for kind in _KINDS)
         with _lock:
-            self._records[package] = (signature, kept, kinds)
+            self._records[package] = (signature, kept, kinds, None)
             self.changed = True
 
     def save(self) -> None:
@@ -104,7 +109,7 @@ class RecordsMemo:
             # equal values of several records written once (marshal keeps one object and
             # refers to it): most packages read the same variables
             alike: dict[tuple[str, str], object] = {}
-            for name, (signature, values, kinds) in sorted(self._records.items()):
+            for name, (signature, values, kinds, _) in sorted(self._records.items()):
                 values = dict(values)
                 for key in _SHARED_VALUES:
                     if key in values:

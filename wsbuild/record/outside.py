@@ -82,6 +82,24 @@ class Looked(NamedTuple):
     seen: Seen
 
 
+class SharedEntries:
+    """The outside reads several records hold, each once (record/memo.py's table): a plan
+    looks at each entry once, not once per record that holds it (`Digests.entries_changed`)."""
+
+    __slots__ = ("pairs",)
+
+    def __init__(self, pairs: Sequence[tuple[str, Seen | Looked]]) -> None:
+        self.pairs = pairs
+
+
+@dataclass(frozen=True, slots=True)
+class HeldEntries:
+    """Which entries of a `SharedEntries` a record's outside reads are (all of them)."""
+
+    table: SharedEntries
+    ids: tuple[Sequence[int], ...]
+
+
 @dataclass(frozen=True, slots=True)
 class OutsideReads:
     """What the package's build read outside the package (absolute paths): files, listings,
@@ -92,6 +110,8 @@ class OutsideReads:
     listings: Mapping[str, Seen] = field(default_factory=dict)
     searches: Mapping[str, Looked] = field(default_factory=dict)
     probes: Mapping[str, Looked] = field(default_factory=dict)
+    #: the same reads as entries of the memo's table, when they came from it (not compared)
+    held: HeldEntries | None = field(default=None, compare=False, repr=False)
 
     def digest(self) -> str:
         """One digest of every path with its content's (or entries') digest."""
@@ -131,10 +151,9 @@ class Digests:
         self._looked: dict[tuple[str, str, tuple[int, ...], tuple[str, ...]], str] = {}
         #: the signatures taken while planning
         self._signatures: dict[str, tuple[int, ...]] = {}
-        #: while planning, each path found with the signature a record holds, and that
-        #: record's entry: records read from the memo share their entries (record/memo.py), so
-        #: the next record holding the same entry is answered by its identity
-        self.unchanged: dict[str, object] = {}
+        #: while planning, each memo table's entries looked at and those changed
+        #: (`entries_changed`), by the table's id
+        self._tables: dict[int, tuple[SharedEntries, set[int], set[int]]] = {}
         #: the signatures of the files whose time wsbuild itself set forward in this run
         self._advanced: dict[str, tuple[int, ...]] = {}
         #: the digests taken by earlier runs (record/file_digests.py), when the run keeps them
@@ -162,6 +181,37 @@ class Digests:
         if planning:
             self._signatures[path] = signature
         return signature
+
+    def entries_changed(self, held: HeldEntries) -> set[int]:
+        """While planning: the entries of the memo's table, among those `held` and those
+        looked at before, whose path has another signature now than the one held (or whose
+        digest was racy): the only ones a record holding them must look at again. Each entry
+        of the table is looked at once for the whole plan, however many records hold it;
+        each path stat'ed once."""
+        table = held.table
+        with self._lock:
+            state = self._tables.get(id(table))
+            if state is None or state[0] is not table:
+                state = self._tables[id(table)] = (table, set(), set())
+        _, looked_at, changed = state
+        pairs = table.pairs
+        for ids in held.ids:
+            unknown = set(ids)
+            unknown -= looked_at
+            if not unknown:
+                continue
+            order = sorted(unknown)
+            paths = [pairs[index][0] for index in order]
+            missing = [path for path in paths if path not in self._signatures]
+            self._signatures.update(zip(missing, inputs.signatures(missing)))
+            now = self._signatures
+            for index, path in zip(order, paths):
+                entry = pairs[index][1]
+                seen = entry.seen if type(entry) is Looked else entry
+                if now[path] != seen.signature or seen.digest == RACY_DIGEST:
+                    changed.add(index)
+            looked_at |= unknown
+        return changed
 
     def file(self, path: str, signature: tuple[int, ...]) -> str:
         """The content digest of the file at `path` whose signature is `signature`."""
@@ -365,44 +415,45 @@ def first_change(reads: OutsideReads, digests: Digests, *, planning: bool = Fals
     return changes[0] if changes else None
 
 
+def _changed(kind: str, path: str, entry: Seen | Looked, digests: Digests, own: OwnEntries,
+             skip: str, planning: bool) -> bool:
+    """Whether the entry of `kind` (file, listing, search, probe) holds another content now
+    (one whose signature is unchanged is not read)."""
+    if skip and (path + os.sep).startswith(skip):
+        return False
+    signature = digests.signature(path, planning=planning)
+    seen = entry.seen if type(entry) is Looked else entry
+    if signature == seen.signature and seen.digest != RACY_DIGEST:
+        return False
+    if type(entry) is Looked:
+        now = digests.looked(kind, path, signature, entry.names)
+    elif kind == "listing":
+        now = digests.listing(path, signature, own(path))
+    else:
+        now = digests.file(path, signature)
+    return now != seen.digest
+
+
 def changed_paths(reads: OutsideReads, digests: Digests, *, planning: bool = False,
                   own: OwnEntries = no_own_entries, skip: str = "",
                   first: bool = False) -> list[str]:
     """Every path whose content, entries, matching entries or probed names differ from
-    `reads` (`first`: stop at the first); see `first_change`."""
+    `reads` (`first`: stop at the first); see `first_change`. Records read from the memo
+    are looked at only where an entry's signature changed (`Digests.entries_changed`)."""
     found: list[str] = []
-    # (planning: signatures are taken once, so an entry found unchanged stays so)
-    unchanged: dict[str, object] = digests.unchanged if planning else {}
-    for kind, seen_paths in (("file", reads.files), ("listing", reads.listings)):
-        for path, seen in seen_paths.items():
-            if unchanged.get(path) is seen:
-                continue
-            if skip and (path + os.sep).startswith(skip):
-                continue
-            signature = digests.signature(path, planning=planning)
-            if signature == seen.signature and seen.digest != RACY_DIGEST:
-                if planning:
-                    unchanged[path] = seen
-                continue
-            now = digests.listing(path, signature, own(path)) if kind == "listing" \
-                else digests.file(path, signature)
-            if now != seen.digest:
-                found.append(path)
-                if first:
-                    return found
-    for kind, looked in (("search", reads.searches), ("probe", reads.probes)):
-        for path, entry in looked.items():
-            if unchanged.get(path) is entry:
-                continue
-            if skip and (path + os.sep).startswith(skip):
-                continue
-            names, seen = entry
-            signature = digests.signature(path, planning=planning)
-            if signature == seen.signature and seen.digest != RACY_DIGEST:
-                if planning:
-                    unchanged[path] = entry
-                continue
-            if digests.looked(kind, path, signature, names) != seen.digest:
+    kinds = (("file", reads.files), ("listing", reads.listings), ("search", reads.searches),
+             ("probe", reads.probes))
+    if planning and reads.held is not None:
+        changed = digests.entries_changed(reads.held)
+        pairs = reads.held.table.pairs
+        chosen: Sequence[tuple[str, Iterable[tuple[str, Seen | Looked]]]] = [
+            (kind, [pairs[index] for index in ids if index in changed])
+            for (kind, _), ids in zip(kinds, reads.held.ids) if not changed.isdisjoint(ids)]
+    else:
+        chosen = [(kind, held.items()) for kind, held in kinds]
+    for kind, entries in chosen:  # in the record's order
+        for path, entry in entries:
+            if _changed(kind, path, entry, digests, own, skip, planning):
                 found.append(path)
                 if first:
                     return found
