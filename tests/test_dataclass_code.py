@@ -16,6 +16,7 @@ PROGRAM = """
 import json
 from dataclasses import FrozenInstanceError, dataclass, field
 import wsbuild.dataclass_code as kept
+kept.keep()  # as launch.py does before anything else is imported
 
 @dataclass(frozen=True, slots=True)
 class Seen{n}:

@@ -29,6 +29,8 @@ RANKS: dict[str, int] = {
 SIDEWAYS: dict[tuple[str, str], str] = {
     ("dataclass_code", "hashes"): "a method's source is known by its digest, with the hash "
                                   "taken without loading OpenSSL",
+    ("dataclass_code", "files"): "the kept code is written as wsbuild writes every file it "
+                                 "keeps (atomically)",
     ("events", "engine"): "the job events are the engine's; events.py adds the run's own",
     ("build_types", "prefix"): "a build type stages into a prefix and names its hooks",
     ("cache", "prefix"): "a restore commits into install/ exactly as a build commits its stage",

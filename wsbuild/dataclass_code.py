@@ -109,6 +109,10 @@ def keep() -> None:
 def _write() -> None:
     """Write the kept code when this process compiled something new (atomically: another
     wsbuild may read it meanwhile)."""
+    from pathlib import Path
+
+    from wsbuild.files import atomic_write  # lazy: off `--version`
+
     if not _new or _file is None:
         return
     kept = {key: _codes[key] for key in _used}
@@ -116,15 +120,8 @@ def _write() -> None:
         if len(kept) >= LIMIT:
             break
         kept.setdefault(key, code)
-    temporary = f"{_file}.{os.getpid()}.tmp"
     try:
         os.makedirs(os.path.dirname(_file), exist_ok=True)
-        descriptor = os.open(temporary, os.O_WRONLY | os.O_CREAT | os.O_TRUNC, 0o600)
-        with os.fdopen(descriptor, "wb") as out:
-            marshal.dump(kept, out)
-        os.replace(temporary, _file)
+        atomic_write(Path(_file), marshal.dumps(kept), mode=0o600)
     except OSError:
-        try:
-            os.unlink(temporary)
-        except OSError:
-            pass
+        pass  # where Python could not write bytecode either: compiled again next time

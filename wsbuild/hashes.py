@@ -7,8 +7,7 @@ digests. Both give the same digests as hashlib's."""
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
-
+TYPE_CHECKING = False  # (typing itself not imported: `wsbuild --version` imports this)
 try:
     from _blake2 import blake2b
 except ImportError:  # another Python than CPython

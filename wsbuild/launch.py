@@ -25,6 +25,10 @@ def main() -> int:
         print(f"wsbuild {__version__}")
         return 0
     search_pythonpath_last()
+    # before any module of wsbuild defines a dataclass: their methods' code, kept between runs
+    from wsbuild import dataclass_code  # lazy: off `--version`
+
+    dataclass_code.keep()
     # the cyclic garbage collector less often: a plan makes tens of thousands of small
     # objects that live to the end (each record's reads), and at the interpreter's default
     # (700) it walked them all again and again, a tenth of a full no-op of 60 packages;
