@@ -109,14 +109,16 @@ def keep() -> None:
 def _write() -> None:
     """Write the kept code when this process compiled something new (atomically: another
     wsbuild may read it meanwhile)."""
+    if not _new or _file is None:
+        return
     from pathlib import Path
 
     from wsbuild.files import atomic_write  # lazy: off `--version`
 
-    if not _new or _file is None:
-        return
-    kept = {key: _codes[key] for key in _used}
-    for key, code in _codes.items():
+    # copies taken at once (a daemon thread may still define a class while the process ends)
+    codes, used = dict(_codes), list(_used)
+    kept = {key: codes[key] for key in used if key in codes}
+    for key, code in codes.items():
         if len(kept) >= LIMIT:
             break
         kept.setdefault(key, code)
