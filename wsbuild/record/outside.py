@@ -110,7 +110,8 @@ class OutsideReads:
     listings: Mapping[str, Seen] = field(default_factory=dict)
     searches: Mapping[str, Looked] = field(default_factory=dict)
     probes: Mapping[str, Looked] = field(default_factory=dict)
-    #: the same reads as entries of the memo's table, when they came from it (not compared)
+    #: the same reads as entries of the memo's table, when they came from it (not compared;
+    #: set by record/memo.py only: reads are never changed in place nor `replace`d)
     held: HeldEntries | None = field(default=None, compare=False, repr=False)
 
     def digest(self) -> str:
