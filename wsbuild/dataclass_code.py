@@ -81,14 +81,15 @@ def path() -> str | None:
     return os.path.join(os.path.dirname(__file__), "__pycache__", f"dataclasses.{tag}.marshal")
 
 
-def keep() -> None:
-    """Give `dataclasses` the kept code from now on; write what was new at the process's end."""
+def keep(at: str | None = None) -> None:
+    """Give `dataclasses` the kept code from now on; write what was new at the process's end
+    (`at`: another file than `path()`'s)."""
     global _file
     import dataclasses
 
     if _file is not None or getattr(dataclasses, "exec", None) is not None:
         return
-    _file = path()
+    _file = at or path()
     if _file is None:
         return
     try:
