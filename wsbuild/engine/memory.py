@@ -160,6 +160,7 @@ class MemoryGovernor:
         self._root = os.getpid() if root is None else root
         self._read_free = read_free or (lambda: free_memory(budget))
         self._lock = threading.Lock()
+        self._balancing = threading.Lock()
         self._running: dict[str, float] = {}
         self._measured: dict[str, _Package] = {}
         self._refused: dict[str, float] = {}
@@ -398,18 +399,20 @@ class MemoryGovernor:
 
     def _balance_tokens(self, dt: float = 0.0) -> None:
         """Hand out or take back tokens as what runs now allows (`dt`: the seconds since the
-        last tick, for the tokens held back)."""
-        with self._lock:
-            state = self._state()
-            capacity = self.jobserver.tokens - self.jobserver.withheld
-            wanted = tokens_wanted(state, capacity)
-            out = state.tokens_out
-            if any(p.driving for p in state.running):
-                self._held_back += max(0, capacity - out) * dt
-        if wanted > out:
-            self.jobserver.release(wanted - out)
-        elif wanted < out:
-            self.jobserver.reclaim(out - wanted)
+        last tick, for the tokens held back). One caller at a time (the tick, a step's start):
+        two that counted the same tokens out would both hand out the difference."""
+        with self._balancing:
+            with self._lock:
+                state = self._state()
+                capacity = self.jobserver.tokens - self.jobserver.withheld
+                wanted = tokens_wanted(state, capacity)
+                out = state.tokens_out
+                if any(p.driving for p in state.running):
+                    self._held_back += max(0, capacity - out) * dt
+            if wanted > out:
+                self.jobserver.release(wanted - out)
+            elif wanted < out:
+                self.jobserver.reclaim(out - wanted)
 
     def _learn(self, seen: TreeSnapshot) -> None:
         """Each running package's peak, its step's, and its jobs' (a job gone has ended)."""
