@@ -479,3 +479,39 @@ def test_a_recorder_that_fails_is_a_warning_and_the_next_run_is_full(
     assert code == 0 and not replayed and "2 packages up to date" in out
     assert record.is_file()
     assert runs.build()[2] is True
+
+
+def test_another_build_of_wsbuild_runs_the_full_build(built: Path, tmp_path: Path) -> None:
+    """The code of wsbuild that ran is an input of a recorded no-op: after an upgrade that
+    kept the version number (here: one of its files replaced by a copy), the next no-op is a
+    full run, not the last one's answer. Run from a copy of wsbuild, so no other test sees
+    the change."""
+    import shutil
+
+    import wsbuild
+
+    copy = tmp_path / "code"
+    shutil.copytree(Path(wsbuild.__file__).parent, copy / "wsbuild",
+                    ignore=shutil.ignore_patterns("__pycache__"))
+    program = (f"import sys; sys.path.insert(0, {str(copy)!r}); sys.argv = ['wsbuild', 'build']; "
+               "from wsbuild.launch import main; raise SystemExit(main())")
+    env = {**os.environ, "PYTHONPROFILEIMPORTTIME": "1"}
+
+    def build() -> tuple[str, set[str]]:
+        done = subprocess.run([sys.executable, "-c", program], cwd=built, env=env,
+                              capture_output=True, text=True, timeout=300)
+        assert done.returncode == 0, done.stdout + done.stderr
+        imported = {line.rsplit("|", 1)[-1].strip() for line in done.stderr.splitlines()
+                    if line.startswith("import time:")}
+        return done.stdout, imported
+
+    build()  # the first build in this environment (another code path) builds again
+    time.sleep(SETTLE)
+    build()
+    _, imported = build()
+    assert "wsbuild.cli" not in imported, "the no-op of the same code is replayed"
+    planned = copy / "wsbuild" / "builder" / "plan.py"
+    planned.write_text(planned.read_text() + "\n# another build of wsbuild\n")
+    out, imported = build()
+    assert "wsbuild.cli" in imported, "replayed after wsbuild's code changed"
+    assert "2 packages up to date" in out, out

@@ -288,6 +288,12 @@ class ReplayRecorder:
                                                    str(RECORDINGS.absolute())) if path)
         lock = os.path.join(outcome["build_base"], ".wsbuild.build.lock")
         wanted: dict[tuple[str, bool], tuple[int, ...] | None] = dict(self.seen)
+        # wsbuild's own code that ran: another build of it (an upgrade that kept the version
+        # number, an edit of an editable install) may answer otherwise
+        for name, module in list(sys.modules.items()):
+            file = getattr(module, "__file__", None)
+            if file and (name == "wsbuild" or name.startswith("wsbuild.")):
+                wanted.setdefault((file, True), None)
         for directory in sorted(self.listed):  # (a set: the same recording for the same run)
             wanted.setdefault((directory, True), None)
             try:
