@@ -159,9 +159,9 @@ _new = tuple.__new__
 
 
 class PackedReadBy(Mapping[str, str]):
-    """A record's `read_by` as the memo keeps it (record/memo.py: marshal data, compressed), unpacked at
-    first use: only a package whose inputs changed asks which steps read them, and a no-op
-    plan of many packages would otherwise unpack every record's paths."""
+    """A record's `read_by` as the memo keeps it (record/memo.py: compressed marshal data),
+    unpacked at first use: only a package whose inputs changed asks which steps read them,
+    and a no-op plan of many packages would otherwise unpack every record's paths."""
 
     __slots__ = ("_packed", "_read_by")
 

@@ -190,10 +190,8 @@ class Digests:
         of the table is looked at once for the whole plan, however many records hold it;
         each path stat'ed once."""
         table = held.table
-        with self._lock:
-            state = self._tables.get(id(table))
-            if state is None or state[0] is not table:
-                state = self._tables[id(table)] = (table, set(), set())
+        with self._lock:  # (the table is held here: its id is no other's meanwhile)
+            state = self._tables.setdefault(id(table), (table, set(), set()))
         _, looked_at, changed = state
         pairs = table.pairs
         for ids in held.ids:
