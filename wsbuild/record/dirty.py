@@ -120,7 +120,7 @@ def dirty_reason(old: PackageRecord | None, now: PackageNow, *, install_base: Pa
                           redo=redo)
         return Reason(Dirty.EXTERNAL, f"file outside the package changed: {outside}",
                       changed or (outside,), redo=redo)
-    damaged = damaged_install(str(install_base), old.installed)
+    damaged = damaged_install(str(install_base), old.installed, digests)
     if damaged is not None:
         return Reason(Dirty.INSTALL, f"install damaged: {damaged} missing or changed", (damaged,))
     return always

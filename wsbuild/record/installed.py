@@ -9,11 +9,14 @@ from __future__ import annotations
 import os
 import stat as modes
 from collections.abc import Collection, Iterable
-from typing import NamedTuple
+from typing import TYPE_CHECKING, NamedTuple
 
 from wsbuild import inputs
 from wsbuild.record.own_files import content_digest
 from wsbuild.signature import stat_signature
+
+if TYPE_CHECKING:
+    from wsbuild.record.outside import Digests
 
 #: what a symlink's digest starts with (its target follows)
 LINK = "->"
@@ -46,14 +49,17 @@ def installed_entries(install_base: str, paths: Iterable[str]) -> list[Installed
     return entries
 
 
-def damaged_install(install_base: str, installed: Collection[Installed]) -> str | None:
+def damaged_install(install_base: str, installed: Collection[Installed],
+                    digests: Digests | None = None) -> str | None:
     """The first installed path that is missing, changed, or a symlink that no longer points
     where it did or no longer resolves; None when all are as installed. A file whose lstat
-    signature is unchanged is not read."""
+    signature is unchanged is not read. `digests`: the plan's, which keeps what it stat'ed
+    for the packages that read these files."""
     entries = list(installed)
     paths = [os.path.join(install_base, rel) for rel, _, _ in entries]
-    for (rel, signature, digest), path, seen in zip(
-            entries, paths, inputs.signatures(paths, follow_symlinks=False)):
+    seen_now = inputs.signatures(paths, follow_symlinks=False) if digests is None \
+        else digests.lstat_signatures(paths)
+    for (rel, signature, digest), path, seen in zip(entries, paths, seen_now):
         if seen == inputs.ABSENT:
             return rel
         if digest.startswith(LINK):

@@ -183,6 +183,17 @@ class Digests:
             self._signatures[path] = signature
         return signature
 
+    def lstat_signatures(self, paths: list[str]) -> list[tuple[int, ...]]:
+        """While planning: each path's own signature (`lstat`), taken now; that of a path
+        that is no symlink is its `signature` too, kept for the packages planned later
+        (those reading a dependency's installed files stat them once)."""
+        found = inputs.signatures(paths, follow_symlinks=False)
+        known = self._signatures
+        for path, seen in zip(paths, found):
+            if not modes.S_ISLNK(seen[0]):
+                known.setdefault(path, seen)
+        return found
+
     def entries_changed(self, held: HeldEntries) -> set[int]:
         """While planning: the entries of the memo's table, among those `held` and those
         looked at before, whose path has another signature now than the one held (or whose

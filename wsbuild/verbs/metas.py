@@ -49,7 +49,9 @@ class Metadata:
 
     def for_package(self, name: str, path: Path) -> dict[str, object]:
         merged: dict[str, object] = {}
-        for values in (self.by_path.get(inputs.realpath(path), {}), self.by_name.get(name, {})):
+        # (no file has a `paths:` section: where the directory really is cannot matter)
+        by_path = self.by_path.get(inputs.realpath(path), {}) if self.by_path else {}
+        for values in (by_path, self.by_name.get(name, {})):
             for key, value in values.items():
                 _merge(merged, key, value)
         return merged
