@@ -14,7 +14,7 @@ PACKAGE = Path(__file__).resolve().parent.parent / "wsbuild"
 #: rank of each room: a module may import from its own rank or a lower one
 RANKS: dict[str, int] = {
     "errors": 0, "files": 0, "words": 0, "substitution": 0, "inputs": 0, "signature": 0, "redaction": 0,
-    "terminal": 0, "dataclass_code": 0, "hashes": 0,
+    "terminal": 0, "dataclass_code": 0, "hashes": 0, "patterns": 0,
     "engine": 1, "workspace": 1, "events": 1, "record": 1, "observe": 1,
     "build_types": 2, "prefix": 2, "underlay": 2, "cache": 2,
     "session": 3, "deps": 3,
@@ -31,6 +31,8 @@ SIDEWAYS: dict[tuple[str, str], str] = {
                                   "taken without loading OpenSSL",
     ("dataclass_code", "files"): "the kept code is written as wsbuild writes every file it "
                                  "keeps (atomically)",
+    ("redaction", "patterns"): "its patterns are compiled when a text is first redacted",
+    ("terminal", "patterns"): "its pattern is compiled when a replay first compares a terminal",
     ("events", "engine"): "the job events are the engine's; events.py adds the run's own",
     ("build_types", "prefix"): "a build type stages into a prefix and names its hooks",
     ("cache", "prefix"): "a restore commits into install/ exactly as a build commits its stage",

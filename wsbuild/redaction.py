@@ -14,22 +14,23 @@ says nothing) is written as the step printed it: the build's logs are the step's
 
 from __future__ import annotations
 
-import re
 import threading
 from collections.abc import Iterable, Mapping
+
+from wsbuild.patterns import lazy
 
 #: what stands in for a secret in what wsbuild writes
 HIDDEN = "***"
 #: shorter values are not hidden (a `1` or `true` would be hidden everywhere)
 MIN_SECRET_LENGTH = 8
 #: a URL's scheme, then its user information (user:password, or a token) up to the `@`
-_CREDENTIALS = re.compile(r"(?P<scheme>\b[A-Za-z][A-Za-z0-9+.-]*://)[^\s/?#@'\"<>]+@")
-_CREDENTIALS_BYTES = re.compile(_CREDENTIALS.pattern.encode())
+_CREDENTIALS = lazy(r"(?P<scheme>\b[A-Za-z][A-Za-z0-9+.-]*://)[^\s/?#@'\"<>]+@")
+_CREDENTIALS_BYTES = lazy(_CREDENTIALS.pattern.encode())
 #: a variable whose name says it holds a secret: one of these words between underscores ...
 _SECRET_WORDS = frozenset({"TOKEN", "TOKENS", "SECRET", "SECRETS", "PASSWORD", "PASSWD",
                            "PASSPHRASE", "CREDENTIAL", "CREDENTIALS", "APIKEY", "PAT"})
 #: ... or a key that is one
-_SECRET_KEY = re.compile(r"(^|_)(API|ACCESS|PRIVATE|SECRET|SIGNING|ENCRYPTION)_KEY($|_)")
+_SECRET_KEY = lazy(r"(^|_)(API|ACCESS|PRIVATE|SECRET|SIGNING|ENCRYPTION)_KEY($|_)")
 
 _lock = threading.Lock()
 _known: frozenset[str] = frozenset()

@@ -8,6 +8,8 @@ from __future__ import annotations
 
 import re
 
+from wsbuild.patterns import lazy
+
 #: fnmatch-like patterns (a trailing `*`) of the variables that name this tab, window or command
 PER_TAB: tuple[str, ...] = (
     "_", "OLDPWD", "SHLVL",
@@ -17,7 +19,7 @@ PER_TAB: tuple[str, ...] = (
     "HISTCONTROL", "MOTD_SHOWN",
 )
 
-_PER_TAB = re.compile("|".join(
+_PER_TAB = lazy("|".join(
     re.escape(p[:-1]) + ".*" if p.endswith("*") else re.escape(p) for p in PER_TAB) + r"\Z")
 
 

@@ -14,6 +14,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from wsbuild.record.configured import Configured, read_configured
+from wsbuild.patterns import lazy
 
 #: the first Ninja release that is a GNU make jobserver client
 NINJA_JOBSERVER = (1, 13)
@@ -94,8 +95,8 @@ class CMakeState:
     configured: Configured | None = None
 
 
-_SYMLINK_INSTALL = re.compile(r"^AMENT_CMAKE_SYMLINK_INSTALL:[A-Z]+=(.*)$", re.MULTILINE)
-_GENERATOR = re.compile(r"^CMAKE_GENERATOR:INTERNAL=(.*)$", re.MULTILINE)
+_SYMLINK_INSTALL = lazy(r"^AMENT_CMAKE_SYMLINK_INSTALL:[A-Z]+=(.*)$", re.MULTILINE)
+_GENERATOR = lazy(r"^CMAKE_GENERATOR:INTERNAL=(.*)$", re.MULTILINE)
 
 
 def read_cmake_state(build_dir: Path) -> CMakeState:

@@ -22,19 +22,20 @@ from pathlib import Path
 from wsbuild.build_types import ReadOutside, ninja_deps
 from wsbuild.record.configured import read_configured
 from wsbuild.build_types.ninja_deps import make_prerequisites
+from wsbuild.patterns import lazy
 
 #: CMake's regeneration list in Makefile projects
-_MAKEFILE_DEPENDS = re.compile(r"set\(CMAKE_MAKEFILE_DEPENDS\s+(.*?)\)", re.DOTALL)
+_MAKEFILE_DEPENDS = lazy(r"set\(CMAKE_MAKEFILE_DEPENDS\s+(.*?)\)", re.DOTALL)
 
 
 #: the programs of CMakeCache.txt a build runs
-_TOOLS = re.compile(r"^(CMAKE_(?:C|CXX)_COMPILER|CMAKE_COMMAND|CMAKE_MAKE_PROGRAM|CMAKE_LINKER|"
+_TOOLS = lazy(r"^(CMAKE_(?:C|CXX)_COMPILER|CMAKE_COMMAND|CMAKE_MAKE_PROGRAM|CMAKE_LINKER|"
                     r"CMAKE_AR):[A-Z]+=(/.+)$", re.MULTILINE)
 #: a `file(GLOB…)` CMake's VerifyGlobs.cmake checks again before each build
-_VERIFY_GLOB = re.compile(r"^file\((GLOB|GLOB_RECURSE) NEW_GLOB(.*)\)\s*$", re.MULTILINE)
+_VERIFY_GLOB = lazy(r"^file\((GLOB|GLOB_RECURSE) NEW_GLOB(.*)\)\s*$", re.MULTILINE)
 #: an install script's `file(INSTALL DESTINATION … TYPE X FILES …)` (over several lines when
 #: it installs several files)
-_FILE_INSTALL = re.compile(r"file\(INSTALL DESTINATION (.*?)\)[ \t]*$", re.MULTILINE | re.DOTALL)
+_FILE_INSTALL = lazy(r"file\(INSTALL DESTINATION (.*?)\)[ \t]*$", re.MULTILINE | re.DOTALL)
 #: what ends the list of sources of `file(INSTALL … FILES …)`
 _INSTALL_KEYWORDS = frozenset({
     "RENAME", "PERMISSIONS", "FILE_PERMISSIONS", "DIRECTORY_PERMISSIONS", "FILES_MATCHING",

@@ -11,6 +11,8 @@ import subprocess
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 
+from wsbuild.patterns import lazy
+
 NINJA = "Ninja"
 DEFAULT_GENERATOR = "Unix Makefiles"
 #: seconds `ninja -n` / `make -n` may take after a build
@@ -23,7 +25,7 @@ _MAKE_BOOKKEEPING = ("--check-build-system", "cmake_progress_start", "cmake_depe
 #: `cmake -E` commands that make the same files from the same files (ament_cmake_python's
 #: always-run copy of generated Python code): work left of only these is no volatile build,
 #: what they copy from is in the build directory, made from what the record holds
-_SAME_FROM_SAME = re.compile(r"^(?:cd \S+ && )?\S*cmake -E (?:copy|copy_directory|"
+_SAME_FROM_SAME = lazy(r"^(?:cd \S+ && )?\S*cmake -E (?:copy|copy_directory|"
                              r"copy_if_different|make_directory|echo|echo_append|true)\b"
                              r"(?:(?! && | ; |\|).)*$")
 

@@ -33,12 +33,13 @@ from wsbuild.build_types.test_runner import (
     TestRunnerBase,
     tool_error,
 )
+from wsbuild.patterns import lazy
 
 #: CTest's exit code when some tests failed (anything else non-zero is CTest itself failing)
 CTEST_TESTS_FAILED = 8
 
 # "  3/4 Test  #3: name ..........***Timeout   1.00 sec": CTest's verdict, which its JUnit lacks
-_CTEST_VERDICT = re.compile(
+_CTEST_VERDICT = lazy(
     r"^\s*\d+/\d+ Test\s+#\d+: (?P<name>\S+) \.*\s*\*\*\*(?P<verdict>.+?)\s+[\d.]+ sec")
 
 

@@ -8,15 +8,16 @@ Public: a plugin's build type uses it as the built-in ones do."""
 from __future__ import annotations
 
 import os
-import re
 import subprocess
 from collections.abc import Iterator
 from pathlib import Path
 
+from wsbuild.patterns import lazy
+
 #: a Ninja build statement: outputs, rule, inputs (explicit | implicit || order-only)
-_NINJA_BUILD = re.compile(r"^build (?P<outputs>.*?)(?<!\$): (?P<rule>\S+)(?P<inputs>.*)$")
+_NINJA_BUILD = lazy(r"^build (?P<outputs>.*?)(?<!\$): (?P<rule>\S+)(?P<inputs>.*)$")
 #: a Ninja path separator is an unescaped space
-_NINJA_SPACE = re.compile(r"(?<!\$) ")
+_NINJA_SPACE = lazy(r"(?<!\$) ")
 #: seconds `ninja -t deps` may take (it reads one binary log)
 NINJA_TIMEOUT = 60
 

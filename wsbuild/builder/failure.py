@@ -4,7 +4,6 @@ tail of its log, and which stderr lines are worth showing."""
 from __future__ import annotations
 
 import os
-import re
 import signal
 from collections.abc import Sequence
 from dataclasses import replace
@@ -14,6 +13,7 @@ from typing import TYPE_CHECKING
 from wsbuild.engine.jobs import JobResult, Outcome
 from wsbuild.engine.process import format_command
 from wsbuild.workspace.resolve import ament_index
+from wsbuild.patterns import lazy
 
 if TYPE_CHECKING:
     from wsbuild.build_types import StepFailed
@@ -23,10 +23,10 @@ if TYPE_CHECKING:
 #: a line that says why a step failed: a compiler's `file:line: error:`, a CMake error, the
 #: last line of a Python traceback (`catkin_pkg.package.InvalidPackage: …`), a tool's
 #: `error:`/`Error:`
-_WHY = re.compile(r"^(\S+:\d+(:\d+)?: (fatal )?error: |CMake Error|(error|ERROR|Error): "
+_WHY = lazy(r"^(\S+:\d+(:\d+)?: (fatal )?error: |CMake Error|(error|ERROR|Error): "
                   r"|[A-Za-z_][\w.]*(Error|Exception|InvalidPackage|Invalid\w+)( \w+)?: )")
 #: ... best of all one naming the file and line (`setup.py:23: NameError: …`)
-_LOCATED = re.compile(r"^\S+:\d+(:\d+)?: ((fatal )?error: |[A-Za-z_][\w.]*(Error|Exception)\b)")
+_LOCATED = lazy(r"^\S+:\d+(:\d+)?: ((fatal )?error: |[A-Za-z_][\w.]*(Error|Exception)\b)")
 #: how many lines after the first such line belong to it (an exception's message)
 _WHY_LINES = 4
 

@@ -10,13 +10,13 @@ stores and returns the bytes as they are.
 from __future__ import annotations
 
 import json
-import re
 from dataclasses import dataclass
 
 from wsbuild.cache.key import is_digest
+from wsbuild.patterns import lazy
 
-_ARCHIVE = re.compile(r"wsbuild/([A-Za-z0-9_.-]+)\.tar\.zst")
-_RECORD = re.compile(r"wsbuild/([A-Za-z0-9_.-]+)\.record\.json")
+_ARCHIVE = lazy(r"wsbuild/([A-Za-z0-9_.-]+)\.tar\.zst")
+_RECORD = lazy(r"wsbuild/([A-Za-z0-9_.-]+)\.record\.json")
 
 
 @dataclass(frozen=True, slots=True)

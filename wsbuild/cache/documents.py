@@ -14,18 +14,18 @@ from __future__ import annotations
 import hashlib
 import io
 import json
-import re
 from pathlib import Path
 
 from wsbuild.cache.http import CacheRejected, CacheUnavailable, HttpCache, TruncatedDownload
 from wsbuild.cache.key import is_digest
 from wsbuild.cache.settings import CacheSettings
+from wsbuild.patterns import lazy
 
 #: bumped whenever a document's layout changes: older ones then read as none
 FORMAT = 1
 #: the largest document read (a split of thousands of packages is a few hundred KiB)
 MAX_BYTES = 16 * 1024 * 1024
-_PATH = re.compile(r"wsbuild/document-([a-z]+)\.json")
+_PATH = lazy(r"wsbuild/document-([a-z]+)\.json")
 
 
 def document_address(name: str) -> str:

@@ -25,17 +25,18 @@ import functools
 import hashlib
 import json
 import platform
-import re
 import sys
 import threading
 from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
 
+from wsbuild.patterns import lazy
+
 
 #: bumped whenever the entry layout changes; old entries then simply miss
 ENTRY_FORMAT = 3
-_HEX64 = re.compile(r"[0-9a-f]{64}")
+_HEX64 = lazy(r"[0-9a-f]{64}")
 _FIRST_CALL = threading.Lock()
 
 

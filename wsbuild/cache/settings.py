@@ -11,12 +11,13 @@ from pathlib import Path
 
 from wsbuild.errors import WsbuildError
 from wsbuild.files import wsbuild_cache_dir
+from wsbuild.patterns import lazy
 
 DEFAULT_MAX_BYTES = 5 * 1024**3
 DEFAULT_TIMEOUT = 3.0
 #: WSBUILD_CACHE values that turn the cache off
 OFF = frozenset({"off", "none", "no", "false", "0"})
-_SIZE = re.compile(r"\s*(\d+(?:\.\d+)?)\s*([kmgt]?)(?:i?b)?\s*", re.IGNORECASE)
+_SIZE = lazy(r"\s*(\d+(?:\.\d+)?)\s*([kmgt]?)(?:i?b)?\s*", re.IGNORECASE)
 
 
 @dataclass(frozen=True, slots=True)

@@ -2,8 +2,9 @@
 
 from __future__ import annotations
 
-import re
 from dataclasses import dataclass
+
+from wsbuild.patterns import lazy
 
 
 @dataclass(frozen=True, slots=True)
@@ -85,10 +86,10 @@ _ALIASES: dict[str, str] = {
     "lgpl2.1+": "LGPL-2.1-or-later",
 }
 
-_NOT_KEY_CHARS = re.compile(r"[^a-z0-9.+]")
+_NOT_KEY_CHARS = lazy(r"[^a-z0-9.+]")
 # An SPDX license id (or LicenseRef-…), and expressions joining them with AND/OR/WITH.
-_SPDX_ID = re.compile(r"[A-Za-z0-9][A-Za-z0-9.+-]*")
-_EXPRESSION_TOKEN = re.compile(r"\s*(\(|\)|[A-Za-z0-9][A-Za-z0-9.+-]*)")
+_SPDX_ID = lazy(r"[A-Za-z0-9][A-Za-z0-9.+-]*")
+_EXPRESSION_TOKEN = lazy(r"\s*(\(|\)|[A-Za-z0-9][A-Za-z0-9.+-]*)")
 
 
 def find_license(spdx: str) -> License | None:

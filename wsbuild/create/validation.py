@@ -21,14 +21,15 @@ from wsbuild.workspace.names import (
     is_valid_package_name,
     suggest_package_name,
 )
+from wsbuild.patterns import lazy
 
 DEFAULT_BUILD_TYPE = "ament_cmake"
 DEFAULT_DESCRIPTION = "TODO: Package description"
 PACKAGE_FORMATS = (2, 3)
 
-_IDENTIFIER = re.compile(r"[A-Za-z][A-Za-z0-9_]*")
+_IDENTIFIER = lazy(r"[A-Za-z][A-Za-z0-9_]*")
 EMAIL = re.compile(r"[^@\s<>\"'&]+@[^@\s<>\"'&]+")
-CONTROL_CHARACTER = re.compile(r"[\x00-\x1f\x7f]")
+CONTROL_CHARACTER = lazy(r"[\x00-\x1f\x7f]")
 
 # Names become C++ namespaces and macros (libraries, generated message code), so keywords
 # of C++ are as unusable as those of Python.

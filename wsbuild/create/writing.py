@@ -5,7 +5,6 @@ leaves nothing behind."""
 from __future__ import annotations
 
 import os
-import re
 import secrets
 import shutil
 from dataclasses import dataclass
@@ -17,6 +16,7 @@ from wsbuild.errors import ManifestError, TemplateError
 from wsbuild.workspace.discover import find_package_dirs
 from wsbuild.workspace.manifest import parse_manifest
 from wsbuild.workspace.root import Workspace, find_workspace_root
+from wsbuild.patterns import lazy
 
 
 @dataclass(frozen=True, slots=True)
@@ -85,7 +85,7 @@ def _check_destination(destination: Path, target: Path, name: str) -> None:
                                  hint="package names must be unique in a workspace")
 
 
-_MANIFEST_NAME = re.compile(rb"<name>\s*([^<\s]+)\s*</name>")
+_MANIFEST_NAME = lazy(rb"<name>\s*([^<\s]+)\s*</name>")
 
 
 def _workspace_packages(destination: Path) -> dict[str, Path]:

@@ -21,6 +21,7 @@ import yaml
 
 from wsbuild.deps.index import error_line
 from wsbuild.files import atomic_write
+from wsbuild.patterns import lazy
 
 #: the `.repos` file `deps install --from-source` writes and extends, in the workspace root
 REPOS_FILE = "from-source.repos"
@@ -29,11 +30,11 @@ SOURCES_TTL = 24 * 3600.0
 #: the longest one `vcs import` may take
 IMPORT_TIMEOUT = 1800.0
 #: a repository name of the index, used as the folder under src/
-_REPOSITORY_NAME = re.compile(r"^[A-Za-z0-9][A-Za-z0-9._-]*$")
+_REPOSITORY_NAME = lazy(r"^[A-Za-z0-9][A-Za-z0-9._-]*$")
 #: a branch or tag name (never an option, never a path out of the folder)
 _VERSION = re.compile(r"^[A-Za-z0-9][A-Za-z0-9._/+-]*$")
 #: the URL schemes a source repository may use
-_URL = re.compile(r"^(https?|git|ssh|file)://[^\s]+$|^git@[^\s:]+:[^\s]+$")
+_URL = lazy(r"^(https?|git|ssh|file)://[^\s]+$|^git@[^\s:]+:[^\s]+$")
 
 Run = Callable[..., "subprocess.CompletedProcess[str]"]
 

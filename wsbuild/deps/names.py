@@ -4,13 +4,14 @@ reaches a command line; the commands also put the names after `--`."""
 
 from __future__ import annotations
 
-import re
 
 from packaging.requirements import InvalidRequirement, Requirement
 
+from wsbuild.patterns import lazy
+
 #: Debian policy 5.6.1: lowercase letters, digits, `+`, `-`, `.`; at least two characters,
 #: starting with a letter or digit (an optional `:arch` qualifier as apt-get takes it)
-_DEBIAN_PACKAGE = re.compile(r"^[a-z0-9][a-z0-9+.-]+(:[a-z0-9][a-z0-9-]*)?$")
+_DEBIAN_PACKAGE = lazy(r"^[a-z0-9][a-z0-9+.-]+(:[a-z0-9][a-z0-9-]*)?$")
 
 
 def valid_pip_requirement(text: str) -> bool:

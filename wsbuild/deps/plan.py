@@ -35,9 +35,10 @@ from wsbuild.deps.pypi_projects import pypi_project
 from wsbuild.deps.rosdep import RosdepRules, Rule
 from wsbuild.workspace.model import Resolution
 from wsbuild.workspace.resolve import normalize_distribution, python_distribution
+from wsbuild.patterns import lazy
 
 #: a ROS package name (REP 144): only such keys can be `ros-<distro>-*` wheels
-_ROS_NAME = re.compile(r"^[a-z][a-z0-9_]*$")
+_ROS_NAME = lazy(r"^[a-z][a-z0-9_]*$")
 
 
 class Source(Enum):

@@ -23,6 +23,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from wsbuild.errors import WsbuildError
+from wsbuild.patterns import lazy
 
 KIB = 1024
 MIB = KIB * 1024
@@ -34,8 +35,8 @@ MARGIN_MAX = 2 * GIB
 #: a cgroup v1 "limit" at or above this is no limit (the kernel writes 2^63 - page size)
 _UNLIMITED = 1 << 60
 _UNITS = {"": 1, "k": KIB, "m": MIB, "g": GIB, "t": GIB * 1024}
-_SIZE = re.compile(r"^\s*(\d+(?:\.\d+)?)\s*([kmgt]?)(?:i?b)?\s*$", re.IGNORECASE)
-_PERCENT = re.compile(r"^\s*(\d+(?:\.\d+)?)\s*%\s*$")
+_SIZE = lazy(r"^\s*(\d+(?:\.\d+)?)\s*([kmgt]?)(?:i?b)?\s*$", re.IGNORECASE)
+_PERCENT = lazy(r"^\s*(\d+(?:\.\d+)?)\s*%\s*$")
 
 PROC = Path("/proc")
 CGROUP = Path("/sys/fs/cgroup")

@@ -306,9 +306,12 @@ class ReplayRecorder:
                 if entry.is_symlink():  # where it points, and what is there (or is not)
                     wanted.setdefault((entry.path, True), None)
         racy = self.started_ns - RACY_NS
+        output_dirs = tuple(path[:-1] for path in outputs)  # (the directories themselves)
+        listed = self.listed
         grouped: dict[str, list[tuple[str, int, tuple[int, ...]]]] = {}
+        # (a loop over every path the run looked at, thousands: written for speed)
         for (path, follow), saw in wanted.items():
-            if path == lock or (path + os.sep).startswith(outputs):
+            if path.startswith(outputs) or path == lock or path in output_dirs:
                 continue
             how = FOLLOW if follow else 0
             # a stat's result is what the run decided on; a later change shows at replay
@@ -317,17 +320,20 @@ class ReplayRecorder:
             if saw is OPENED and now == ABSENT:
                 self.why_not = f"{path} was deleted while it ran"
                 return None
-            if not follow and stat.S_ISDIR(now[0]) and path not in self.listed:
+            if not follow and stat.S_ISDIR(now[0]) and path not in listed:
                 how |= IDENTITY
                 now = now[:2]
-            elif max(now[3:], default=0) >= racy:
+            elif len(now) > 3 and (now[3] >= racy or now[4] >= racy):
                 self.why_not = (f"{path} changed {(self.started_ns - max(now[3:])) / 1e9:.2f} s "
                                 "before it started (or later): too recently to trust")
                 return None
             directory, _, name = path.rpartition("/")
             if not name or not directory:  # "/" and the directories right under it
                 directory, name = path, ""
-            grouped.setdefault(directory, []).append((name, how, now))
+            group = grouped.get(directory)
+            if group is None:
+                group = grouped[directory] = []
+            group.append((name, how, now))
         paths: list[list[object]] = [[d, [n for n, _, _ in e], [h for _, h, _ in e]]
                                      for d, e in grouped.items()]
         # the digest of these very signatures (in replay.digest's order): stat'ing again could

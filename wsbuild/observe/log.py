@@ -19,13 +19,14 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from wsbuild.observe.texts import MAKES, SHELLS, make_reads, shell_reads
+from wsbuild.patterns import lazy
 
 #: programs that read their environment wholesale, unseen: a step running one is not fully
 #: observed
-UNSEEN_READERS = re.compile(r"^(perl[\d.]*|ruby[\d.]*|node(js)?|lua[\d.]*|luajit|tclsh[\d.]*|"
+UNSEEN_READERS = lazy(r"^(perl[\d.]*|ruby[\d.]*|node(js)?|lua[\d.]*|luajit|tclsh[\d.]*|"
                             r"wish[\d.]*|php[\d.]*|java|python[\d.]*-dbg)$")
 PYTHON = re.compile(r"^(python|pypy)[\d.]*$")
-AWK = re.compile(r"^(g|m|n)?awk$")
+AWK = lazy(r"^(g|m|n)?awk$")
 #: variables every program reads without asking getenv: the dynamic loader's
 LOADER_READS = ("LD_LIBRARY_PATH",)
 #: the arguments a Python interpreter answers before its site module (and so wsbuild's hook)
@@ -362,7 +363,7 @@ def _texts(paths: Iterable[str]) -> Iterator[str]:
             yield data.decode("utf-8", "replace")
 
 
-_PYC = re.compile(r"^(?P<dir>.*)/__pycache__/(?P<name>[^/.]+)\.[^/]+?\.pyc$")
+_PYC = lazy(r"^(?P<dir>.*)/__pycache__/(?P<name>[^/.]+)\.[^/]+?\.pyc$")
 
 
 def _sources(reads: Iterable[str]) -> set[str]:

@@ -11,6 +11,8 @@ import re
 from collections.abc import Iterable
 from dataclasses import dataclass
 
+from wsbuild.patterns import lazy
+
 SHELLS = frozenset({"sh", "bash", "dash", "zsh", "ksh", "mksh", "ash", "busybox", "rbash"})
 MAKES = frozenset({"make", "gmake", "remake"})
 #: what a shell reads of the environment whatever its text says
@@ -19,9 +21,9 @@ SHELL_READS = ("PATH", "IFS", "CDPATH", "ENV", "BASH_ENV", "POSIXLY_CORRECT", "S
 #: what make reads of the environment whatever its makefiles say
 MAKE_READS = ("MAKEFLAGS", "MFLAGS", "MAKEFILES", "MAKELEVEL", "GNUMAKEFLAGS", "MAKE_RESTARTS")
 
-_SHELL_NAME = re.compile(r"\$\{?([A-Za-z_][A-Za-z0-9_]*)")
-_MAKE_NAME = re.compile(r"\$[({]([A-Za-z_][A-Za-z0-9_]*)[)}:]")
-_EVERY = re.compile(r"\$\{!|\bexport\s+-p\b|\bdeclare\s+-[a-zA-Z]*p\b|\bcompgen\s+-v\b|"
+_SHELL_NAME = lazy(r"\$\{?([A-Za-z_][A-Za-z0-9_]*)")
+_MAKE_NAME = lazy(r"\$[({]([A-Za-z_][A-Za-z0-9_]*)[)}:]")
+_EVERY = lazy(r"\$\{!|\bexport\s+-p\b|\bdeclare\s+-[a-zA-Z]*p\b|\bcompgen\s+-v\b|"
                     r"^\s*(?:set|env|printenv|export|declare|typeset)\s*(?:[;|&]|$)",
                     re.MULTILINE)
 

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import os
-import re
 import shutil
 import sysconfig
 from collections.abc import Iterable
@@ -15,11 +14,12 @@ from wsbuild.files import write_if_changed
 from wsbuild.prefix.layout import AMENT_PACKAGE_INDEX, PACKAGE_INDEX
 from wsbuild.prefix.quoting import prefixed_word, sh_quote, validate_package_name
 from wsbuild.prefix.render import load_template, render
+from wsbuild.patterns import lazy
 
 #: the shell extensions wsbuild writes package scripts for, with `.dsv` (colcon's sorted order)
 SHELL_EXTENSIONS = ("bash", "dsv", "sh", "zsh")
 
-_SAFE_SUBDIRECTORY = re.compile(r"^[A-Za-z0-9_.+-]+(/[A-Za-z0-9_.+-]+)*$")
+_SAFE_SUBDIRECTORY = lazy(r"^[A-Za-z0-9_.+-]+(/[A-Za-z0-9_.+-]+)*$")
 
 
 @dataclass(frozen=True, slots=True)

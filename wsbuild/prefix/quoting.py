@@ -2,17 +2,17 @@
 
 from __future__ import annotations
 
-import re
 from pathlib import Path
 
 from wsbuild.errors import WsbuildError
+from wsbuild.patterns import lazy
 
 #: what wsbuild accepts as a package name in a generated script (REP 144, lower case)
-PACKAGE_NAME = re.compile(r"^[a-z][a-z0-9_]*$")
+PACKAGE_NAME = lazy(r"^[a-z][a-z0-9_]*$")
 #: a POSIX environment variable name
-VARIABLE_NAME = re.compile(r"^[A-Za-z_][A-Za-z0-9_]*$")
+VARIABLE_NAME = lazy(r"^[A-Za-z_][A-Za-z0-9_]*$")
 #: characters that need no quoting inside double quotes next to a `$VAR`
-_PLAIN = re.compile(r"^[A-Za-z0-9_./+,:@%=-]*$")
+_PLAIN = lazy(r"^[A-Za-z0-9_./+,:@%=-]*$")
 
 
 def validate_package_name(name: str, *, path: Path | None = None) -> str:

@@ -22,6 +22,7 @@ from wsbuild.engine.ready_queue import JobGraph
 from wsbuild.engine.timing_files import started_at
 from wsbuild import __version__, inputs
 from wsbuild.redaction import redact
+from wsbuild.patterns import lazy
 
 if TYPE_CHECKING:
     from wsbuild.cache.settings import CacheSettings
@@ -47,7 +48,7 @@ class RunFacts:
     timings: bool = False
 
 #: the line of CMakeCache.txt naming the generator (as build_types/cmake.py reads it)
-_GENERATOR = re.compile(r"^CMAKE_GENERATOR:INTERNAL=(.*)$", re.MULTILINE)
+_GENERATOR = lazy(r"^CMAKE_GENERATOR:INTERNAL=(.*)$", re.MULTILINE)
 REPORT_JSON = "report.json"
 REPORT_HTML = "report.html"
 FORMAT = 1

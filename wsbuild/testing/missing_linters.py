@@ -20,7 +20,6 @@ from __future__ import annotations
 
 import ast
 import importlib.util
-import re
 from collections.abc import Generator
 from pathlib import Path
 from typing import Any
@@ -28,8 +27,9 @@ from typing import Any
 import pytest
 
 from wsbuild.testing.linters import LINTER_MODULES, MISSING_LINTER_PREFIX, STRICT_MESSAGE
+from wsbuild.patterns import lazy
 
-_NO_MODULE = re.compile(r"No module named '(?P<module>[A-Za-z0-9_.]+)'")
+_NO_MODULE = lazy(r"No module named '(?P<module>[A-Za-z0-9_.]+)'")
 
 
 def pytest_addoption(parser: pytest.Parser) -> None:

@@ -4,11 +4,12 @@ wheel of the underlay pinned) and the pytest that distro's test plugins need."""
 
 from __future__ import annotations
 
-import re
 from pathlib import Path
 
+from wsbuild.patterns import lazy
+
 #: a ROS distro's name (`jazzy`): the only text that goes into a file name here
-_DISTRO = re.compile(r"^[a-z]+$")
+_DISTRO = lazy(r"^[a-z]+$")
 #: the pytest for ROS packages' tests (testing/pytest_env.py)
 ROS_PYTEST_FILE = "ros-pytest.txt"
 def requirements_dir() -> Path | None:

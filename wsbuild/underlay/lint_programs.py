@@ -12,10 +12,11 @@ no result
 from __future__ import annotations
 
 import os
-import re
 import shlex
 from collections.abc import Mapping
 from dataclasses import dataclass
+
+from wsbuild.patterns import lazy
 
 
 @dataclass(frozen=True, slots=True)
@@ -54,7 +55,7 @@ LINT_PROGRAMS: Mapping[str, LintProgram] = {
 }
 
 #: what an ament linter prints when its program is not on PATH
-_NOT_FOUND = re.compile(r"Could not find '([A-Za-z0-9_.+-]+)' executable")
+_NOT_FOUND = lazy(r"Could not find '([A-Za-z0-9_.+-]+)' executable")
 
 
 def missing_program(text: str) -> LintProgram | None:

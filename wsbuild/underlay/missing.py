@@ -4,12 +4,12 @@ installed: the ros-jazzy-* wheels' metadata forgets several."""
 from __future__ import annotations
 
 import os
-import re
 from dataclasses import dataclass
 from pathlib import Path
 
 from wsbuild.underlay.detect import RESOURCE_INDEX, ros_distro
 from wsbuild.underlay.repair import cmake_files
+from wsbuild.patterns import lazy
 
 #: Wheels the ros-jazzy-* metadata forgets: `find_package()` fails without them (the first
 #: three for any ament_cmake / rosidl package, the gtest/gmock/pytest ones once
@@ -26,8 +26,8 @@ EXTRA_REQUIREMENTS = (
     "ros-jazzy-gtest-vendor",
     "ros-jazzy-gmock-vendor",
 )
-_FIND_PACKAGE = re.compile(r"find_package\(\s*([A-Za-z0-9_]+)([^)]*)\)")
-_EXPORTED_DEPENDENCIES = re.compile(r'set\(_exported_dependencies\s+"([^"]*)"\)')
+_FIND_PACKAGE = lazy(r"find_package\(\s*([A-Za-z0-9_]+)([^)]*)\)")
+_EXPORTED_DEPENDENCIES = lazy(r'set\(_exported_dependencies\s+"([^"]*)"\)')
 
 
 @dataclass(frozen=True)

@@ -29,17 +29,18 @@ from pathlib import Path
 
 from wsbuild.underlay.detect import VenvPython
 from wsbuild.words import shorten
+from wsbuild.patterns import lazy
 
-_OPT_PYTHON = re.compile(
+_OPT_PYTHON = lazy(
     r"/opt/python/cp(?P<major>\d)(?P<minor>\d+)-cp\d+[a-z]*(?P<rest>(?:/[A-Za-z0-9_.+\-/]*)?)"
 )
-_INCLUDE_REST = re.compile(r"/include/python\d+\.\d+[a-z]*(?P<tail>(?:/.*)?)$")
-_SITE_REST = re.compile(r"/lib/python\d+\.\d+/(?:site|dist)-packages(?P<tail>(?:/.*)?)$")
-_BIN_PYTHON_REST = re.compile(r"/bin/python[0-9.]*$")
-_LINK_LIBRARIES = re.compile(r'(?P<head>^\s*INTERFACE_LINK_LIBRARIES\s+")(?P<value>[^"]*)(?P<tail>".*)$')
+_INCLUDE_REST = lazy(r"/include/python\d+\.\d+[a-z]*(?P<tail>(?:/.*)?)$")
+_SITE_REST = lazy(r"/lib/python\d+\.\d+/(?:site|dist)-packages(?P<tail>(?:/.*)?)$")
+_BIN_PYTHON_REST = lazy(r"/bin/python[0-9.]*$")
+_LINK_LIBRARIES = lazy(r'(?P<head>^\s*INTERFACE_LINK_LIBRARIES\s+")(?P<value>[^"]*)(?P<tail>".*)$')
 # libraries of the manylinux (AlmaLinux) build host; Debian/Ubuntu never use lib64
-_HOST_LIBRARY = re.compile(r"^/usr/(?:local/)?lib64/[^;\s\"$<>]+\.(?:so|a)(?:\.[0-9.]+)?$")
-_OPENSSL_REQUIRED = re.compile(r"find_package\(\s*OpenSSL\s+REQUIRED\s*\)")
+_HOST_LIBRARY = lazy(r"^/usr/(?:local/)?lib64/[^;\s\"$<>]+\.(?:so|a)(?:\.[0-9.]+)?$")
+_OPENSSL_REQUIRED = lazy(r"find_package\(\s*OpenSSL\s+REQUIRED\s*\)")
 _OPENSSL_GENEX = "$<$<BOOL:1>:OpenSSL::SSL"
 _OPENSSL_GENEX_ESCAPED = r"\$<\$<BOOL:1>:OpenSSL::SSL"
 

@@ -4,13 +4,13 @@ from __future__ import annotations
 
 import argparse
 import os
-import re
 from collections.abc import Callable, Iterable
 from pathlib import Path
 
 from wsbuild.verbs.colcon import EVENT_HANDLERS
 from wsbuild.verbs.mixin import known_mixins
 from wsbuild.workspace.root import INSTALL_BASE, Workspace, find_workspace_root
+from wsbuild.patterns import lazy
 
 COMPLETION_DOC = """Print shell code: Tab then completes verbs, options and package names.
 
@@ -25,7 +25,7 @@ Package names come from a quick crawl of the workspace found from the current di
 SHELLS = ("bash", "zsh")
 #: metavars of the arguments that take package names (selection options, `info`, `run`)
 _PACKAGE_METAVARS = ("PKG", "DEP")
-_NAME_RE = re.compile(rb"<name>\s*([^<\s]+)\s*</name>")
+_NAME_RE = lazy(rb"<name>\s*([^<\s]+)\s*</name>")
 
 
 def add_completion_arguments(parser: argparse.ArgumentParser) -> None:

@@ -9,6 +9,7 @@ from functools import lru_cache
 from typing import cast
 
 from wsbuild.errors import ConditionError
+from wsbuild.patterns import lazy
 
 #: Values assumed for these variables when the environment leaves them unset (or empty).
 DEFAULT_VARIABLES: Mapping[str, str] = {
@@ -39,7 +40,7 @@ _TOKEN = re.compile(
     )""",
     re.VERBOSE,
 )
-_TRAILING_SPACE = re.compile(r"\s*\Z")
+_TRAILING_SPACE = lazy(r"\s*\Z")
 
 _OPERATORS: dict[str, Callable[[str, str], bool]] = {
     "==": operator.eq,

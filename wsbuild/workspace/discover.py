@@ -13,14 +13,15 @@ from wsbuild.errors import ManifestError, WorkspaceError
 from wsbuild.workspace.memo import ManifestMemo
 from wsbuild.workspace.model import Dependency, DepKind, Package
 from wsbuild import inputs
+from wsbuild.patterns import lazy
 
 IGNORE_MARKERS = ("COLCON_IGNORE", "AMENT_IGNORE", "CATKIN_IGNORE")
 _PYTHON_FILES = ("pyproject.toml", "setup.py", "setup.cfg")
-_PROJECT_RE = re.compile(r"^\s*project\s*\(\s*([A-Za-z0-9_.+-]+)", re.MULTILINE | re.IGNORECASE)
-_FIND_PACKAGE_RE = re.compile(r"find_package\s*\(\s*([A-Za-z0-9_.+-]+)", re.IGNORECASE)
-_SETUP_NAME_RE = re.compile(r"""\bname\s*=\s*['"]([^'"]+)['"]""")
+_PROJECT_RE = lazy(r"^\s*project\s*\(\s*([A-Za-z0-9_.+-]+)", re.MULTILINE | re.IGNORECASE)
+_FIND_PACKAGE_RE = lazy(r"find_package\s*\(\s*([A-Za-z0-9_.+-]+)", re.IGNORECASE)
+_SETUP_NAME_RE = lazy(r"""\bname\s*=\s*['"]([^'"]+)['"]""")
 #: names of packages without package.xml (plain CMake/Python): no path or shell syntax
-_PLAIN_NAME_RE = re.compile(r"^[A-Za-z0-9][A-Za-z0-9._-]*$")
+_PLAIN_NAME_RE = lazy(r"^[A-Za-z0-9][A-Za-z0-9._-]*$")
 
 #: a third-party way to recognise a package directory that has no package.xml (an entry point
 #: of group `wsbuild.package_identification`, build_types/plugins.py): called with the

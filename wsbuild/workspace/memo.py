@@ -6,7 +6,6 @@ then parse only what changed."""
 from __future__ import annotations
 
 import json
-import re
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -15,11 +14,12 @@ from wsbuild.workspace.model import Dependency, DepKind, Package, Person, Versio
 from wsbuild import inputs
 from wsbuild.hashes import blake2b
 from wsbuild.files import atomic_write, private_directory
+from wsbuild.patterns import lazy
 
 #: bump when the remembered form of a package changes
 FORMAT = 2
 #: `$NAME` in a condition (REP 149)
-_VARIABLE = re.compile(rb"\$([A-Za-z_][A-Za-z0-9_]*)")
+_VARIABLE = lazy(rb"\$([A-Za-z_][A-Za-z0-9_]*)")
 
 
 @dataclass(slots=True)

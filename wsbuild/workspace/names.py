@@ -5,6 +5,8 @@ from __future__ import annotations
 
 import re
 
+from wsbuild.patterns import lazy
+
 PACKAGE_NAME_RULE = (
     "a package name starts with a lowercase letter and contains only lowercase letters, "
     "digits and underscores (REP 144)"
@@ -18,8 +20,8 @@ _PACKAGE_NAME = re.compile(r"[a-z][a-z0-9_]*").fullmatch
 # Wide enough for rosdep keys (python3-numpy, libgstreamer0.10-dev, libstdc++6), narrow enough
 # that a name can never be a path, an option or shell syntax.
 _DEPENDENCY_NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9_.+-]*").fullmatch
-_NOT_NAME_CHARS = re.compile(r"[^a-z0-9_]+")
-_UNDERSCORES = re.compile(r"__+")
+_NOT_NAME_CHARS = lazy(r"[^a-z0-9_]+")
+_UNDERSCORES = lazy(r"__+")
 
 
 def is_valid_package_name(name: str) -> bool:

@@ -33,6 +33,7 @@ from wsbuild.workspace.model import DepKind, Package, Resolution, ResolvedDepend
 from wsbuild import inputs
 from wsbuild.signature import stat_signature
 from wsbuild.files import atomic_write, private_directory
+from wsbuild.patterns import lazy
 
 #: rosdep keys whose Python module name is not the key minus "python3-"
 _PYTHON_MODULES = {
@@ -82,7 +83,7 @@ SYSTEM_KEYS = frozenset({
     "libsqlite3-dev", "lttng-ust", "liblttng-ust-dev", "acl", "libacl1-dev",
 })
 #: what a pkg-config module name may look like (it is passed as one argument, never to a shell)
-_PKG_CONFIG_NAME = re.compile(r"^[A-Za-z0-9][A-Za-z0-9_.+-]*$")
+_PKG_CONFIG_NAME = lazy(r"^[A-Za-z0-9][A-Za-z0-9_.+-]*$")
 
 
 def python_distribution(key: str) -> str | None:

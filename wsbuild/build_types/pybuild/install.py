@@ -13,10 +13,11 @@ from pathlib import Path, PurePosixPath
 
 from wsbuild.build_types import StepFailed
 from wsbuild.build_types.pybuild.setup_py import ModuleFile, SetupPlan
+from wsbuild.patterns import lazy
 
 # distutils' build_scripts rewrites a shebang naming python to the building interpreter
-_PYTHON_SHEBANG = re.compile(rb"^#!.*python[0-9.]*([ \t].*)?$")
-_CONFIG_VAR = re.compile(r"\$(?:\{(\w+)\}|(\w+))")
+_PYTHON_SHEBANG = lazy(rb"^#!.*python[0-9.]*([ \t].*)?$")
+_CONFIG_VAR = lazy(r"\$(?:\{(\w+)\}|(\w+))")
 _METADATA_SUFFIXES = (".egg-info", ".dist-info")
 
 

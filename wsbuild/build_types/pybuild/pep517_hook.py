@@ -23,7 +23,9 @@ import importlib.util  # noqa: E402
 import os  # noqa: E402
 import re  # noqa: E402
 
-_NAME = re.compile(r"^\s*([A-Za-z0-9](?:[A-Za-z0-9._-]*[A-Za-z0-9])?)")
+from wsbuild.patterns import lazy
+
+_NAME = lazy(r"^\s*([A-Za-z0-9](?:[A-Za-z0-9._-]*[A-Za-z0-9])?)")
 
 
 def _fail(message: str) -> None:

@@ -23,21 +23,21 @@ time); the checked file says so."""
 from __future__ import annotations
 
 import os
-import re
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
 from wsbuild.files import private_directory
 from wsbuild.record.model import PackageRecord
+from wsbuild.patterns import lazy
 
 #: the environment variable naming the oracle's file
 TRACE_VARIABLE = "WSBUILD_STEP_TRACE"
 #: beside the oracle's file, one line per package it checked: steps, reads, unrecorded, name
 CHECKED_SUFFIX = ".checked"
 #: an open that succeeded: the syscall, its arguments, and the path strace -y resolved
-_OPEN = re.compile(r"^\d+\s+(?:open|openat|openat2)\((?P<args>.*)\) = \d+<(?P<path>.*)>$")
-_EXECVE = re.compile(r'^\d+\s+execve\("(?P<path>(?:[^"\\]|\\.)*)",.* = 0$')
+_OPEN = lazy(r"^\d+\s+(?:open|openat|openat2)\((?P<args>.*)\) = \d+<(?P<path>.*)>$")
+_EXECVE = lazy(r'^\d+\s+execve\("(?P<path>(?:[^"\\]|\\.)*)",.* = 0$')
 #: the machine's running state
 _PSEUDO = ("/proc/", "/sys/", "/dev/")
 
@@ -122,7 +122,7 @@ def unrecorded(record: PackageRecord, traces: Mapping[str, Path], *, source_dir:
     return found, checked
 
 
-_PYC = re.compile(r"^(?P<dir>.*)/__pycache__/(?P<name>[^/.]+)\.[^/]+?\.pyc$")
+_PYC = lazy(r"^(?P<dir>.*)/__pycache__/(?P<name>[^/.]+)\.[^/]+?\.pyc$")
 
 
 def _source_of(path: str) -> str | None:

@@ -53,6 +53,7 @@ from pathlib import Path
 from wsbuild.engine.jobserver import Jobserver
 from wsbuild.engine.timings import CompileJobs
 from wsbuild.errors import WsbuildError
+from wsbuild.patterns import lazy
 
 ENV_VAR = "WSBUILD_DISTRIBUTE"
 DISTCC_HOSTS = "DISTCC_HOSTS"
@@ -95,9 +96,9 @@ set_property(GLOBAL PROPERTY RULE_LAUNCH_LINK "{gate}")
 set_property(GLOBAL PROPERTY RULE_LAUNCH_CUSTOM "{gate}")
 """
 
-_COMPLETED = re.compile(r"\bcompile (\S+) on (\S+) completed ok")
+_COMPLETED = lazy(r"\bcompile (\S+) on (\S+) completed ok")
 #: distcc ≥ 3.3 names the source and the host; older ones neither
-_FELL_BACK = re.compile(r"failed to distribute(?: (\S+) to (\S+))?, running locally instead")
+_FELL_BACK = lazy(r"failed to distribute(?: (\S+) to (\S+))?, running locally instead")
 
 
 @dataclass(frozen=True, slots=True)
