@@ -318,6 +318,27 @@ def test_the_built_in_types_options_are_the_ones_the_parser_reads() -> None:
     assert set(BUILD_KEYS) == lists
 
 
+def test_a_plan_asks_the_built_in_types_what_counts_without_importing_them() -> None:
+    """`type_key_options` answers for a built-in type as the type itself does (what of the
+    options enters a package's record), from the options it declares: a no-op plan imports
+    none of the types' steps. Options given to every type, its own among them, count alike."""
+    from dataclasses import replace
+
+    from wsbuild.build_types import BuildOptions, type_key_options, type_options
+
+    plain = BuildOptions()
+    given = replace(plain, symlink_install=True, jobs=3).with_values(
+        {"cmake_args": ["-DX=1"], "cmake_target": "all", "cmake_clean_cache": True})
+    for name in BUILTIN:
+        build_type = get_build_type(name)
+        assert type_options(name) == tuple(build_type.options)
+        for options in (plain, given, given.with_values({"ament_cmake_args": ["-DY=2"]})):
+            assert type_key_options(name, options) == build_type.key_options(options), name
+    # what a type declares reaches its key, what only changes how it runs does not
+    assert type_key_options("cmake", given) != type_key_options("cmake", plain)
+    assert type_key_options("cmake", replace(plain, jobs=7)) == type_key_options("cmake", plain)
+
+
 def test_a_build_type_is_opened_and_closed_once_for_each_run_that_builds_its_packages(
         tmp_path: Path) -> None:
     """The per-run hooks of the protocol (`open_run`, `close_run`): a type holds what a run

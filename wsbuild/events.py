@@ -29,6 +29,8 @@ class CacheRestored:
 
 @dataclass(frozen=True, slots=True)
 class RunFinished:
+    """The run ended: each package's result, how long it took, the summary's last lines."""
+
     results: tuple[JobResult, ...]
     seconds: float
     verb: str = "build"

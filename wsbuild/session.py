@@ -59,6 +59,8 @@ class SessionOptions:
 
 @dataclass(slots=True)
 class Session:
+    """One run's context: workspace, install layout, underlay, log, cache and jobserver."""
+
     workspace: Workspace
     options: SessionOptions
     merged: bool

@@ -474,6 +474,24 @@ def get_build_type(name: str) -> BuildType:
     return build_type
 
 
+def type_options(name: str) -> tuple[TypeOption, ...]:
+    """The options the build type `name` declares (its `options`); a built-in type's without
+    importing it (BUILTIN_OPTIONS)."""
+    if name in BUILTIN:
+        value = BUILTIN_OPTIONS.get(name)
+        return tuple(load_value(value)) if value else ()  # type: ignore[call-overload]
+    return tuple(get_build_type(name).options)
+
+
+def type_key_options(name: str, options: BuildOptions) -> dict[str, object]:
+    """`get_build_type(name).key_options(options)`; a built-in type's from the options it
+    declares, without importing it: a plan whose packages are all up to date imports no build
+    type's steps (a test holds the two equal for each built-in type)."""
+    if name in BUILTIN:
+        return key_options(options, type_options(name))
+    return get_build_type(name).key_options(options)
+
+
 def declared_options(*, plugins: bool) -> list[tuple[str, tuple[TypeOption, ...]]]:
     """(build type, the options it declares) of each type that declares some: the built-in
     ones, and (`plugins`) those of every installed third-party type (which scanning the

@@ -12,6 +12,8 @@ from wsbuild.prefix.hooks import EnvironmentHooks
 
 @dataclass(frozen=True, slots=True)
 class AmentCMakeBuildType(CMakeBuildType):
+    """The `ament_cmake` build type: CMake's steps, with the ament hooks and options."""
+
     name: str = "ament_cmake"
     hooks: EnvironmentHooks = EnvironmentHooks(cmake_prefix_path=True, ament=True,
                                                ament_local_setup=True)

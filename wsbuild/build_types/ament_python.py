@@ -17,6 +17,8 @@ from wsbuild.prefix.hooks import EnvironmentHooks
 
 @dataclass(frozen=True, slots=True)
 class AmentPythonBuildType(BuildTypeBase):
+    """The `ament_python` build type: setup.py's build and install, with the ament hooks."""
+
     name: str = "ament_python"
     hooks: EnvironmentHooks = EnvironmentHooks(ament=True)
 

@@ -97,6 +97,8 @@ def cmake_options(ctx: PackageContext) -> CMakeOptions:
 
 @dataclass(frozen=True, slots=True)
 class CMakeBuildType:
+    """The `cmake` build type: configure, build and install with CMake, tests with CTest."""
+
     name: str = "cmake"
     #: colcon-ros gives a plain CMake package with a package.xml its pkg-config paths
     hooks: EnvironmentHooks = EnvironmentHooks(cmake_prefix_path=True, pkg_config_path=True)

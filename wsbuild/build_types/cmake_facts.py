@@ -22,6 +22,8 @@ NINJA_JOBSERVER = (1, 13)
 
 @dataclass(frozen=True, slots=True)
 class NinjaTool:
+    """The Ninja a build runs: where it is and its version."""
+
     path: Path
     version: tuple[int, ...]
 

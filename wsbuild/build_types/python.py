@@ -14,6 +14,8 @@ from wsbuild.build_types import PackageContext, BuildTypeBase, RunnerNamed, Step
 
 @dataclass(frozen=True, slots=True)
 class PythonBuildType(BuildTypeBase):
+    """The `python` build type: a plain Python package (setup.py, setup.cfg, pyproject.toml)."""
+
     name: str = "python"
 
     test_runner = RunnerNamed("wsbuild.build_types.pybuild.tests:PYTEST")

@@ -21,6 +21,8 @@ _COLCON_INDEX = Path("share", "colcon-core", "packages")
 
 @dataclass(frozen=True, slots=True)
 class Override:
+    """A workspace package that overrides one of the same name in an underlay."""
+
     package: str
     #: the underlay prefix that provides it (the first one on the path)
     prefix: Path

@@ -326,9 +326,10 @@ def _after_packages(session: Session, compilers: CompilerCache | None,
 
 def _warn(plan: BuildPlan, emit: Emit, selection: Selection, session: Session) -> None:
     """The plan's warnings, once for the run: unresolved build dependencies, overrides."""
-    from wsbuild.builder.failure import known_names  # lazy: off `build --dry-run` and `test`
-
     if plan.unresolved:
+        from wsbuild.builder.failure import (
+            known_names)  # lazy: off `build --dry-run`, `test` and a build resolving all
+
         emit(Notice(unresolved_warning(plan.unresolved, known_names(selection, session),
                                        pip_underlay=session.underlay.venv is not None),
                     warning=True))

@@ -16,7 +16,7 @@ from enum import Enum
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from wsbuild.build_types import BuildOptions, Step, get_build_type
+from wsbuild.build_types import BuildOptions, Step, type_key_options, type_options
 from wsbuild.builder import bookkeeping
 from wsbuild.builder.bookkeeping import BuilderStep
 from wsbuild.builder.overrides import Override, overrides_to_warn
@@ -60,6 +60,8 @@ class ShardWait:
 
 @dataclass(frozen=True, slots=True)
 class PackagePlan:
+    """One package's part of the plan: its decision, why, and what its build gets."""
+
     name: str
     build_type: str
     decision: Decision
@@ -140,6 +142,8 @@ class Refusal:
 
 @dataclass(frozen=True, slots=True)
 class BuildPlan:
+    """What a build does: each selected package's plan, in start order, and the run's options."""
+
     #: the options every package is built with (the request's, with the underlay's CMake args);
     #: a package's own (`PackagePlan.options`) come after them
     options: BuildOptions
@@ -368,7 +372,7 @@ def _steps(planning: _Planning, name: str, prefix: Path, own_options: PackageOpt
 def _forced_by_option(build_type: str, options: BuildOptions) -> bool:
     """Whether an option of its build type given on the command line builds every package of
     it (--cmake-force-configure, --cmake-clean-cache, …)."""
-    declared = get_build_type(build_type).options
+    declared = type_options(build_type)
     return any(option.forces_build and options.value(option) for option in declared)
 
 
@@ -406,7 +410,7 @@ def package_settings(build_type: str, options: BuildOptions, prefix: Path,
     key_options = memo.get((build_type, options))
     if key_options is None:  # as JSON keeps them: tuples become lists
         key_options = memo[(build_type, options)] = json.loads(json.dumps(
-            get_build_type(build_type).key_options(options)))
+            type_key_options(build_type, options)))
     return {
         "wsbuild": __version__,
         "build_type": build_type,

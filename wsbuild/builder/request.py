@@ -51,6 +51,8 @@ class PackageOptions:
 
 @dataclass(frozen=True, slots=True)
 class BuildRequest:
+    """What the command line (with defaults files and mixins) asks of a build."""
+
     build: BuildOptions
     run: RunOptions
     #: package name → what its build gets beyond `build` (a package not named: nothing)

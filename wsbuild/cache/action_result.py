@@ -21,6 +21,8 @@ _RECORD = lazy(r"wsbuild/([A-Za-z0-9_.-]+)\.record\.json")
 
 @dataclass(frozen=True, slots=True)
 class ActionResult:
+    """A cache entry's description: the package, its archive's digest and size, its record."""
+
     package: str
     digest: str
     size: int

@@ -35,6 +35,8 @@ MAX_RECORD_BYTES = 64 * 1024 * 1024
 
 @dataclass(frozen=True, slots=True)
 class Found:
+    """A cache entry found for a key, with the package record it was built with."""
+
     record: ActionResult
     from_local: bool
     #: the package record the entry was built with (record/model.py's JSON, its digest
@@ -45,6 +47,8 @@ class Found:
 
 @dataclass(frozen=True, slots=True)
 class Restored:
+    """A cache entry unpacked into a stage: from where, its digest, how many members."""
+
     source: str  # "local" or the remote URL
     digest: str
     members: int

@@ -47,6 +47,8 @@ def is_digest(text: str) -> bool:
 
 @dataclass(frozen=True, slots=True)
 class CacheKey:
+    """The key of a package's cache entry, and what it was made of."""
+
     package: str
     #: what the key is made of (canonical JSON), kept for logs and debugging
     text: str

@@ -24,6 +24,8 @@ _STALE_SECONDS = 3600
 
 @dataclass(frozen=True, slots=True)
 class CacheStats:
+    """What the local cache holds: entries, blobs, bytes, and its size limit."""
+
     directory: Path
     entries: int
     blobs: int
@@ -33,6 +35,8 @@ class CacheStats:
 
 @dataclass(frozen=True, slots=True)
 class Pruned:
+    """What a prune of the local cache removed."""
+
     blobs: int
     entries: int
     bytes: int

@@ -22,6 +22,8 @@ _SIZE = lazy(r"\s*(\d+(?:\.\d+)?)\s*([kmgt]?)(?:i?b)?\s*", re.IGNORECASE)
 
 @dataclass(frozen=True, slots=True)
 class CacheSettings:
+    """Where the build cache is and how it is used (local tier, remote URL, read-only)."""
+
     enabled: bool = True
     #: the remote tier's base URL (http or https), None for the local tier only
     url: str | None = None

@@ -17,6 +17,8 @@ from wsbuild.workspace.root import find_workspace_root
 
 @dataclass(frozen=True, slots=True)
 class Maintainer:
+    """The maintainer a new package names (from the options or git's config)."""
+
     name: str
     email: str
     #: set when a value had to be made up (no git config): tells the user how to fix it

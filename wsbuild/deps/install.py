@@ -38,6 +38,8 @@ class Outcome:
 
 @dataclass(frozen=True, slots=True)
 class InstallReport:
+    """What `deps install` did: each install's outcome, and the underlay files repaired after."""
+
     outcomes: tuple[Outcome, ...]
     #: underlay files rewritten after new wheels came in
     repaired: tuple[Path, ...] = ()

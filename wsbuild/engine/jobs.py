@@ -35,17 +35,23 @@ class JobResult:
 
 @dataclass(frozen=True, slots=True)
 class JobStarted:
+    """A package's job started."""
+
     package: str
 
 
 @dataclass(frozen=True, slots=True)
 class StepStarted:
+    """A step of a package's job started."""
+
     package: str
     label: str
 
 
 @dataclass(frozen=True, slots=True)
 class JobFinished:
+    """A package's job finished, with its result."""
+
     result: JobResult
 
 

@@ -54,6 +54,8 @@ _STEP_POLL = 0.05
 
 @dataclass(slots=True)
 class _StepMeasure:
+    """What a running step was measured at: its tree's memory, its largest job, its jobs."""
+
     tree: int = 0
     job: int = 0
     jobs: int = 0

@@ -44,6 +44,8 @@ class TreeSnapshot:
 
 @dataclass(slots=True)
 class _Process:
+    """One process of the build's tree, as /proc shows it."""
+
     ppid: int
     name: str
     rss: int

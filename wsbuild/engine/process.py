@@ -229,6 +229,8 @@ def interrupted_exit_code() -> int:
 
 @dataclass(frozen=True, slots=True)
 class Completed:
+    """A command that ran to its end: its exit code and the last lines it printed."""
+
     returncode: int
     tail: tuple[str, ...]  # last lines of combined output
     stderr: tuple[str, ...]  # every stderr line

@@ -46,6 +46,8 @@ def phase_of(label: str) -> str:
 
 @dataclass(frozen=True, slots=True)
 class Bar:
+    """One package's bar of the timeline: its phases' spans."""
+
     package: str
     #: (phase, start, end) in seconds since the run started
     spans: tuple[tuple[str, float, float], ...]
@@ -56,6 +58,8 @@ class Bar:
 
 @dataclass(frozen=True, slots=True)
 class Timeline:
+    """The timeline of a run: a bar per package."""
+
     title: str
     bars: tuple[Bar, ...]
     wall: float

@@ -126,6 +126,8 @@ class PackageTiming:
 
 @dataclass(slots=True)
 class _Open:
+    """A package's job while it runs: when it started, its steps so far."""
+
     started: float
     steps: list[tuple[str, float]] = field(default_factory=list)
 
@@ -198,6 +200,8 @@ class CompileJobs:
 
 @dataclass(frozen=True, slots=True)
 class RunTimings:
+    """The times of a whole run: wall and CPU time, cores, each package's phases."""
+
     wall: float
     cpu: CpuTimes
     cores: int

@@ -30,6 +30,8 @@ _EVERY = lazy(r"\$\{!|\bexport\s+-p\b|\bdeclare\s+-[a-zA-Z]*p\b|\bcompgen\s+-v\b
 
 @dataclass(frozen=True, slots=True)
 class TextReads:
+    """The variables a shell's or make's text names (`every`: it may read any)."""
+
     names: frozenset[str]
     every: bool
 

@@ -64,6 +64,8 @@ def digest_of(value: object) -> str:
 
 @dataclass(frozen=True, slots=True)
 class PackageRecord:
+    """What a package's last build was made of and read: the record a no-op checks."""
+
     package: str
     build_type: str
     own: Mapping[str, OwnFile]

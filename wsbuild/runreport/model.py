@@ -32,6 +32,8 @@ class NoReport(Exception):
 
 @dataclass(frozen=True, slots=True)
 class PackageRow:
+    """One package's row of the run report."""
+
     name: str
     build_type: str
     outcome: str
@@ -62,6 +64,8 @@ class PackageRow:
 
 @dataclass(frozen=True, slots=True)
 class RunReport:
+    """What the HTML report of a run shows."""
+
     run_dir: Path
     record: Mapping[str, object]
     timings: Mapping[str, object]

@@ -25,6 +25,8 @@ from wsbuild.build_types.junit import (
 
 @dataclass(frozen=True, slots=True)
 class Collected:
+    """The result files found for a package's tests, and what could not be read."""
+
     results: tuple[ResultFile, ...]
     warnings: tuple[str, ...] = field(default=())
 

@@ -70,6 +70,8 @@ class PackageTests:
 
 @dataclass(frozen=True, slots=True)
 class TestRun:
+    """A `wsbuild test` run: each package's tests, how long it took, where its logs are."""
+
     __test__ = False  # not a pytest test class
 
     results: tuple[PackageTests, ...]

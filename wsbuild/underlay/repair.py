@@ -24,6 +24,7 @@ import os
 from collections.abc import Iterator, Mapping
 from dataclasses import asdict, dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from wsbuild.errors import UnderlayError
 from wsbuild.files import atomic_write
@@ -34,8 +35,10 @@ from wsbuild.underlay.detect import (
     site_packages_dirs,
     venv_python,
 )
-from wsbuild.underlay.repair_rules import QUICK_TOKENS, Edit, rules_for
 from wsbuild import inputs
+
+if TYPE_CHECKING:
+    from wsbuild.underlay.repair_rules import Edit
 
 #: Where the repair stamp lives, relative to the venv prefix.
 MARKER_RELPATH = Path(".wsbuild") / "underlay.json"
@@ -108,6 +111,9 @@ def _parent_prefix_files(prefix: Path) -> Iterator[Path]:
 def _analyse(prefix: Path, python: VenvPython) -> Iterator[tuple[Path, str, str, list[Edit]]]:
     """(path, old text, new text, edits) for every file some rule wants to change. The run
     that reads them all is never replayed: later runs answer from the stamp this writes."""
+    from wsbuild.underlay.repair_rules import (
+        QUICK_TOKENS, rules_for)  # lazy: off a run that finds the underlay's stamp unchanged
+
     inputs.declare_unrecorded(f"a full scan of the underlay {prefix}")
     for path in [*cmake_files(prefix), *_parent_prefix_files(prefix)]:
         try:

@@ -65,6 +65,8 @@ class Removal:
 
 @dataclass(frozen=True, slots=True)
 class CleanPlan:
+    """What `wsbuild clean` removes, and whether install/'s setup scripts are rewritten."""
+
     removals: tuple[Removal, ...]
     #: install/ loses packages but stays: its setup scripts must be rewritten
     rewrite_install: bool

@@ -38,6 +38,8 @@ MANIFEST_MEMO = Path(".wsbuild") / "manifests.json"
 
 @dataclass(frozen=True, slots=True)
 class Loaded:
+    """The workspace a verb works on: its packages, their graph, the selected ones."""
+
     workspace: Workspace
     packages: dict[str, Package]
     graph: Graph

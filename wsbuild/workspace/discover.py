@@ -51,6 +51,8 @@ def find_package_dirs(base_paths: Iterable[Path], skip: Collection[Path] = (),
 
 @dataclass(frozen=True, slots=True)
 class _Claims:
+    """The package identifiers, and the directories they have claimed so far."""
+
     identifiers: Sequence[Identifier]
     claimed: dict[str, Package]
 

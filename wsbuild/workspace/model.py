@@ -58,6 +58,8 @@ class Dependency:
 
 @dataclass(frozen=True, slots=True)
 class Person:
+    """A maintainer or author named in package.xml."""
+
     name: str
     email: str | None = None
 
@@ -109,6 +111,8 @@ class Resolution(Enum):
 
 @dataclass(frozen=True, slots=True)
 class ResolvedDependency:
+    """A dependency, and where it was found (the workspace, an underlay, a module)."""
+
     name: str
     kinds: tuple[DepKind, ...]
     resolution: Resolution

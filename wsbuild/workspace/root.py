@@ -16,6 +16,8 @@ BUILD_BASE, INSTALL_BASE, LOG_BASE = "build", "install", "log"
 
 @dataclass(frozen=True, slots=True)
 class Workspace:
+    """A workspace's root and its build, install and log bases."""
+
     root: Path
     build_base: Path
     install_base: Path

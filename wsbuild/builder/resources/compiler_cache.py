@@ -87,6 +87,8 @@ COMPILER_VARIABLES = ("CPATH", "C_INCLUDE_PATH", "CPLUS_INCLUDE_PATH", "OBJC_INC
 
 @dataclass(frozen=True, slots=True)
 class CacheCounts:
+    """What a compiler cache did in one run: hits, misses, compiles it could not cache."""
+
     tool: str
     hits: int
     misses: int

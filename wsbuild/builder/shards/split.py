@@ -259,6 +259,8 @@ def split_packages(jobs: JobGraph, weights: Mapping[str, float], count: int, wor
 
 @dataclass(slots=True)
 class _Machine:
+    """One simulated machine of a split: its workers' busy intervals."""
+
     #: each worker's busy intervals, sorted
     timelines: list[list[tuple[float, float]]]
     work: float = 0.0
@@ -286,6 +288,8 @@ class _Machine:
 
 @dataclass(slots=True)
 class _Placement:
+    """Where a split placed each package, and when each finishes."""
+
     machines: list[_Machine]
     placed: dict[str, int] = field(default_factory=dict)
     finish: dict[str, float] = field(default_factory=dict)
