@@ -5,7 +5,10 @@ them all at import took more of its time than any one module."""
 from __future__ import annotations
 
 import re
-from typing import Any
+
+TYPE_CHECKING = False
+if TYPE_CHECKING:  # (typing is off the replayed no-op's path)
+    from typing import Any
 
 
 class LazyPattern:

@@ -7,6 +7,7 @@ holds `share/ament_index/...`, `share/<pkg>/cmake/...`, `include/` and `lib/` li
 
 from __future__ import annotations
 
+import fnmatch
 import inspect
 import json
 import os
@@ -87,8 +88,12 @@ def is_wheel_underlay(prefix: Path) -> bool:
 def ros_distro(prefix: Path) -> str | None:
     """The distro named by the installed `ros-<distro>-*` meta wheels (e.g. `"jazzy"`)."""
     for site in site_packages_dirs(prefix):
-        for info in sorted(site.glob("ros_*_*-*.dist-info")):
-            parts = info.name.split("-", 1)[0].split("_")  # ros_jazzy_rclpy-7.1.6.dist-info
+        try:  # (by name: sorting Path objects costs more than listing the directory)
+            names = sorted(fnmatch.filter(os.listdir(site), "ros_*_*-*.dist-info"))
+        except OSError:
+            continue
+        for name in names:
+            parts = name.split("-", 1)[0].split("_")  # ros_jazzy_rclpy-7.1.6.dist-info
             if len(parts) >= 3 and parts[1] in _KNOWN_DISTROS:
                 return parts[1]
     return None

@@ -22,7 +22,6 @@ are checked against the argument parser itself, so every option any verb has is 
 from __future__ import annotations
 
 import argparse
-import difflib
 from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -327,6 +326,8 @@ def check_entries(entries: Iterable[FileEntry], parser: argparse.ArgumentParser)
 def _suggestion(name: str, valid: Sequence[str], what: str) -> str:
     """The name meant when one is close (enough: the list of ~70 options would bury it),
     else the valid names."""
+    import difflib  # lazy: off every command line that names no unknown key
+
     close = difflib.get_close_matches(name.replace("_", "-"), valid, n=1)
     return f"did you mean '{close[0]}'?" if close else f"{what}: {', '.join(valid)}"
 
