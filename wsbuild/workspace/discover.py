@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import glob
 import os
 import re
 from collections.abc import Callable, Collection, Iterable, Mapping, Sequence
@@ -121,6 +120,8 @@ def _looks_like_package(path: str, names: set[str]) -> bool:
 
 def expand_paths(patterns: Iterable[str], cwd: Path) -> list[Path]:
     """`--paths` entries: shell wildcards, each match being a package directory."""
+    import glob  # lazy: off a run without --paths
+
     result: list[Path] = []
     for pattern in patterns:
         full = pattern if os.path.isabs(pattern) else str(cwd / pattern)

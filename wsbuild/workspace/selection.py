@@ -3,7 +3,6 @@ names they select in topological order, and the `Selection` a verb hands to its 
 
 from __future__ import annotations
 
-import difflib
 import re
 from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass
@@ -145,6 +144,8 @@ def _checked(values: Sequence[str], known: set[str], flag: str) -> Sequence[str]
 def _check_names(values: Iterable[str], known: set[str], flag: str) -> None:
     for value in values:
         if value not in known:
+            import difflib  # lazy: off every selection that names known packages
+
             close = difflib.get_close_matches(value, sorted(known), n=3)
             hint = ("did you mean " + ", ".join(f"'{c}'" for c in close) + "?") if close else (
                 "run 'wsbuild list -n' to see the package names"
