@@ -15,7 +15,7 @@ import pytest
 from wsbuild import inputs
 from wsbuild.record.dirty import Environment, PackageNow, dirty_reason
 from wsbuild.record.environment import UNSET, changed_names, variable_digests
-from wsbuild.record.installed import damaged_install, installed_entries
+from wsbuild.record.installed import Installed, damaged_install, installed_entries
 from wsbuild.record.model import PackageRecord, PackedReadBy, read_record, write_record
 from wsbuild.record.outside import Digests, first_change, own_entries, take
 from wsbuild.record.own_files import LEFT_OUT, own_files
@@ -188,7 +188,11 @@ def test_a_plan_reads_the_records_from_one_memo_while_each_file_is_the_one_it_ho
     for name in ("a", "b"):
         pkg = _write(tmp_path / name / "CMakeLists.txt").parent
         records[name] = _record(pkg, outside=take([str(header)], [], Digests()),
-                                read_by={str(header): "configure,build"})
+                                read_by={str(header): "configure,build"},
+                                installed=(Installed(f"{name}/lib/lib{name}.so",
+                                                     (33188, 7, 12, 1, 2), "d1"),
+                                           Installed(f"{name}/lib/lib{name}.so.1",
+                                                     (41471, 8, 9, 3, 4), "->lib.so")))
         write_record(base / name, records[name])
     memo.save_memos()
     path = base / memo.MEMO_FILE
@@ -198,7 +202,8 @@ def test_a_plan_reads_the_records_from_one_memo_while_each_file_is_the_one_it_ho
     for name, record in records.items():
         held = loaded.get(name, inputs.signature(base / name / ".wsbuild" / "record.json"))
         assert held is not None and held[1] == record.outside
-        assert read_record(base / name) == record
+        assert read_record(base / name) == record  # its installed files too, as Installed
+        assert all(type(i) is Installed for i in read_record(base / name).installed)
         # which steps read a path is unpacked only when asked (a package that changed)
         read_by = read_record(base / name).read_by  # type: ignore[union-attr]
         assert isinstance(read_by, PackedReadBy)

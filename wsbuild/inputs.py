@@ -35,6 +35,8 @@ STAT, LSTAT, FILE, LISTING, DECLARED, UNREADABLE, UNRECORDED, MEMO = (
     "stat", "lstat", "file", "listing", "declared", "unreadable", "unrecorded", "memo")
 ABSENT: tuple[int, ...] = (0, 0, 0, 0, 0)
 _listeners: list[Listener] = []
+#: a listener's way to hear a batch at once (`listen(many=...)`), by listener
+_batch: dict[Listener, Callable[[list[tuple[str, str, "tuple[int, ...] | None"]]], None]] = {}
 
 
 def _notify(path: str | os.PathLike[str], kind: str, seen: tuple[int, ...] | None) -> None:
@@ -106,6 +108,10 @@ def signatures(paths: Iterable[str], *, follow_symlinks: bool = True
             heard.append((path, UNREADABLE, None))
         found.append(seen)
     for listener in _listeners:
+        many = _batch.get(listener)
+        if many is not None:
+            many(heard)
+            continue
         for name, said, seen in heard:
             listener(name, said, seen)
     return found
@@ -203,10 +209,21 @@ def declare_directory(path: str | os.PathLike[str]) -> None:
     _notify(path, LISTING, None)
 
 
-def listen(listener: Listener) -> Callable[[], None]:
-    """Hear every declaration until the returned function is called."""
+def listen(listener: Listener,
+           many: Callable[[list[tuple[str, str, tuple[int, ...] | None]]], None] | None = None
+           ) -> Callable[[], None]:
+    """Hear every declaration until the returned function is called; `many`: what hears the
+    thousands `signatures` declares at once, as `listener` would one by one."""
     _listeners.append(listener)
-    return lambda: _listeners.remove(listener) if listener in _listeners else None
+    if many is not None:
+        _batch[listener] = many
+
+    def stop() -> None:
+        if listener in _listeners:
+            _listeners.remove(listener)
+        _batch.pop(listener, None)
+
+    return stop
 
 
 def glob_dirs(directory: str | os.PathLike[str], pattern: str) -> list[str]:

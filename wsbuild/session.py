@@ -76,6 +76,7 @@ class Session:
     _environ: dict[str, str] | None = field(default=None)
     _facts: dict[str, object] = field(default_factory=dict)
     _observer: Observer | str | None = field(default=None)
+    _environment: Environment | None = field(default=None)
 
     @property
     def environ(self) -> Mapping[str, str]:
@@ -98,10 +99,13 @@ class Session:
     @property
     def environment(self) -> Environment:
         """`environ` as records compare it (record/dirty.py)."""
-        from wsbuild.record.dirty import Environment  # lazy: off `info`
+        if self._environment is None:  # (one for the run: it keeps what it worked out)
+            from wsbuild.record.dirty import Environment  # lazy: off `info`
 
-        return Environment(self.environ, own_install=str(self.workspace.install_base),
-                           ignored=self.options.env_ignore)
+            self._environment = Environment(self.environ,
+                                            own_install=str(self.workspace.install_base),
+                                            ignored=self.options.env_ignore)
+        return self._environment
 
     @property
     def observer(self) -> Observer | str:

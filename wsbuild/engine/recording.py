@@ -169,6 +169,19 @@ class ReplayRecorder:
             saw = seen if seen is not None else OPENED if kind == inputs.FILE else DECLARED
             self.seen.setdefault((name, follow), saw)
 
+    def _declared_many(self, heard: list[tuple[str, str, tuple[int, ...] | None]]) -> None:
+        """`_declared` of each of `heard` (what `inputs.signatures` stat'ed by the thousand):
+        an absolute path's signature noted at once, anything else as `_declared` does."""
+        if not self.active:
+            return
+        seen = self.seen
+        for path, kind, saw in heard:
+            if saw is not None and path[:1] == "/" and (kind == inputs.STAT
+                                                        or kind == inputs.LSTAT):
+                seen.setdefault((path, kind == inputs.STAT), saw)
+            else:
+                self._declared(path, kind, saw)
+
     def no_op(self, *, build_base: Path, log_base: Path, run_log: Path, seconds: float) -> None:
         """The build was a no-op that ended well; `seconds` as its summary shows them."""
         self.outcome = {"build_base": str(build_base), "log_base": str(log_base),
@@ -204,7 +217,7 @@ class ReplayRecorder:
         return path if path[:1] == "/" else os.path.join(self.cwd, path)  # type: ignore[index]
 
     def install(self) -> None:
-        self._unlisten = inputs.listen(self._declared)
+        self._unlisten = inputs.listen(self._declared, many=self._declared_many)
         self.active = True
         if self.oracle is not None:
             self.oracle.install()

@@ -8,7 +8,7 @@ from __future__ import annotations
 import json
 import os
 from collections.abc import Collection, Iterable, Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 from wsbuild.record.environment import (changed_names, names_digest, variable_digests,
@@ -32,12 +32,25 @@ class Environment:
     #: the variables the user says never matter (`--env-ignore`)
     ignored: tuple[str, ...] = ()
 
+    #: what was worked out of `environ` (which does not change): a variable's digest (None:
+    #: never held), and "" the digest of the names set; a plan asks the same of every package
+    _known: dict[str, str | None] = field(default_factory=dict, compare=False, repr=False)
+
     def digests(self, names: Iterable[str]) -> dict[str, str]:
-        return variable_digests(self.environ, names, own_install=self.own_install,
-                                ignored=self.ignored)
+        known = self._known
+        wanted = sorted(set(names))
+        missing = [name for name in wanted if name not in known]
+        if missing:
+            found = variable_digests(self.environ, missing, own_install=self.own_install,
+                                     ignored=self.ignored)
+            known.update((name, found.get(name)) for name in missing)
+        return {name: digest for name in wanted if (digest := known[name]) is not None}
 
     def names(self) -> str:
-        return names_digest(self.environ, ignored=self.ignored)
+        digest = self._known.get("")
+        if digest is None:
+            digest = self._known[""] = names_digest(self.environ, ignored=self.ignored)
+        return digest
 
 
 @dataclass(frozen=True, slots=True)

@@ -30,7 +30,7 @@ from wsbuild.record.outside import HeldEntries, Looked, OutsideReads, Seen, Shar
 #: under the build base
 MEMO_FILE = Path(".wsbuild") / "records.memo"
 #: bumped whenever the memo's shape changes
-_VERSION = 3
+_VERSION = 4
 _new = tuple.__new__
 _KINDS = ("files", "listings", "searches", "probes")
 #: a record's values that are often equal to another record's
@@ -91,6 +91,9 @@ class RecordsMemo:
             outside: OutsideReads) -> None:
         """Note the record read from (or just written to) the file with `signature`."""
         kept = {k: v for k, v in values.items() if k != "outside"}
+        # the installed files as a record holds them (decoded without a conversion per file)
+        kept["installed"] = tuple((str(rel), tuple(int(x) for x in seen), str(digest))
+                                  for rel, seen, digest in values["installed"])
         if isinstance(kept.get("read_by"), dict):  # unpacked only when asked (PackedReadBy)
             kept["read_by"] = zlib.compress(marshal.dumps(kept["read_by"]), 1)
         kinds = tuple(tuple(getattr(outside, kind).items()) for kind in _KINDS)

@@ -36,6 +36,7 @@ are private to the user (0700, 0600)."""
 
 from __future__ import annotations
 
+import functools
 import json
 from collections.abc import Mapping
 from dataclasses import dataclass, field, replace
@@ -158,6 +159,7 @@ def read_record(build_dir: Path) -> PackageRecord | None:
 #: a record holds thousands of these: made without NamedTuple's checks (a malformed value
 #: raises, and the record reads as none)
 _new = tuple.__new__
+_new_installed = functools.partial(_new, Installed)
 
 
 class PackedReadBy(Mapping[str, str]):
@@ -262,6 +264,15 @@ def encode(record: PackageRecord) -> dict[str, object]:
     }
 
 
+def _installed(entries: object) -> tuple[Installed, ...]:
+    """A record's installed files from its JSON values; the memo's (record/memo.py) are
+    tuples of their final types already, converted when the memo took them."""
+    if type(entries) is tuple:
+        return tuple(map(_new_installed, entries))
+    return tuple(Installed(str(rel), tuple(int(x) for x in signature), str(digest))
+                 for rel, signature, digest in entries)  # type: ignore[attr-defined]
+
+
 def decode(data: object, *, sealed: bool = True,
            outside: OutsideReads | None = None) -> PackageRecord | None:
     """A record from its JSON values; None when it is not one. `sealed`: its keys computed
@@ -287,8 +298,7 @@ def decode(data: object, *, sealed: bool = True,
             complete=bool(data["complete"]),
             unobserved=tuple(str(why) for why in data["unobserved"]),
             volatile=str(data["volatile"]),
-            installed=tuple(Installed(str(rel), tuple(int(x) for x in signature), str(digest))
-                            for rel, signature, digest in data["installed"]),
+            installed=_installed(data["installed"]),
             test_tree=bool(data["test_tree"]),
         )
         if sealed:
