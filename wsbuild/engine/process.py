@@ -5,10 +5,7 @@ in turn."""
 from __future__ import annotations
 
 import os
-import selectors
-import shlex
 import signal
-import subprocess
 import sys
 import threading
 import time
@@ -19,6 +16,10 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from wsbuild.redaction import redact_bytes
+
+TYPE_CHECKING = False
+if TYPE_CHECKING:
+    import subprocess
 
 #: how long the processes of a cancelled run get to stop after SIGTERM before SIGKILL
 GRACE_SECONDS = 3.0
@@ -297,6 +298,8 @@ def env_delta(env: Mapping[str, str], base: Mapping[str, str]) -> dict[str, str]
 
 def format_command(command: Sequence[str], cwd: Path, delta: Mapping[str, str]) -> str:
     """A shell line that reproduces a command by hand."""
+    import shlex  # lazy: off a run that starts no command
+
     exports = " ".join(f"{k}={shlex.quote(v)}" for k, v in delta.items())
     cmd = " ".join(shlex.quote(c) for c in command)
     return f"cd {shlex.quote(str(cwd))} && {exports + ' ' if exports else ''}{cmd}"
@@ -318,6 +321,9 @@ def run_command(
     `sweep` (a test step): once the command exits, whatever is left in its session is
     stopped (`sweep_session`), also what still holds its output open. Over 80 lines because
     one command's life reads best top to bottom: start, stream its output, sweep, reap."""
+    import selectors
+    import subprocess  # lazy (both): off a run that starts no command
+
     if registry.cancelled.is_set():
         return Completed(returncode=-int(signal.SIGTERM), tail=(), stderr=())
     logs: dict[str, object] = {}

@@ -11,7 +11,6 @@ from __future__ import annotations
 
 import os
 import shutil
-import subprocess
 import threading
 from collections.abc import Mapping
 from dataclasses import dataclass
@@ -86,6 +85,8 @@ def _build(cache_dir: Path, environ: Mapping[str, str]) -> Observer | str:
     made = Observer(directory / LIBRARY, directory / "pyhook")
     if made.library.is_file() and (made.hook_dir / HOOK.name).is_file():
         return made
+    import subprocess  # lazy: off every run that builds nothing
+
     try:
         private_directory(cache_dir)  # with its parents (a first ~/.cache)
         if os.stat(cache_dir).st_uid != os.getuid():

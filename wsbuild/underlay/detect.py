@@ -11,7 +11,6 @@ import fnmatch
 import inspect
 import json
 import os
-import subprocess
 import sys
 from collections.abc import Mapping
 from dataclasses import dataclass
@@ -169,6 +168,8 @@ def venv_python(prefix: Path) -> VenvPython:
         script = f"import json\n{inspect.getsource(_python_facts)}\nprint(json.dumps(_python_facts()))\n"
         env = {k: v for k, v in os.environ.items() if k != "PYTHONHOME"}
         env[BOOTSTRAP_GUARD_VAR] = "1"
+        import subprocess  # lazy: off a run whose venv's facts are known
+
         try:
             done = subprocess.run(
                 [str(executable), "-E", "-c", script],

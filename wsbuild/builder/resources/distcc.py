@@ -44,7 +44,6 @@ from __future__ import annotations
 import os
 import re
 import shutil
-import subprocess
 import threading
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field, replace
@@ -330,6 +329,8 @@ def _probe(distcc: Path, compiler: Path, host: Host, environ: Mapping[str, str],
     env.update(DISTCC_HOSTS=host.token, DISTCC_FALLBACK="0", DISTCC_DIR=str(state),
                DISTCC_SKIP_LOCAL_RETRY="1")
     env.pop("DISTCC_LOG", None)
+    import subprocess  # lazy: off every run that distributes no compile
+
     try:
         done = subprocess.run([str(distcc), str(compiler), "-c", str(workdir / "probe.cpp"),
                                "-o", str(state / "probe.o")], env=env, cwd=workdir,
