@@ -110,11 +110,11 @@ def overrides_to_warn(selected: Iterable[str], workspace: Collection[str],
                       own_install_base: Path) -> list[Override]:
     """`find_overrides` without the packages `--allow-overriding` names (workspace packages
     only: a typo must not silently keep the warning)."""
-    import difflib
-
     allowed = list(allowed)
     for name in allowed:
         if name not in workspace:
+            import difflib  # lazy: off every run whose --allow-overriding names are known
+
             close = difflib.get_close_matches(name, sorted(workspace), n=1)
             raise SelectionError(f"--allow-overriding: no package named '{name}' in the workspace",
                                  hint=f"did you mean '{close[0]}'?" if close else

@@ -5,7 +5,6 @@ from __future__ import annotations
 
 import argparse
 import os
-import shlex
 import sys
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
@@ -162,7 +161,12 @@ def _split_args(values: list[str] | None) -> tuple[str, ...]:
             continue
         # a generator name has spaces of its own: `-G "Unix Makefiles"`, `-G"Unix Makefiles"`
         whole = value.startswith(("-D", "-G")) or (result and result[-1] == "-G")
-        result.extend(shlex.split(value) if " " in value and not whole else [value])
+        if " " in value and not whole:
+            import shlex  # lazy: off a command line whose arguments hold no space
+
+            result.extend(shlex.split(value))
+        else:
+            result.append(value)
     return tuple(result)
 
 
