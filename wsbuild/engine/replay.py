@@ -186,13 +186,26 @@ def replay(argv: Sequence[str], drawing: Callable[[], Drawing]) -> int | None:
 
 
 def replaced(data: Any, old: str, new: str) -> Any:
-    """`data` (JSON values) with `old` replaced by `new` in every string."""
+    """`data` (JSON values) with `old` replaced by `new` in every string. Of a list, an item
+    whose JSON text does not hold `old` (escaped as JSON escapes it, character by character)
+    holds no string with it either: it is kept as it is, not walked (a build's recording of
+    1,000 packages has a result for each, and the run's log path is in a few lines only)."""
+    if isinstance(data, list):
+        escaped, encode = json.dumps(old)[1:-1], json.JSONEncoder().encode
+        if escaped not in encode(data):  # (most recordings: the log path is in none)
+            return data
+        return [_replaced(item, old, new) if escaped in encode(item) else item
+                for item in data]
+    return _replaced(data, old, new)
+
+
+def _replaced(data: Any, old: str, new: str) -> Any:
     if isinstance(data, str):
         return data.replace(old, new)
     if isinstance(data, list):
-        return [replaced(item, old, new) for item in data]
+        return [_replaced(item, old, new) for item in data]
     if isinstance(data, dict):
-        return {key: replaced(value, old, new) for key, value in data.items()}
+        return {key: _replaced(value, old, new) for key, value in data.items()}
     return data
 
 

@@ -94,5 +94,7 @@ def summary_line(wall: float, children: float, own: float, cores: int,
 def write_timing_files(run_log: Path, data: dict[str, object], lines: list[str]) -> None:
     """`timings.json` (`data`) and `timings.txt` (`lines`) in the run's log."""
     run_log.mkdir(parents=True, exist_ok=True)
-    (run_log / TIMINGS_JSON).write_text(redact(json.dumps(data, indent=1)) + "\n")
+    # (without an indent: the standard library's C encoder, a tenth of the time for 1,000
+    # packages; timings.txt is the one for reading)
+    (run_log / TIMINGS_JSON).write_text(redact(json.dumps(data, separators=(",", ":"))) + "\n")
     (run_log / TIMINGS_TEXT).write_text(redact("\n".join(lines)) + "\n")
