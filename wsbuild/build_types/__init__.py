@@ -496,11 +496,10 @@ def declared_options(*, plugins: bool) -> list[tuple[str, tuple[TypeOption, ...]
     """(build type, the options it declares) of each type that declares some: the built-in
     ones, and (`plugins`) those of every installed third-party type (which scanning the
     installed distributions costs). An option two types declare must be declared alike."""
-    declared = [(name, tuple(load_value(value)))  # type: ignore[call-overload]
-                for name, value in BUILTIN_OPTIONS.items()]
+    declared = [(name, type_options(name)) for name in BUILTIN_OPTIONS]
     if plugins:
         for entry in sorted(_entry_points(), key=lambda ep: ep.name):
-            own = tuple(get_build_type(entry.name).options)
+            own = type_options(entry.name)
             if own:
                 declared.append((entry.name, own))
     seen: dict[str, tuple[str, TypeOption]] = {}
